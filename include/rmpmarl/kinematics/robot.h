@@ -1,0 +1,73 @@
+#pragma once
+/// A robot = kinematic Model (from URDF) + collision capsules, end effector and self-collision exclusions (from a
+/// collision YAML beside the URDF; urdfdom 3.0.1 drops <capsule> geometry, so capsules cannot live in the URDF).
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rmpmarl/kinematics/model.h"
+
+namespace rmpmarl::kinematics {
+
+/// A collision capsule fixed on a link: segment [p_LA, p_LB] in the link frame, inflated by radius.
+struct LinkCapsule {
+  int link = -1;
+  Eigen::Vector3d p_LA = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_LB = Eigen::Vector3d::Zero();
+  double radius = 0.0;
+};
+
+/// The end-effector frame: a point (and orientation) fixed on a link.
+struct EndEffector {
+  int link = -1;
+  Eigen::Isometry3d X_LE = Eigen::Isometry3d::Identity();
+};
+
+/// Everything rmpmarl needs to know about a manipulator.
+struct Robot {
+  std::string name;
+  Model model;
+  std::vector<LinkCapsule> capsules;
+  EndEffector end_effector;
+  /// link pairs (i < j) never checked for self-collision: declared ones plus every parent–child pair.
+  std::vector<std::pair<int, int>> excluded_pairs;
+  std::filesystem::path urdf_path;
+  std::filesystem::path collision_path;
+
+  /// true when links i and j are excluded from self-collision checks.
+  bool IsExcludedPair(int i, int j) const;
+};
+
+/// parses a URDF file into a Model (revolute, continuous, prismatic, fixed joints; any tree). Throws InputError.
+Model LoadUrdfModel(const std::filesystem::path& urdf_path);
+
+/// parses URDF text into a Model; `source` names it in error messages. Throws InputError.
+Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source);
+
+/// loads a robot from its URDF and collision YAML; validates both and throws InputError naming file and key.
+Robot LoadRobot(const std::filesystem::path& urdf_path, const std::filesystem::path& collision_path);
+
+/// directory of the shipped robot models (source tree, or the installed share directory).
+std::filesystem::path ModelsDirectory();
+
+/// names of the shipped manipulators under models/robots/ (sorted), planar2 excluded.
+std::vector<std::string> ShippedRobotNames();
+
+/// loads a shipped robot by name: models/robots/<name>/{<name>.urdf,collision.yaml}.
+Robot LoadShippedRobot(const std::string& name);
+
+/// Options of the paper's two-link pre-training arm (link lengths are domain-randomised).
+struct Planar2Options {
+  double link1_length = 0.5;   ///< [m]
+  double link2_length = 0.5;   ///< [m]
+  double link_radius = 0.04;   ///< capsule radius [m]
+  double joint_limit = 3.0;    ///< |q| bound [rad]
+  double velocity_limit = 3.0; ///< |q̇| bound [rad/s]
+};
+
+/// the two-link planar arm (joints about z, links along x, moving in the z = 0 plane), built in code.
+Robot MakePlanar2(const Planar2Options& options = {});
+
+}  // namespace rmpmarl::kinematics
