@@ -1,0 +1,13 @@
+#pragma once
+// Each subcommand lives in its own file and registers itself on the CLI11 app.
+#include <CLI/CLI.hpp>
+
+namespace rmpmarl::apps {
+
+/// `rmpmarl check-robot URDF COLLISION_YAML`: validates a robot description and prints it.
+void RegisterCheckRobot(CLI::App& app);
+
+/// `rmpmarl demo`: the README's main job.
+void RegisterDemo(CLI::App& app);
+
+}  // namespace rmpmarl::apps

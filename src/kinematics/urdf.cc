@@ -1,0 +1,161 @@
+// URDF → kinematics::Model, through urdfdom. urdfdom reports parse errors only through console_bridge, so a
+// temporary output handler captures them for our InputError messages.
+#include <console_bridge/console.h>
+#include <fmt/format.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <sstream>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/robot.h"
+
+namespace rmpmarl::kinematics {
+namespace {
+
+// collects console_bridge messages emitted while urdfdom parses.
+class CapturingHandler : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) messages += (messages.empty() ? "" : "; ") + text;
+  }
+  std::string messages;
+};
+
+std::mutex& ConsoleBridgeMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
+Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.translation() = Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z);
+  Eigen::Quaterniond quat(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z);
+  X.linear() = quat.normalized().toRotationMatrix();
+  return X;
+}
+
+bool Finite(double v) { return std::isfinite(v); }
+
+}  // namespace
+
+Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
+  urdf::ModelInterfaceSharedPtr urdf_model;
+  std::string messages;
+  {
+    std::lock_guard<std::mutex> lock(ConsoleBridgeMutex());
+    CapturingHandler handler;
+    console_bridge::useOutputHandler(&handler);
+    try {
+      urdf_model = urdf::parseURDF(urdf_xml);
+    } catch (const std::exception& e) {
+      handler.messages += std::string("; ") + e.what();
+    }
+    console_bridge::restorePreviousOutputHandler();
+    messages = handler.messages;
+  }
+  if (!urdf_model) {
+    throw InputError(fmt::format("{}: not a valid URDF: {}", source, messages.empty() ? "parse failed" : messages));
+  }
+  const urdf::LinkConstSharedPtr root = urdf_model->getRoot();
+  if (!root) throw InputError(fmt::format("{}: URDF has no root link", source));
+
+  // Depth-first pre-order, children ordered by joint name: parents come before children (topological order), a
+  // serial chain gets its dofs numbered from the base outwards and each branch's dofs are contiguous.
+  std::vector<Link> links;
+  std::vector<DofLimits> limits;
+  Link root_link;
+  root_link.name = root->name;
+  links.push_back(root_link);
+  // pushes the child joints of `link` (at index `index`) so that the first by name is popped first.
+  struct Pending {
+    urdf::JointSharedPtr joint;
+    int parent;
+  };
+  std::vector<Pending> stack;
+  auto push_children = [&stack](const urdf::LinkConstSharedPtr& link, int index) {
+    std::vector<urdf::JointSharedPtr> child_joints = link->child_joints;
+    std::sort(child_joints.begin(), child_joints.end(),
+              [](const auto& a, const auto& b) { return a->name > b->name; });
+    for (const urdf::JointSharedPtr& joint : child_joints) stack.push_back({joint, index});
+  };
+  push_children(root, 0);
+  while (!stack.empty()) {
+    const Pending current = stack.back();
+    stack.pop_back();
+    const urdf::JointSharedPtr& joint = current.joint;
+    Link link;
+    link.name = joint->child_link_name;
+    link.parent = current.parent;
+    link.joint_name = joint->name;
+    link.X_PJ = ToIsometry(joint->parent_to_joint_origin_transform);
+    const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
+    if (!link.X_PJ.translation().allFinite() || !link.X_PJ.linear().allFinite() || !axis.allFinite()) {
+      throw InputError(fmt::format("{}: joint '{}': <origin>/<axis> must be finite numbers", source, joint->name));
+    }
+    switch (joint->type) {
+      case urdf::Joint::REVOLUTE: link.joint_type = JointType::kRevolute; break;
+      case urdf::Joint::CONTINUOUS: link.joint_type = JointType::kContinuous; break;
+      case urdf::Joint::PRISMATIC: link.joint_type = JointType::kPrismatic; break;
+      case urdf::Joint::FIXED: link.joint_type = JointType::kFixed; break;
+      default:
+        throw InputError(fmt::format("{}: joint '{}': type not supported (expected revolute, continuous, "
+                                     "prismatic or fixed)", source, joint->name));
+    }
+    if (joint->mimic) throw InputError(fmt::format("{}: joint '{}': <mimic> is not supported", source, joint->name));
+    if (link.joint_type != JointType::kFixed) {
+      if (axis.norm() < 1e-12) {
+        throw InputError(fmt::format("{}: joint '{}': <axis xyz> must be non-zero, got [{} {} {}]", source,
+                                     joint->name, axis.x(), axis.y(), axis.z()));
+      }
+      link.axis_J = axis.normalized();
+      link.q_index = static_cast<int>(limits.size());
+      DofLimits dof;
+      if (link.joint_type == JointType::kContinuous) {
+        dof.lower = -std::numeric_limits<double>::infinity();
+        dof.upper = std::numeric_limits<double>::infinity();
+      }
+      if (joint->limits) {
+        if (link.joint_type != JointType::kContinuous) {
+          dof.lower = joint->limits->lower;
+          dof.upper = joint->limits->upper;
+        }
+        dof.velocity = joint->limits->velocity;
+        dof.effort = joint->limits->effort;
+      }
+      if (!joint->limits || !(dof.velocity > 0.0) || !Finite(dof.velocity)) {
+        throw InputError(fmt::format("{}: joint '{}': <limit velocity> must be a positive number, got {}", source,
+                                     joint->name, joint->limits ? joint->limits->velocity : 0.0));
+      }
+      if (link.joint_type != JointType::kContinuous &&
+          (!Finite(dof.lower) || !Finite(dof.upper) || !(dof.lower < dof.upper))) {
+        throw InputError(fmt::format("{}: joint '{}': <limit> expected finite lower < upper, got lower={} "
+                                     "upper={}", source, joint->name, dof.lower, dof.upper));
+      }
+      limits.push_back(dof);
+    }
+    links.push_back(link);
+    const urdf::LinkConstSharedPtr child = urdf_model->getLink(joint->child_link_name);
+    if (!child) throw InputError(fmt::format("{}: joint '{}': unknown child link", source, joint->name));
+    push_children(child, static_cast<int>(links.size()) - 1);
+  }
+  if (static_cast<int>(links.size()) != static_cast<int>(urdf_model->links_.size())) {
+    throw InputError(fmt::format("{}: expected all {} links to form one tree under root '{}', reached {}", source,
+                                 urdf_model->links_.size(), root->name, links.size()));
+  }
+  return Model(urdf_model->getName(), std::move(links), std::move(limits));
+}
+
+Model LoadUrdfModel(const std::filesystem::path& urdf_path) {
+  std::ifstream file(urdf_path);
+  if (!file) throw InputError(fmt::format("{}: cannot open URDF file (missing or unreadable)", urdf_path.string()));
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  return ParseUrdfModel(buffer.str(), urdf_path.string());
+}
+
+}  // namespace rmpmarl::kinematics
