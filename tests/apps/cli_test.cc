@@ -1,0 +1,60 @@
+// The CLI from the outside: exit codes and messages for good and bad robot descriptions.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+// runs the rmpmarl CLI with `args` and captures its output and exit code.
+CommandResult RunCli(const std::string& args) {
+  const std::string command = std::string(RMPMARL_CLI_PATH) + " " + args + " 2>&1";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+const std::string kData = RMPMARL_TEST_DATA_DIR;
+
+TEST(CliTest, CheckRobotPrintsAValidRobot) {
+  const CommandResult r = RunCli("check-robot " + kData + "/robots/tree/tree.urdf " + kData + "/robots/tree/collision.yaml");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("robot 'tree': 8 links, 6 joints"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("j1_slider"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("prismatic"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("end effector: on 'tool_a'"), std::string::npos) << r.output;
+}
+
+TEST(CliTest, CheckRobotFailsClearlyOnMissingFile) {
+  const CommandResult r = RunCli("check-robot /no/such.urdf /no/such.yaml");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("rmpmarl: error: /no/such.urdf: cannot open URDF file"), std::string::npos) << r.output;
+}
+
+TEST(CliTest, CheckRobotFailsClearlyOnMismatchedYaml) {
+  // the tree URDF with planar-style YAML of another robot: the robot name check fires
+  const CommandResult r = RunCli("check-robot " + kData + "/robots/tree/tree.urdf " + kData + "/robots/bad/wrong_robot.yaml");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("key 'robot': expected the URDF's robot name 'tree', got 'other'"), std::string::npos)
+      << r.output;
+}
+
+TEST(CliTest, MissingArgumentsIsAUsageError) {
+  const CommandResult r = RunCli("check-robot");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("required"), std::string::npos) << r.output;
+}
+
+}  // namespace
