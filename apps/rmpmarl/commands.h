@@ -7,6 +7,10 @@ namespace rmpmarl::apps {
 /// `rmpmarl check-robot URDF COLLISION_YAML`: validates a robot description and prints it.
 void RegisterCheckRobot(CLI::App& app);
 
+/// `rmpmarl robots`: sweeps every shipped robot in its MuJoCo world and prints a table.
+void RegisterRobots(CLI::App& app);
+void RunRobotsTable(double duration);
+
 /// `rmpmarl demo`: the README's main job.
 void RegisterDemo(CLI::App& app);
 

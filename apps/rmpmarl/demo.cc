@@ -1,4 +1,4 @@
-// `rmpmarl demo`: placeholder until the world sweep lands.
+// `rmpmarl demo`: the README's main job. Until the reactive controller lands, it runs the robots sweep.
 #include <fmt/core.h>
 
 #include "commands.h"
@@ -6,8 +6,8 @@
 namespace rmpmarl::apps {
 
 void RegisterDemo(CLI::App& app) {
-  auto* cmd = app.add_subcommand("demo", "Run the main demo");
-  cmd->callback([] { fmt::print("demo\n"); });
+  auto* cmd = app.add_subcommand("demo", "Run the main demo (for now: every shipped robot swept in MuJoCo)");
+  cmd->callback([] { RunRobotsTable(4.0); });
 }
 
 }  // namespace rmpmarl::apps

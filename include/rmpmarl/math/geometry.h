@@ -33,6 +33,9 @@ struct DistanceResult {
   Eigen::Vector3d p_W1 = Eigen::Vector3d::Zero();  ///< witness point on shape 1
   Eigen::Vector3d p_W2 = Eigen::Vector3d::Zero();  ///< witness point on shape 2
   Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< unit normal from shape 2 to shape 1
+  /// |∂distance/∂(translation of shape 1)|, so the gradient is `gradient_norm · n_W`. It is 1 everywhere except in
+  /// capsule–box penetration where the deepest axis point is equidistant from two box faces (see CapsuleBoxDistance).
+  double gradient_norm = 1.0;
 };
 
 /// Closest points between segments [p_WA1, p_WB1] and [p_WA2, p_WB2]: parameters s, t in [0, 1].
@@ -48,13 +51,34 @@ struct SegmentClosestPoints {
 SegmentClosestPoints ClosestPointsSegmentSegment(const Eigen::Vector3d& p_WA1, const Eigen::Vector3d& p_WB1,
                                                  const Eigen::Vector3d& p_WA2, const Eigen::Vector3d& p_WB2);
 
-/// signed distance capsule (shape 1) – sphere (shape 2).
+/// Axis points closer than this (in the inputs' length unit, metres) count as touching: the normal then comes from the
+/// degenerate-case rules below instead of from the (noise-dominated) difference of the axis points.
+inline constexpr double kGeometryTouchTolerance = 1e-12;
+
+/// signed distance capsule (shape 1) – sphere (shape 2): |closest axis point − centre| − r1 − r2.
+/// Degenerate case: when the centre lies on the capsule axis the normal is `(B − A).unitOrthogonal()` (Eigen's
+/// deterministic choice), or +z when the capsule is itself a sphere at the same centre.
 DistanceResult CapsuleSphereDistance(const Capsule& capsule, const Sphere& sphere);
 
-/// signed distance capsule (shape 1) – capsule (shape 2).
+/// signed distance capsule (shape 1) – capsule (shape 2): segment–segment distance − r1 − r2.
+/// Degenerate case (axes intersect): normal = normalised d1 × d2 for non-parallel axes (d = B − A); for parallel
+/// (collinear) axes `d1.unitOrthogonal()` (or `d2.unitOrthogonal()` when segment 1 is a point); +z for two points.
+/// All these normals are perpendicular to both axes, so both witness points stay on their surfaces.
 DistanceResult CapsuleCapsuleDistance(const Capsule& capsule1, const Capsule& capsule2);
 
-/// signed distance capsule (shape 1) – oriented box (shape 2); exact also when the segment passes through a face.
+/// signed distance capsule (shape 1) – oriented box (shape 2), defined as min over the axis segment of the box's
+/// signed distance function, minus the radius; exact also in penetration and when the segment passes through a face.
+/// Outside, this is the Euclidean distance and n_W points from the box's closest point to the axis's closest point.
+/// Inside, the box SDF is max_i(|p_i| − h_i) (minus the distance to the nearest face), so the value is NOT the
+/// minimum-translation penetration depth: when the deepest axis point is equidistant from two faces i ≠ j (the
+/// generic case for an axis crossing the box obliquely), the distance is smooth but its gradient is the blend
+/// (|d_j| n_i + |d_i| n_j)/(|d_i| + |d_j|) of the two outward face normals (d = axis direction in the box frame),
+/// whose length `gradient_norm` lies in [1/√2, 1); it is 0 when the two faces are opposite (axis crossing the
+/// mid-plane of a slab, where the distance is locally constant). n_W is the normalised gradient (perpendicular to
+/// the axis), or in the zero-gradient case the next-nearest face normal made perpendicular to the axis. p_W1 is
+/// always on the capsule surface; p_W2 = p_W1 − distance · n_W is on the box surface except when gradient_norm < 1,
+/// where it lies inside the box. Flat minima (axis parallel to a face) report the minimiser with the smallest
+/// segment parameter outside the box and the midpoint-free choice of the candidate search inside.
 DistanceResult CapsuleBoxDistance(const Capsule& capsule, const Box& box);
 
 }  // namespace rmpmarl::math

@@ -1,0 +1,96 @@
+// The basic movement layer at one joint: paper RMPs pulled back through one Jacobian column.
+#include "rmpmarl/rmp/joint_layer.h"
+
+#include <cmath>
+#include <limits>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::rmp {
+namespace {
+
+// column `dof` of the position Jacobian of world point p_W fixed on a link that dof moves.
+inline Eigen::Vector3d JacobianColumn(const kinematics::Model& model, const kinematics::Data& kin, int dof,
+                                      const Eigen::Vector3d& p_W) {
+  const int joint_link = model.dof_link(dof);
+  const Eigen::Vector3d axis = kin.axis_W.col(dof);
+  if (model.link(joint_link).joint_type == kinematics::JointType::kPrismatic) return axis;
+  return axis.cross(p_W - kin.X_WL[joint_link].translation());
+}
+
+// linear velocity of the material point of `link` at world point p_W.
+inline Eigen::Vector3d MaterialPointVelocity(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
+  return kin.v_WLo.col(link) + kin.w_WL.col(link).cross(p_W - kin.X_WL[link].translation());
+}
+
+// velocity-product acceleration of the material point of `link` at world point p_W.
+inline Eigen::Vector3d MaterialPointJdotQdot(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
+  const Eigen::Vector3d r = p_W - kin.X_WL[link].translation();
+  const Eigen::Vector3d w = kin.w_WL.col(link);
+  return kin.a_bias_WLo.col(link) + kin.alpha_bias_WL.col(link).cross(r) + w.cross(w.cross(r));
+}
+
+}  // namespace
+
+JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinematics::Data& kin, int dof,
+                                    const Scene& scene, const BasicRmpParams& params,
+                                    const JointLayerWeights& weights, double relative_regularizer) {
+  const kinematics::Model& model = robot.model;
+  RMPMARL_DASSERT(dof >= 0 && dof < model.nq(), "EvaluateJointLayer: dof out of range");
+  RMPMARL_DASSERT(kin.has_velocities, "EvaluateJointLayer: CalcVelocityKinematics must run first");
+  JointLayerResult result;
+  result.min_distance = std::numeric_limits<double>::infinity();
+  double force = 0.0, metric = 0.0;
+
+  if (weights.use_target && scene.has_target && model.DofMovesLink(dof, robot.end_effector.link)) {
+    const int link = robot.end_effector.link;
+    const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
+    const Eigen::Vector3d v_rel = MaterialPointVelocity(kin, link, p_WE) - scene.v_WT;
+    const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
+    const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
+    const Eigen::Vector3d f = M * (weights.target_accel_scale * rmp.a);
+    const Eigen::Vector3d j = JacobianColumn(model, kin, dof, p_WE);
+    const Eigen::Vector3d jdqd = MaterialPointJdotQdot(kin, link, p_WE);
+    force += j.dot(f - M * jdqd);
+    metric += j.dot(M * j);
+  }
+
+  if (weights.use_collision) {
+    const double r = params.collision.metric_modulation_radius;
+    for (const kinematics::LinkCapsule& lc : robot.capsules) {
+      if (!model.DofMovesLink(dof, lc.link)) continue;
+      const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+      const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+      const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
+      const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
+      for (const Obstacle& obstacle : scene.obstacles) {
+        const double lower = (centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+        if (lower > r) {
+          result.min_distance = std::min(result.min_distance, lower);  // a lower bound, > r
+          continue;
+        }
+        const math::DistanceResult res = CapsuleObstacleDistance(capsule, obstacle);
+        result.min_distance = std::min(result.min_distance, res.distance);
+        if (res.distance > r) continue;
+        const Eigen::Vector3d n = res.gradient_norm * res.n_W;
+        const double xd = n.dot(MaterialPointVelocity(kin, lc.link, res.p_W1) - obstacle.v_WO);
+        const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
+        const double m = weights.collision_metric_scale * rmp.m;
+        const double f = m * weights.collision_accel_scale * rmp.a;
+        const double j = n.dot(JacobianColumn(model, kin, dof, res.p_W1));
+        const double jdqd = n.dot(MaterialPointJdotQdot(kin, lc.link, res.p_W1));
+        force += j * (f - m * jdqd);
+        metric += j * m * j;
+        ++result.collision_terms;
+      }
+    }
+  }
+
+  result.force = force;
+  result.metric = metric;
+  result.lambda = relative_regularizer * (1.0 + metric);
+  result.qdd = force / (metric + result.lambda);
+  return result;
+}
+
+}  // namespace rmpmarl::rmp

@@ -1,0 +1,68 @@
+// Scene: obstacles and target as plain data.
+#include "rmpmarl/rmp/scene.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::rmp {
+
+Obstacle Obstacle::MakeSphere(const Eigen::Vector3d& p_WC, double radius, const Eigen::Vector3d& v_WO) {
+  Obstacle o;
+  o.shape = ObstacleShape::kSphere;
+  o.sphere.p_WC = p_WC;
+  o.sphere.radius = radius;
+  o.v_WO = v_WO;
+  return o;
+}
+
+Obstacle Obstacle::MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& half_size,
+                           const Eigen::Vector3d& v_WO) {
+  Obstacle o;
+  o.shape = ObstacleShape::kBox;
+  o.box.X_WB = X_WB;
+  o.box.half_size = half_size;
+  o.v_WO = v_WO;
+  return o;
+}
+
+void ValidateScene(const Scene& scene, std::string_view what) {
+  for (size_t i = 0; i < scene.obstacles.size(); ++i) {
+    const Obstacle& o = scene.obstacles[i];
+    if (!o.v_WO.allFinite()) throw InputError(fmt::format("{}: obstacles[{}].v_WO must be finite", what, i));
+    if (o.shape == ObstacleShape::kSphere) {
+      if (!o.sphere.p_WC.allFinite() || !(o.sphere.radius > 0.0) || !std::isfinite(o.sphere.radius)) {
+        throw InputError(fmt::format("{}: obstacles[{}] (sphere) needs a finite centre and a finite radius > 0, got "
+                                     "radius {}", what, i, o.sphere.radius));
+      }
+    } else {
+      const Eigen::Matrix3d R = o.box.X_WB.linear();
+      if (!o.box.X_WB.matrix().allFinite() || !o.box.half_size.allFinite() || !(o.box.half_size.minCoeff() > 0.0) ||
+          !(R.transpose() * R).isIdentity(1e-9) || !(R.determinant() > 0.0)) {
+        throw InputError(fmt::format("{}: obstacles[{}] (box) needs a finite pose with a rotation matrix and half "
+                                     "sizes > 0", what, i));
+      }
+    }
+  }
+  if (!scene.p_WT.allFinite() || !scene.v_WT.allFinite()) {
+    throw InputError(fmt::format("{}: target position and velocity must be finite", what));
+  }
+}
+
+math::DistanceResult CapsuleObstacleDistance(const math::Capsule& capsule, const Obstacle& obstacle) {
+  return obstacle.shape == ObstacleShape::kSphere ? math::CapsuleSphereDistance(capsule, obstacle.sphere)
+                                                  : math::CapsuleBoxDistance(capsule, obstacle.box);
+}
+
+double BoundingRadius(const Obstacle& obstacle) {
+  return obstacle.shape == ObstacleShape::kSphere ? obstacle.sphere.radius : obstacle.box.half_size.norm();
+}
+
+Eigen::Vector3d Centre(const Obstacle& obstacle) {
+  return obstacle.shape == ObstacleShape::kSphere ? obstacle.sphere.p_WC
+                                                  : Eigen::Vector3d(obstacle.box.X_WB.translation());
+}
+
+}  // namespace rmpmarl::rmp

@@ -1,0 +1,345 @@
+// RMPflow tree: validated build, allocation-free pushforward, pullback and resolve.
+#include "rmpmarl/rmp/tree.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::rmp {
+namespace {
+
+[[noreturn]] void Fail(const NodeSpec& node, const std::string& message) {
+  throw InputError(fmt::format("RMP tree: node '{}': {}", node.name, message));
+}
+
+bool AllFinite(const std::vector<double>& v) {
+  return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
+// validates a map that reads q (its parent must be the root); returns its dimension.
+int CheckKinematicMap(const NodeSpec& node, int parent, const kinematics::Robot& robot) {
+  if (parent != -1) Fail(node, fmt::format("a kinematic task map takes q: its parent must be the root (\"\"), got '{}'",
+                                           node.parent));
+  const int nq = robot.model.nq();
+  const int num_capsules = static_cast<int>(robot.capsules.size());
+  auto check_capsule = [&](int c, std::string_view key) {
+    if (c < 0 || c >= num_capsules) {
+      Fail(node, fmt::format("{} {} out of range (robot '{}' has {} capsules)", key, c, robot.name, num_capsules));
+    }
+  };
+  auto check_cutoff = [&](double cutoff) {
+    if (!(cutoff > 0.0)) Fail(node, fmt::format("cutoff must be > 0 (or +inf), got {}", cutoff));
+  };
+  if (const auto* m = std::get_if<JointAffineMap>(&node.map)) {
+    if (m->dofs.empty()) Fail(node, "joint map needs at least one dof");
+    for (int d : m->dofs) {
+      if (d < 0 || d >= nq) Fail(node, fmt::format("dof {} out of range (robot '{}' has nq = {})", d, robot.name, nq));
+    }
+    if (!m->scale.empty() && m->scale.size() != m->dofs.size()) {
+      Fail(node, fmt::format("wrong dimensions: {} dofs but {} scales", m->dofs.size(), m->scale.size()));
+    }
+    if (!m->offset.empty() && m->offset.size() != m->dofs.size()) {
+      Fail(node, fmt::format("wrong dimensions: {} dofs but {} offsets", m->dofs.size(), m->offset.size()));
+    }
+    if (!AllFinite(m->scale) || !AllFinite(m->offset)) Fail(node, "scale and offset must be finite");
+    return static_cast<int>(m->dofs.size());
+  }
+  if (const auto* m = std::get_if<LinkPointMap>(&node.map)) {
+    if (m->link < 0 || m->link >= robot.model.num_links()) {
+      Fail(node, fmt::format("link {} out of range (robot '{}' has {} links)", m->link, robot.name,
+                             robot.model.num_links()));
+    }
+    if (!m->p_LP.allFinite()) Fail(node, "p_LP must be finite");
+    return 3;
+  }
+  if (const auto* m = std::get_if<CapsuleObstacleDistanceMap>(&node.map)) {
+    check_capsule(m->capsule, "capsule");
+    if (m->obstacle < 0) Fail(node, fmt::format("obstacle slot must be >= 0, got {}", m->obstacle));
+    check_cutoff(m->cutoff);
+    return 1;
+  }
+  const auto& m = std::get<CapsuleCapsuleDistanceMap>(node.map);
+  check_capsule(m.capsule1, "capsule1");
+  check_capsule(m.capsule2, "capsule2");
+  if (robot.capsules[m.capsule1].link == robot.capsules[m.capsule2].link) {
+    Fail(node, fmt::format("capsules {} and {} are on the same link (their distance is constant)", m.capsule1,
+                           m.capsule2));
+  }
+  check_cutoff(m.cutoff);
+  return 1;
+}
+
+// bounding sphere of a capsule: centre and radius
+inline double CapsuleBound(const math::Capsule& c, Eigen::Vector3d* centre) {
+  *centre = 0.5 * (c.p_WA + c.p_WB);
+  return 0.5 * (c.p_WB - c.p_WA).norm() + c.radius;
+}
+
+inline math::Capsule WorldCapsule(const kinematics::LinkCapsule& c, const kinematics::Data& kin) {
+  const Eigen::Isometry3d& X_WL = kin.X_WL[c.link];
+  return {X_WL * c.p_LA, X_WL * c.p_LB, c.radius};
+}
+
+// velocity-product acceleration of the material point of `link` currently at world point p_W
+inline Eigen::Vector3d WitnessJdotQdot(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
+  const Eigen::Isometry3d& X_WL = kin.X_WL[link];
+  return kinematics::CalcPointJdotQdot(kin, link, X_WL.linear().transpose() * (p_W - X_WL.translation()));
+}
+
+}  // namespace
+
+Tree::Tree(const kinematics::Robot& robot, std::vector<NodeSpec> nodes) : robot_(robot) {
+  const int n = static_cast<int>(nodes.size());
+  std::unordered_map<std::string, int> index;
+  for (int i = 0; i < n; ++i) {
+    if (nodes[i].name.empty()) throw InputError(fmt::format("RMP tree: node {} has an empty name", i));
+    if (!index.emplace(nodes[i].name, i).second) {
+      throw InputError(fmt::format("RMP tree: duplicate node name '{}'", nodes[i].name));
+    }
+  }
+  nodes_.resize(n);
+  for (int i = 0; i < n; ++i) {
+    nodes_[i].spec = std::move(nodes[i]);
+    const std::string& parent = nodes_[i].spec.parent;
+    if (parent.empty()) {
+      nodes_[i].parent = -1;
+    } else {
+      const auto it = index.find(parent);
+      if (it == index.end()) Fail(nodes_[i].spec, fmt::format("parent '{}' not found", parent));
+      if (it->second == i) Fail(nodes_[i].spec, "a node cannot be its own parent");
+      nodes_[i].parent = it->second;
+    }
+  }
+  // depth of every node; a walk up that revisits a node of the current walk is a cycle
+  std::vector<int> depth(n, -1), on_walk(n, 0);
+  std::vector<int> walk;
+  for (int i = 0; i < n; ++i) {
+    walk.clear();
+    int k = i;
+    while (k >= 0 && depth[k] < 0) {
+      if (on_walk[k]) Fail(nodes_[k].spec, "the parent links form a cycle");
+      on_walk[k] = 1;
+      walk.push_back(k);
+      k = nodes_[k].parent;
+    }
+    int d = k < 0 ? 0 : depth[k] + 1;
+    for (auto it = walk.rbegin(); it != walk.rend(); ++it) {
+      depth[*it] = d++;
+      on_walk[*it] = 0;
+    }
+  }
+  order_.resize(n);
+  for (int i = 0; i < n; ++i) order_[i] = i;
+  std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) { return depth[a] < depth[b]; });
+
+  const int nq = robot_.model.nq();
+  for (int i : order_) {
+    Node& node = nodes_[i];
+    node.parent_dim = node.parent < 0 ? nq : nodes_[node.parent].dim;
+    if (auto* m = std::get_if<AffineMap>(&node.spec.map)) {
+      if (m->A.rows() < 1) Fail(node.spec, "affine map needs at least one row");
+      if (m->A.cols() != node.parent_dim) {
+        Fail(node.spec, fmt::format("wrong dimensions: A has {} columns but the parent '{}' has dimension {}",
+                                    m->A.cols(), node.spec.parent.empty() ? "root" : node.spec.parent,
+                                    node.parent_dim));
+      }
+      if (m->b.size() != m->A.rows()) {
+        Fail(node.spec, fmt::format("wrong dimensions: A has {} rows but b has {} entries", m->A.rows(), m->b.size()));
+      }
+      if (!m->A.allFinite() || !m->b.allFinite()) Fail(node.spec, "A and b must be finite");
+      node.dim = static_cast<int>(m->A.rows());
+    } else {
+      node.dim = CheckKinematicMap(node.spec, node.parent, robot_);
+      if (auto* j = std::get_if<JointAffineMap>(&node.spec.map)) {
+        if (j->scale.empty()) j->scale.assign(j->dofs.size(), 1.0);
+        if (j->offset.empty()) j->offset.assign(j->dofs.size(), 0.0);
+      }
+    }
+  }
+}
+
+int Tree::FindNode(std::string_view name) const {
+  for (int i = 0; i < num_nodes(); ++i) {
+    if (nodes_[i].spec.name == name) return i;
+  }
+  return -1;
+}
+
+TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
+    : kinematics(tree.robot().model),
+      f_root(Eigen::VectorXd::Zero(tree.nq())),
+      M_root(Eigen::MatrixXd::Zero(tree.nq(), tree.nq())),
+      J1_(3, tree.nq()),
+      J2_(3, tree.nq()),
+      resolver_(tree.nq(), resolve) {
+  const int n = tree.num_nodes();
+  node_.resize(n);
+  int off = 0;
+  for (int i = 0; i < n; ++i) {
+    NodeLayout& l = node_[i];
+    l.dim = tree.dim(i);
+    l.parent_dim = tree.parent_dim(i);
+    l.x_off = off;
+    off += l.dim;
+    l.xd_off = off;
+    off += l.dim;
+    l.jdqd_off = off;
+    off += l.dim;
+    l.f_off = off;
+    off += l.dim;
+    l.M_off = off;
+    off += l.dim * l.dim;
+    l.J_off = off;
+    off += l.dim * l.parent_dim;
+  }
+  arena_.assign(off, 0.0);
+  active_.assign(n, 0);
+  distance_.resize(n);
+  // constant Jacobians of the affine maps
+  for (int i = 0; i < n; ++i) {
+    if (const auto* m = std::get_if<JointAffineMap>(&tree.map(i))) {
+      for (size_t k = 0; k < m->dofs.size(); ++k) J(i)(static_cast<int>(k), m->dofs[k]) = m->scale[k];
+    } else if (const auto* a = std::get_if<AffineMap>(&tree.map(i))) {
+      J(i) = a->A;
+    }
+  }
+}
+
+void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
+                 const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene, TreeData* data) {
+  const kinematics::Robot& robot = tree.robot();
+  const kinematics::Model& model = robot.model;
+  RMPMARL_DASSERT(q.size() == model.nq() && qd.size() == model.nq(), "PushForward: q or qd has the wrong size");
+  kinematics::Data& kin = data->kinematics;
+  kinematics::CalcVelocityKinematics(model, q, qd, &kin);
+  const int num_obstacles = static_cast<int>(scene.obstacles.size());
+
+  for (int i : tree.topological_order()) {
+    data->f(i).setZero();
+    data->M(i).setZero();
+    const int parent = tree.parent(i);
+    data->active_[i] = 0;
+    if (parent >= 0 && !data->active_[parent]) continue;
+    auto x = data->x(i);
+    auto xd = data->xd(i);
+    auto jdqd = data->Jdot_qd(i);
+    switch (tree.type(i)) {
+      case TaskMapType::kJointAffine: {
+        const auto& m = std::get<JointAffineMap>(tree.map(i));
+        for (size_t k = 0; k < m.dofs.size(); ++k) {
+          x[k] = m.scale[k] * (q[m.dofs[k]] - m.offset[k]);
+          xd[k] = m.scale[k] * qd[m.dofs[k]];
+        }
+        jdqd.setZero();
+        break;
+      }
+      case TaskMapType::kLinkPoint: {
+        const auto& m = std::get<LinkPointMap>(tree.map(i));
+        x = kin.X_WL[m.link] * m.p_LP;
+        kinematics::CalcPointJacobian(model, kin, m.link, m.p_LP, data->J1_);
+        data->J(i) = data->J1_;
+        xd.noalias() = data->J1_ * qd;
+        jdqd = kinematics::CalcPointJdotQdot(kin, m.link, m.p_LP);
+        break;
+      }
+      case TaskMapType::kCapsuleObstacleDistance: {
+        const auto& m = std::get<CapsuleObstacleDistanceMap>(tree.map(i));
+        if (m.obstacle >= num_obstacles) continue;
+        const Obstacle& obstacle = scene.obstacles[m.obstacle];
+        const kinematics::LinkCapsule& lc = robot.capsules[m.capsule];
+        const math::Capsule capsule = WorldCapsule(lc, kin);
+        Eigen::Vector3d c;
+        const double bound = CapsuleBound(capsule, &c);
+        const double lower = (c - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+        if (lower > m.cutoff) {
+          x[0] = lower;
+          continue;
+        }
+        const math::DistanceResult& res = data->distance_[i] = CapsuleObstacleDistance(capsule, obstacle);
+        x[0] = res.distance;
+        if (res.distance > m.cutoff) continue;
+        const Eigen::Vector3d n = res.gradient_norm * res.n_W;
+        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc.link, res.p_W1, data->J1_);
+        auto J = data->J(i);
+        J.noalias() = n.transpose() * data->J1_;
+        xd[0] = J.row(0).dot(qd) - n.dot(obstacle.v_WO);
+        jdqd[0] = n.dot(WitnessJdotQdot(kin, lc.link, res.p_W1));
+        break;
+      }
+      case TaskMapType::kCapsuleCapsuleDistance: {
+        const auto& m = std::get<CapsuleCapsuleDistanceMap>(tree.map(i));
+        const kinematics::LinkCapsule& lc1 = robot.capsules[m.capsule1];
+        const kinematics::LinkCapsule& lc2 = robot.capsules[m.capsule2];
+        const math::Capsule c1 = WorldCapsule(lc1, kin);
+        const math::Capsule c2 = WorldCapsule(lc2, kin);
+        Eigen::Vector3d o1, o2;
+        const double b1 = CapsuleBound(c1, &o1);
+        const double b2 = CapsuleBound(c2, &o2);
+        const double lower = (o1 - o2).norm() - b1 - b2;
+        if (lower > m.cutoff) {
+          x[0] = lower;
+          continue;
+        }
+        const math::DistanceResult& res = data->distance_[i] = math::CapsuleCapsuleDistance(c1, c2);
+        x[0] = res.distance;
+        if (res.distance > m.cutoff) continue;
+        const Eigen::Vector3d n = res.gradient_norm * res.n_W;
+        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc1.link, res.p_W1, data->J1_);
+        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc2.link, res.p_W2, data->J2_);
+        data->J1_ -= data->J2_;
+        auto J = data->J(i);
+        J.noalias() = n.transpose() * data->J1_;
+        xd[0] = J.row(0).dot(qd);
+        jdqd[0] = n.dot(WitnessJdotQdot(kin, lc1.link, res.p_W1) - WitnessJdotQdot(kin, lc2.link, res.p_W2));
+        break;
+      }
+      case TaskMapType::kAffine: {
+        const auto& m = std::get<AffineMap>(tree.map(i));
+        x.noalias() = m.A * data->x(parent);
+        x += m.b;
+        xd.noalias() = m.A * data->xd(parent);
+        jdqd.setZero();
+        break;
+      }
+    }
+    data->active_[i] = 1;
+  }
+}
+
+void Pullback(const Tree& tree, TreeData* data) {
+  data->f_root.setZero();
+  data->M_root.setZero();
+  const std::vector<int>& order = tree.topological_order();
+  for (auto it = order.rbegin(); it != order.rend(); ++it) {
+    const int i = *it;
+    if (!data->active_[i]) continue;
+    const int parent = tree.parent(i);
+    Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
+                                                      : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
+    Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
+                                                      : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
+    const auto f = data->f(i);
+    const auto M = data->M(i);
+    if (const auto* m = std::get_if<JointAffineMap>(&tree.map(i))) {
+      // sparse selection Jacobian: f_q[d_k] += s_k f_k, M_q[d_k, d_l] += s_k s_l M_kl (J̇q̇ = 0)
+      const int dim = static_cast<int>(m->dofs.size());
+      for (int k = 0; k < dim; ++k) {
+        f_parent[m->dofs[k]] += m->scale[k] * f[k];
+        for (int l = 0; l < dim; ++l) M_parent(m->dofs[k], m->dofs[l]) += m->scale[k] * m->scale[l] * M(k, l);
+      }
+    } else {
+      PullbackAccumulate(data->J(i), data->Jdot_qd(i), f, M, f_parent, M_parent);
+    }
+  }
+}
+
+void PullbackAndResolve(const Tree& tree, TreeData* data, Eigen::Ref<Eigen::VectorXd> qdd) {
+  Pullback(tree, data);
+  data->lambda = data->resolver_.Solve(data->M_root, data->f_root, qdd);
+}
+
+}  // namespace rmpmarl::rmp

@@ -1,0 +1,239 @@
+// Offscreen MuJoCo rendering through EGL, and MP4 / PNG video output.
+#include "rmpmarl/sim/render.h"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GL/gl.h>
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+#include <zlib.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::sim {
+
+struct OffscreenRenderer::Impl {
+  EGLDisplay display = EGL_NO_DISPLAY;
+  EGLContext context = EGL_NO_CONTEXT;
+  mjModel* model = nullptr;  // a private copy whose offscreen buffer size matches the options
+  mjvScene scene;
+  mjvCamera camera;
+  mjvOption option;
+  mjrContext context_mj;
+  bool scene_made = false;
+  bool context_made = false;
+};
+
+namespace {
+
+// an initialised EGL display: a GPU device if one is exposed, else Mesa's surfaceless platform, else the default.
+EGLDisplay OpenDisplay(std::string* why_not) {
+  auto get_platform_display =
+      reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
+  std::vector<EGLDisplay> candidates;
+  if (get_platform_display != nullptr) {
+    auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    if (query_devices != nullptr) {
+      EGLDeviceEXT devices[8];
+      EGLint count = 0;
+      if (query_devices(8, devices, &count) && count > 0) {
+        candidates.push_back(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[0], nullptr));
+      }
+    }
+    candidates.push_back(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr));
+  }
+  candidates.push_back(eglGetDisplay(EGL_DEFAULT_DISPLAY));
+  for (EGLDisplay display : candidates) {
+    EGLint major = 0, minor = 0;
+    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return display;
+  }
+  *why_not = fmt::format("no EGL display could be initialised (EGL error 0x{:x})", eglGetError());
+  return EGL_NO_DISPLAY;
+}
+
+}  // namespace
+
+std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* model, const RenderOptions& options,
+                                                             std::string* why_not) {
+  if (options.width <= 0 || options.height <= 0) {
+    throw InputError(fmt::format("render size: expected positive width and height, got {} x {}", options.width,
+                                 options.height));
+  }
+  std::unique_ptr<OffscreenRenderer> renderer(new OffscreenRenderer());
+  renderer->options_ = options;
+  renderer->impl_ = std::make_unique<Impl>();
+  Impl& impl = *renderer->impl_;
+  impl.display = OpenDisplay(why_not);
+  if (impl.display == EGL_NO_DISPLAY) return nullptr;
+  const EGLint config_attributes[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
+                                      EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT,
+                                      EGL_NONE};
+  EGLConfig config;
+  EGLint num_configs = 0;
+  if (!eglChooseConfig(impl.display, config_attributes, &config, 1, &num_configs) || num_configs < 1) {
+    *why_not = "EGL offers no OpenGL configuration with 24-bit depth";
+    return nullptr;
+  }
+  if (!eglBindAPI(EGL_OPENGL_API)) {
+    *why_not = "EGL cannot bind the desktop OpenGL API";
+    return nullptr;
+  }
+  impl.context = eglCreateContext(impl.display, config, EGL_NO_CONTEXT, nullptr);
+  if (impl.context == EGL_NO_CONTEXT || !eglMakeCurrent(impl.display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl.context)) {
+    *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
+    return nullptr;
+  }
+  const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  renderer->gl_renderer_ = gl_renderer != nullptr ? gl_renderer : "unknown";
+
+  impl.model = mj_copyModel(nullptr, model);
+  impl.model->vis.global.offwidth = options.width;
+  impl.model->vis.global.offheight = options.height;
+  mjv_defaultScene(&impl.scene);
+  mjv_defaultCamera(&impl.camera);
+  mjv_defaultOption(&impl.option);
+  mjr_defaultContext(&impl.context_mj);
+  mjv_makeScene(impl.model, &impl.scene, 2000);
+  impl.scene_made = true;
+  mjr_makeContext(impl.model, &impl.context_mj, mjFONTSCALE_100);
+  impl.context_made = true;
+  mjr_setBuffer(mjFB_OFFSCREEN, &impl.context_mj);
+  if (impl.context_mj.currentBuffer != mjFB_OFFSCREEN) {
+    *why_not = "MuJoCo could not create an offscreen framebuffer";
+    return nullptr;
+  }
+  impl.camera.type = mjCAMERA_FREE;
+  for (int i = 0; i < 3; ++i) impl.camera.lookat[i] = options.lookat[i];
+  impl.camera.distance = options.distance;
+  impl.camera.azimuth = options.azimuth;
+  impl.camera.elevation = options.elevation;
+  impl.option.flags[mjVIS_CONTACTPOINT] = options.show_warning_contacts ? 1 : 0;
+  renderer->flipped_.resize(static_cast<size_t>(options.width) * options.height * 3);
+  return renderer;
+}
+
+OffscreenRenderer::~OffscreenRenderer() {
+  if (!impl_) return;
+  if (impl_->context != EGL_NO_CONTEXT) {
+    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context);
+  }
+  if (impl_->context_made) mjr_freeContext(&impl_->context_mj);
+  if (impl_->scene_made) mjv_freeScene(&impl_->scene);
+  if (impl_->model != nullptr) mj_deleteModel(impl_->model);
+  if (impl_->context != EGL_NO_CONTEXT) {
+    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(impl_->display, impl_->context);
+  }
+  if (impl_->display != EGL_NO_DISPLAY) eglTerminate(impl_->display);
+}
+
+void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rgb) {
+  Impl& impl = *impl_;
+  eglMakeCurrent(impl.display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl.context);
+  const mjrRect viewport{0, 0, options_.width, options_.height};
+  // mjv_updateScene takes a non-const mjData (it may write warnings); the state itself is not modified.
+  mjv_updateScene(impl.model, const_cast<mjData*>(data), &impl.option, nullptr, &impl.camera, mjCAT_ALL, &impl.scene);
+  mjr_render(viewport, &impl.scene, &impl.context_mj);
+  mjr_readPixels(flipped_.data(), nullptr, viewport, &impl.context_mj);
+  rgb->resize(flipped_.size());
+  const size_t row = static_cast<size_t>(options_.width) * 3;
+  for (int y = 0; y < options_.height; ++y) {  // OpenGL reads bottom row first
+    std::memcpy(rgb->data() + y * row, flipped_.data() + (options_.height - 1 - y) * row, row);
+  }
+}
+
+bool FfmpegAvailable() { return std::system("command -v ffmpeg >/dev/null 2>&1") == 0; }
+
+VideoWriter::VideoWriter(const std::filesystem::path& path, int width, int height, double fps)
+    : path_(path), width_(width), height_(height) {
+  if (width <= 0 || height <= 0 || width % 2 != 0 || height % 2 != 0 || !(fps > 0.0)) {
+    throw InputError(fmt::format("video: expected even positive width/height and fps > 0, got {} x {} at {} fps",
+                                 width, height, fps));
+  }
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  if (FfmpegAvailable()) {
+    const std::string command = fmt::format(
+        "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - -c:v libx264 -preset veryfast "
+        "-crf 23 -pix_fmt yuv420p -movflags +faststart '{}'",
+        width, height, fps, path.string());
+    pipe_ = popen(command.c_str(), "w");
+  }
+  if (pipe_ == nullptr) {
+    frames_dir_ = path.parent_path() / (path.stem().string() + "_frames");
+    std::filesystem::create_directories(frames_dir_);
+  }
+}
+
+VideoWriter::~VideoWriter() {
+  if (!closed_) Close();
+}
+
+void VideoWriter::AddFrame(const std::vector<std::uint8_t>& rgb) {
+  RMPMARL_ASSERT(rgb.size() == static_cast<size_t>(width_) * height_ * 3, "frame has the wrong size");
+  if (pipe_ != nullptr) {
+    std::fwrite(rgb.data(), 1, rgb.size(), pipe_);
+  } else {
+    WritePng(frames_dir_ / fmt::format("{:05d}.png", frames_), rgb, width_, height_);
+  }
+  ++frames_;
+}
+
+std::filesystem::path VideoWriter::Close() {
+  closed_ = true;
+  if (pipe_ != nullptr) {
+    const int status = pclose(pipe_);
+    pipe_ = nullptr;
+    if (status != 0) throw InputError(fmt::format("ffmpeg failed writing '{}' (status {})", path_.string(), status));
+    return path_;
+  }
+  return frames_dir_;
+}
+
+namespace {
+
+// appends a big-endian 32-bit integer.
+void PutU32(std::string* out, std::uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) out->push_back(static_cast<char>((v >> shift) & 0xff));
+}
+
+// appends a PNG chunk: length, type, data, CRC over type + data (PNG spec §5.3).
+void PutChunk(std::string* out, const char* type, const std::string& data) {
+  PutU32(out, static_cast<std::uint32_t>(data.size()));
+  const std::string body = std::string(type, 4) + data;
+  out->append(body);
+  PutU32(out, static_cast<std::uint32_t>(crc32(0L, reinterpret_cast<const Bytef*>(body.data()), body.size())));
+}
+
+}  // namespace
+
+void WritePng(const std::filesystem::path& path, const std::vector<std::uint8_t>& rgb, int width, int height) {
+  RMPMARL_ASSERT(rgb.size() == static_cast<size_t>(width) * height * 3, "image has the wrong size");
+  std::string raw;  // each row: filter byte 0 (None) + RGB bytes
+  raw.reserve(static_cast<size_t>(height) * (width * 3 + 1));
+  for (int y = 0; y < height; ++y) {
+    raw.push_back(0);
+    raw.append(reinterpret_cast<const char*>(rgb.data()) + static_cast<size_t>(y) * width * 3, width * 3);
+  }
+  uLongf compressed_size = compressBound(raw.size());
+  std::string compressed(compressed_size, '\0');
+  compress2(reinterpret_cast<Bytef*>(compressed.data()), &compressed_size,
+            reinterpret_cast<const Bytef*>(raw.data()), raw.size(), 6);
+  compressed.resize(compressed_size);
+  std::string png("\x89PNG\r\n\x1a\n", 8);
+  std::string header;
+  PutU32(&header, width);
+  PutU32(&header, height);
+  header += std::string("\x08\x02\x00\x00\x00", 5);  // 8-bit depth, colour type 2 (RGB), deflate, no filter/interlace
+  PutChunk(&png, "IHDR", header);
+  PutChunk(&png, "IDAT", compressed);
+  PutChunk(&png, "IEND", "");
+  std::ofstream file(path, std::ios::binary);
+  if (!file) throw InputError(fmt::format("{}: cannot write PNG", path.string()));
+  file.write(png.data(), static_cast<std::streamsize>(png.size()));
+}
+
+}  // namespace rmpmarl::sim

@@ -1,0 +1,284 @@
+// World: one mjData of a shared WorldModel — reset, servo targets, mocap poses, split stepping, contact report.
+#include "rmpmarl/sim/world.h"
+
+#include <fmt/format.h>
+#include <mujoco/mujoco.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+
+namespace rmpmarl::sim {
+
+void World::DataDeleter::operator()(mjData* d) const { mj_deleteData(d); }
+
+World::World(std::shared_ptr<const WorldModel> model) : model_(std::move(model)) {
+  if (!model_) throw InputError("sim::World: expected a WorldModel, got a null pointer");
+  const mjModel* m = model_->mj_model();
+  data_.reset(mj_makeData(m));
+  RMPMARL_ASSERT(data_ != nullptr, "mj_makeData failed (out of memory)");
+  const int nq = model_->nq();
+  q_.setZero(nq);
+  qd_.setZero(nq);
+  q_cmd_.setZero(nq);
+  // the scene's initial mocap poses (mj_makeData copied them from the model) are the authoritative copy.
+  saved_mocap_pos_.assign(data_->mocap_pos, data_->mocap_pos + 3 * m->nmocap);
+  saved_mocap_quat_.assign(data_->mocap_quat, data_->mocap_quat + 4 * m->nmocap);
+  report_.warnings.reserve(m->nconmax);
+  report_.colliding_pairs.reserve(m->nconmax);
+  const Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nq).cwiseMax(model_->lower_limits()).cwiseMin(model_->upper_limits());
+  Reset(q0);
+}
+
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+double World::time() const { return data_->time; }
+
+void World::Sync() {
+  mj_step1(model_->mj_model(), data_.get());
+  stale_ = false;
+}
+
+void World::ReadState() {
+  for (int i = 0; i < model_->nq(); ++i) {
+    q_[i] = data_->qpos[model_->dof_qpos_adr(i)];
+    qd_[i] = data_->qvel[model_->dof_vel_adr(i)];
+  }
+}
+
+StepIssue World::NewIssue() {
+  // MuJoCo's own NaN handling (mj_checkPos/Vel/Acc) counts a warning and resets mjData, re-counting after the reset;
+  // the counters are zeroed before every step, so any count means "this step".
+  if (data_->warning[mjWARN_BADQACC].number > 0) return StepIssue::kBadQacc;
+  if (data_->warning[mjWARN_BADQVEL].number > 0) return StepIssue::kBadQvel;
+  if (data_->warning[mjWARN_BADQPOS].number > 0) return StepIssue::kBadQpos;
+  return StepIssue::kNone;
+}
+
+void World::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0, const Eigen::Ref<const Eigen::VectorXd>& qd0) {
+  const kinematics::Model& kin = model_->kinematic_model();
+  kinematics::CheckJointVector(kin, q0, "q0");
+  kinematics::CheckJointVector(kin, qd0, "qd0");
+  for (int i = 0; i < nq(); ++i) {
+    if (q0[i] < model_->lower_limits()[i] || q0[i] > model_->upper_limits()[i]) {
+      throw InputError(fmt::format("sim::World::Reset: q0[{}] ({}): expected a value within the joint limits "
+                                   "[{}, {}], got {}", i, kin.dof_name(i), model_->lower_limits()[i],
+                                   model_->upper_limits()[i], q0[i]));
+    }
+  }
+  const mjModel* m = model_->mj_model();
+  mjData* d = data_.get();
+  mj_resetData(m, d);
+  std::copy(saved_mocap_pos_.begin(), saved_mocap_pos_.end(), d->mocap_pos);
+  std::copy(saved_mocap_quat_.begin(), saved_mocap_quat_.end(), d->mocap_quat);
+  for (int i = 0; i < nq(); ++i) {
+    d->qpos[model_->dof_qpos_adr(i)] = q0[i];
+    d->qvel[model_->dof_vel_adr(i)] = qd0[i];
+    d->ctrl[model_->dof_actuator(i)] = q0[i];
+  }
+  q_cmd_ = q0;
+  Sync();
+  ReadState();
+}
+
+void World::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) { Reset(q0, Eigen::VectorXd::Zero(nq())); }
+
+void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd) {
+  kinematics::CheckJointVector(model_->kinematic_model(), q_cmd, "q_cmd");
+  for (int i = 0; i < nq(); ++i) {
+    q_cmd_[i] = std::clamp(q_cmd[i], model_->lower_limits()[i], model_->upper_limits()[i]);
+    data_->ctrl[model_->dof_actuator(i)] = q_cmd_[i];
+  }
+}
+
+void World::SetObstaclePose(int j, const Eigen::Vector3d& p_WO, const Eigen::Matrix3d& R_WO) {
+  if (j < 0 || j >= model_->num_obstacles()) {
+    throw InputError(fmt::format("sim::World::SetObstaclePose: expected an obstacle index in [0, {}), got {}",
+                                 model_->num_obstacles(), j));
+  }
+  if (!p_WO.allFinite() || !R_WO.allFinite()) {
+    throw InputError(fmt::format("sim::World::SetObstaclePose: obstacle {}: expected a finite pose, got non-finite "
+                                 "entries", j));
+  }
+  const double err = (R_WO.transpose() * R_WO - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (err > 1e-6 || R_WO.determinant() < 0.0) {
+    throw InputError(fmt::format("sim::World::SetObstaclePose: obstacle {}: expected a rotation matrix "
+                                 "(orthonormal, det +1), got |RᵀR − I|max = {:.3g}, det = {:.6g}", j, err,
+                                 R_WO.determinant()));
+  }
+  const int id = model_->obstacle_mocap(j);
+  const Eigen::Quaterniond quat(R_WO);
+  const double pos[3] = {p_WO.x(), p_WO.y(), p_WO.z()};
+  const double wxyz[4] = {quat.w(), quat.x(), quat.y(), quat.z()};
+  std::copy(pos, pos + 3, &saved_mocap_pos_[3 * id]);
+  std::copy(wxyz, wxyz + 4, &saved_mocap_quat_[4 * id]);
+  std::copy(pos, pos + 3, data_->mocap_pos + 3 * id);
+  std::copy(wxyz, wxyz + 4, data_->mocap_quat + 4 * id);
+  stale_ = true;
+}
+
+void World::SetObstaclePose(int j, const Eigen::Isometry3d& X_WO) {
+  SetObstaclePose(j, X_WO.translation(), X_WO.linear());
+}
+
+Eigen::Isometry3d World::ObstaclePose(int j) const {
+  if (j < 0 || j >= model_->num_obstacles()) {
+    throw InputError(fmt::format("sim::World::ObstaclePose: expected an obstacle index in [0, {}), got {}",
+                                 model_->num_obstacles(), j));
+  }
+  const int id = model_->obstacle_mocap(j);
+  const double* p = &saved_mocap_pos_[3 * id];
+  const double* q = &saved_mocap_quat_[4 * id];
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  X.translation() = Eigen::Vector3d(p[0], p[1], p[2]);
+  return X;
+}
+
+void World::SetTargetPosition(const Eigen::Vector3d& p_WT) {
+  if (model_->target_mocap() < 0) {
+    throw InputError("sim::World::SetTargetPosition: expected a scene with a target (SceneSpec.has_target), got "
+                     "none");
+  }
+  if (!p_WT.allFinite()) {
+    throw InputError("sim::World::SetTargetPosition: expected a finite position, got non-finite entries");
+  }
+  const int id = model_->target_mocap();
+  for (int a = 0; a < 3; ++a) {
+    saved_mocap_pos_[3 * id + a] = p_WT[a];
+    data_->mocap_pos[3 * id + a] = p_WT[a];
+  }
+  stale_ = true;
+}
+
+Eigen::Vector3d World::TargetPosition() const {
+  if (model_->target_mocap() < 0) {
+    throw InputError("sim::World::TargetPosition: expected a scene with a target (SceneSpec.has_target), got none");
+  }
+  const double* p = &saved_mocap_pos_[3 * model_->target_mocap()];
+  return {p[0], p[1], p[2]};
+}
+
+StepResult World::Step(int num_steps) {
+  if (num_steps < 1) {
+    throw InputError(fmt::format("sim::World::Step: expected num_steps >= 1, got {}", num_steps));
+  }
+  const mjModel* m = model_->mj_model();
+  mjData* d = data_.get();
+  StepResult result;
+  for (int s = 0; s < num_steps; ++s) {
+    d->warning[mjWARN_BADQPOS].number = 0;
+    d->warning[mjWARN_BADQVEL].number = 0;
+    d->warning[mjWARN_BADQACC].number = 0;
+    if (stale_) Sync();
+    // mj_step2 then mj_step1 is mj_step shifted by half a step: the position stage (kinematics, collisions) of the
+    // new state is computed right away, so contacts in mjData always describe the current state.
+    mj_step2(m, d);
+    Sync();
+    StepIssue issue = NewIssue();
+    if (issue == StepIssue::kNone) {
+      for (int i = 0; i < m->nq && issue == StepIssue::kNone; ++i) {
+        if (!std::isfinite(d->qpos[i])) issue = StepIssue::kBadQpos;
+      }
+      for (int i = 0; i < m->nv && issue == StepIssue::kNone; ++i) {
+        if (!std::isfinite(d->qvel[i])) issue = StepIssue::kBadQvel;
+      }
+    }
+    if (issue != StepIssue::kNone) {
+      // MuJoCo reset mjData (or the state is non-finite): put back the scene and the servo targets, zero the robot.
+      result.ok = false;
+      result.issue = issue;
+      result.state_was_reset = true;
+      mj_resetData(m, d);
+      std::copy(saved_mocap_pos_.begin(), saved_mocap_pos_.end(), d->mocap_pos);
+      std::copy(saved_mocap_quat_.begin(), saved_mocap_quat_.end(), d->mocap_quat);
+      for (int i = 0; i < nq(); ++i) d->ctrl[model_->dof_actuator(i)] = q_cmd_[i];
+      Sync();
+      break;
+    }
+  }
+  ReadState();
+  result.time = d->time;
+  return result;
+}
+
+const ContactReport& World::QueryContacts() {
+  if (stale_) Sync();
+  const mjModel* m = model_->mj_model();
+  const mjData* d = data_.get();
+  ContactReport& r = report_;
+  r.num_collisions = 0;
+  r.colliding_pairs.clear();
+  r.warnings.clear();
+  r.min_clearance = std::numeric_limits<double>::infinity();
+  r.contact_buffer_full = d->ncon >= m->nconmax;
+  for (int c = 0; c < d->ncon; ++c) {
+    const mjContact& con = d->contact[c];
+    const GeomInfo& info1 = model_->geom_info(con.geom1);
+    const GeomInfo& info2 = model_->geom_info(con.geom2);
+    // robot side (shape 1) and the other side (shape 2); `robot_is_geom1` fixes the MuJoCo normal's orientation.
+    bool robot_is_geom1 = true;
+    if (info1.role == GeomRole::kRobot && info2.role == GeomRole::kRobot) {
+      if (!model_->IsCheckedLinkPair(info1.link, info2.link)) continue;
+      robot_is_geom1 = info1.link < info2.link || (info1.link == info2.link && info1.capsule < info2.capsule);
+    } else if (info1.role == GeomRole::kRobot) {
+      if (info2.role == GeomRole::kTarget) continue;
+      robot_is_geom1 = true;
+    } else if (info2.role == GeomRole::kRobot) {
+      if (info1.role == GeomRole::kTarget) continue;
+      robot_is_geom1 = false;
+    } else {
+      continue;  // scene–scene contacts never count (none are generated)
+    }
+    const GeomInfo& robot = robot_is_geom1 ? info1 : info2;
+    const GeomInfo& other = robot_is_geom1 ? info2 : info1;
+    // MuJoCo: pos is the midpoint between the surfaces, frame[0:3] the normal pointing from geom1 to geom2.
+    const Eigen::Vector3d pos(con.pos[0], con.pos[1], con.pos[2]);
+    const Eigen::Vector3d n12(con.frame[0], con.frame[1], con.frame[2]);
+    const Eigen::Vector3d p_geom1 = pos - 0.5 * con.dist * n12;
+    const Eigen::Vector3d p_geom2 = pos + 0.5 * con.dist * n12;
+    WarningContact w;
+    w.robot_geom = robot_is_geom1 ? con.geom1 : con.geom2;
+    w.other_geom = robot_is_geom1 ? con.geom2 : con.geom1;
+    w.link = robot.link;
+    w.capsule = robot.capsule;
+    switch (other.role) {
+      case GeomRole::kRobot:
+        w.other_kind = PartnerKind::kLink;
+        w.other_index = other.link;
+        w.other_capsule = other.capsule;
+        break;
+      case GeomRole::kObstacle:
+        w.other_kind = PartnerKind::kObstacle;
+        w.other_index = other.obstacle;
+        break;
+      default:
+        w.other_kind = PartnerKind::kFloor;
+        w.other_index = -1;
+    }
+    w.distance = con.dist;
+    w.p_W1 = robot_is_geom1 ? p_geom1 : p_geom2;
+    w.p_W2 = robot_is_geom1 ? p_geom2 : p_geom1;
+    w.n_W = robot_is_geom1 ? Eigen::Vector3d(-n12) : n12;
+    r.min_clearance = std::min(r.min_clearance, w.distance);
+    if (w.distance < 0.0) {
+      auto it = std::find_if(r.colliding_pairs.begin(), r.colliding_pairs.end(), [&](const CollidingPair& p) {
+        return p.link == w.link && p.other_kind == w.other_kind && p.other_index == w.other_index;
+      });
+      if (it == r.colliding_pairs.end()) {
+        r.colliding_pairs.push_back(CollidingPair{w.link, w.other_kind, w.other_index, -w.distance});
+      } else {
+        it->depth = std::max(it->depth, -w.distance);
+      }
+    }
+    r.warnings.push_back(w);
+  }
+  r.num_collisions = static_cast<int>(r.colliding_pairs.size());
+  return r;
+}
+
+}  // namespace rmpmarl::sim

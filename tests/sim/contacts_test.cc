@@ -1,0 +1,309 @@
+// Warning contacts and collisions of the World against independent distance references: rmpmarl::math's signed
+// distances and a brute-force minimisation of the box signed-distance function along the capsule axis.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/math/geometry.h"
+#include "rmpmarl/sim/world.h"
+#include "sim_test_util.h"
+
+namespace rmpmarl::sim {
+namespace {
+
+// MuJoCo's capsule–box collider agrees with the exact distance to this tolerance (measured maximum over the
+// randomised test below, documented in docs/sim.md).
+constexpr double kColliderTolerance = 1e-6;
+
+// signed distance from point p_W to box: exact (outside: Euclidean; inside: minus the distance to the nearest face).
+double BoxSdf(const math::Box& box, const Eigen::Vector3d& p_W) {
+  const Eigen::Vector3d p_B = box.X_WB.inverse() * p_W;
+  const Eigen::Vector3d q = p_B.cwiseAbs() - box.half_size;
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+
+// min over the capsule axis of the (convex) box SDF, minus the radius: golden-section search, an independent reference.
+double BruteForceCapsuleBox(const math::Capsule& capsule, const math::Box& box) {
+  auto f = [&](double t) { return BoxSdf(box, capsule.p_WA + t * (capsule.p_WB - capsule.p_WA)); };
+  double lo = 0.0, hi = 1.0;
+  const double g = 0.5 * (std::sqrt(5.0) - 1.0);
+  double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+  double f1 = f(x1), f2 = f(x2);
+  for (int it = 0; it < 200; ++it) {
+    if (f1 < f2) {
+      hi = x2; x2 = x1; f2 = f1; x1 = hi - g * (hi - lo); f1 = f(x1);
+    } else {
+      lo = x1; x1 = x2; f1 = f2; x2 = lo + g * (hi - lo); f2 = f(x2);
+    }
+  }
+  return std::min({f(0.0), f(1.0), f(0.5 * (lo + hi))}) - capsule.radius;
+}
+
+math::Capsule WorldCapsule(const kinematics::Robot& robot, const kinematics::Data& kin, int c) {
+  const kinematics::LinkCapsule& cap = robot.capsules[c];
+  return {kin.X_WL[cap.link] * cap.p_LA, kin.X_WL[cap.link] * cap.p_LB, cap.radius};
+}
+
+math::Box WorldBox(const World& world, int j) {
+  return {world.ObstaclePose(j), world.model().scene().obstacles[j].half_size};
+}
+
+// the smallest distance MuJoCo reports per (capsule, obstacle) pair.
+std::map<std::pair<int, int>, double> MinDistancePerObstaclePair(const ContactReport& report) {
+  std::map<std::pair<int, int>, double> out;
+  for (const WarningContact& w : report.warnings) {
+    if (w.other_kind != PartnerKind::kObstacle) continue;
+    auto [it, inserted] = out.try_emplace({w.capsule, w.other_index}, w.distance);
+    if (!inserted) it->second = std::min(it->second, w.distance);
+  }
+  return out;
+}
+
+TEST(ContactsTest, BoxTenCentimetresFromALinkIsAWarningNotACollision) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();  // link1 along x from 0 to 0.5, radius 0.04
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.1)};
+  auto wm = std::make_shared<const WorldModel>(robot, scene);
+  World world(wm);
+  world.Reset(Eigen::Vector2d(0.0, 0.0));
+  // cube bottom face 0.10 above the capsule's top (z = 0.04), over the middle of link1.
+  world.SetObstaclePose(0, Eigen::Vector3d(0.25, 0.0, 0.04 + 0.10 + 0.05), Eigen::Matrix3d::Identity());
+  const ContactReport& report = world.QueryContacts();
+  EXPECT_EQ(report.num_collisions, 0);
+  ASSERT_FALSE(report.warnings.empty());
+  EXPECT_NEAR(report.min_clearance, 0.10, 1e-12);
+  kinematics::Data kin(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, world.q(), &kin);
+  const math::DistanceResult ref = math::CapsuleBoxDistance(WorldCapsule(robot, kin, 0), WorldBox(world, 0));
+  EXPECT_NEAR(ref.distance, 0.10, 1e-12);
+  for (const WarningContact& w : report.warnings) {
+    EXPECT_EQ(w.link, 1);
+    EXPECT_EQ(w.capsule, 0);
+    EXPECT_EQ(w.other_kind, PartnerKind::kObstacle);
+    EXPECT_EQ(w.other_index, 0);
+    EXPECT_NEAR(w.distance, ref.distance, kColliderTolerance);
+    // witness points on the two surfaces, normal from the box to the capsule (math::DistanceResult convention).
+    EXPECT_NEAR(w.p_W1.z(), 0.04, 1e-12);
+    EXPECT_NEAR(w.p_W2.z(), 0.14, 1e-12);
+    EXPECT_NEAR(w.n_W.z(), -1.0, 1e-12);
+    EXPECT_LT((w.p_W1 - (w.p_W2 + w.distance * w.n_W)).norm(), 1e-12);
+  }
+
+  // overlapping the link by 2 cm: a collision of (link1, obstacle 0) with depth 0.02.
+  world.SetObstaclePose(0, Eigen::Vector3d(0.25, 0.0, 0.04 - 0.02 + 0.05), Eigen::Matrix3d::Identity());
+  const ContactReport& hit = world.QueryContacts();
+  ASSERT_EQ(hit.num_collisions, 1);
+  EXPECT_EQ(hit.colliding_pairs[0].link, 1);
+  EXPECT_EQ(hit.colliding_pairs[0].other_kind, PartnerKind::kObstacle);
+  EXPECT_EQ(hit.colliding_pairs[0].other_index, 0);
+  EXPECT_NEAR(hit.colliding_pairs[0].depth, 0.02, 1e-9);
+  EXPECT_NEAR(hit.min_clearance, -0.02, 1e-9);
+
+  // beyond the margin: nothing reported.
+  world.SetObstaclePose(0, Eigen::Vector3d(0.25, 0.0, 0.04 + 0.16 + 0.05), Eigen::Matrix3d::Identity());
+  EXPECT_TRUE(world.QueryContacts().warnings.empty());
+  EXPECT_TRUE(std::isinf(world.QueryContacts().min_clearance));
+}
+
+TEST(ContactsTest, TargetAndObstacleObstacleContactsNeverCount) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.2), ObstacleSpec::Sphere(0.1)};
+  scene.target_radius = 0.3;
+  World world(std::make_shared<const WorldModel>(robot, scene));
+  // two overlapping obstacles far from the robot, and a big target sphere swallowing link 1.
+  world.SetObstaclePose(0, Eigen::Vector3d(3.0, 0.0, 0.0), Eigen::Matrix3d::Identity());
+  world.SetObstaclePose(1, Eigen::Isometry3d(Eigen::Translation3d(3.05, 0.0, 0.0)));
+  world.SetTargetPosition(Eigen::Vector3d(0.25, 0.0, 0.0));
+  const ContactReport& report = world.QueryContacts();
+  EXPECT_EQ(report.num_collisions, 0);
+  EXPECT_TRUE(report.warnings.empty());
+  EXPECT_EQ(world.mj_data()->ncon, 0);  // not generated at all
+}
+
+// randomised: every (capsule, box) pair within the margin is reported with the exact distance; none beyond.
+void CheckObstacleContactsAgainstReferences(const kinematics::Robot& robot, int samples, double* worst_math,
+                                            double* worst_brute, int* num_checked) {
+  constexpr int kNumBoxes = 4;
+  SceneSpec scene;
+  for (int j = 0; j < kNumBoxes; ++j) scene.obstacles.push_back(ObstacleSpec::Cube(0.06 + 0.04 * j));
+  scene.obstacles.push_back(ObstacleSpec::Sphere(0.05));
+  auto wm = std::make_shared<const WorldModel>(robot, scene);
+  World world(wm);
+  const double margin = wm->options().warning_margin;
+  kinematics::Data kin(robot.model);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int s = 0; s < samples; ++s) {
+    const Eigen::VectorXd q = testing::RandomConfiguration(robot.model, rng);
+    world.Reset(q);
+    kinematics::CalcForwardKinematics(robot.model, q, &kin);
+    // obstacles near a random capsule's axis so that most land within or just beyond the margin.
+    for (int j = 0; j < kNumBoxes + 1; ++j) {
+      const int c = std::uniform_int_distribution<int>(0, static_cast<int>(robot.capsules.size()) - 1)(rng);
+      const math::Capsule cap = WorldCapsule(robot, kin, c);
+      const double t = 0.5 * (unit(rng) + 1.0);
+      const Eigen::Vector3d offset = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized() *
+                                     (cap.radius + 0.3 * (0.5 * (unit(rng) + 1.0)));
+      world.SetObstaclePose(j, cap.p_WA + t * (cap.p_WB - cap.p_WA) + offset, testing::RandomRotation(rng));
+    }
+    const ContactReport& report = world.QueryContacts();
+    const auto reported = MinDistancePerObstaclePair(report);
+    for (int c = 0; c < static_cast<int>(robot.capsules.size()); ++c) {
+      for (int j = 0; j < kNumBoxes + 1; ++j) {
+        const math::Capsule cap = WorldCapsule(robot, kin, c);
+        double ref = 0.0;
+        if (j < kNumBoxes) {
+          ref = math::CapsuleBoxDistance(cap, WorldBox(world, j)).distance;
+          const double brute = BruteForceCapsuleBox(cap, WorldBox(world, j));
+          if (ref > 0.0) {  // the two references agree outside the box
+            EXPECT_NEAR(ref, brute, 1e-9);
+            *worst_brute = std::max(*worst_brute, std::abs(brute - ref));
+          }
+        } else {
+          ref = math::CapsuleSphereDistance(cap, {world.ObstaclePose(j).translation(), 0.05}).distance;
+        }
+        const auto it = reported.find({c, j});
+        if (ref < margin - 1e-6) {
+          // penetration depths differ by definition (box SDF vs MuJoCo's contact depth): check the sign only.
+          ASSERT_NE(it, reported.end()) << "capsule " << c << " obstacle " << j << " ref " << ref << " sample " << s;
+          if (ref >= 0.0) {
+            const double err = std::abs(it->second - ref);
+            *worst_math = std::max(*worst_math, err);
+            EXPECT_NEAR(it->second, ref, kColliderTolerance) << "capsule " << c << " obstacle " << j << " sample " << s;
+            ++*num_checked;
+          } else {
+            EXPECT_LT(it->second, 0.0) << "capsule " << c << " obstacle " << j << " sample " << s;
+          }
+        } else if (ref > margin + 1e-6) {
+          EXPECT_EQ(it, reported.end()) << "capsule " << c << " obstacle " << j << " ref " << ref;
+        }
+      }
+    }
+    // collisions agree with the sign of the reference distances.
+    int expected_collisions = 0;
+    for (int j = 0; j < kNumBoxes + 1; ++j) {
+      std::vector<int> links;
+      for (int c = 0; c < static_cast<int>(robot.capsules.size()); ++c) {
+        const auto it = reported.find({c, j});
+        if (it != reported.end() && it->second < 0.0 &&
+            std::find(links.begin(), links.end(), robot.capsules[c].link) == links.end()) {
+          links.push_back(robot.capsules[c].link);
+        }
+      }
+      expected_collisions += static_cast<int>(links.size());
+    }
+    int obstacle_collisions = 0;
+    for (const CollidingPair& p : report.colliding_pairs) obstacle_collisions += p.other_kind == PartnerKind::kObstacle;
+    EXPECT_EQ(obstacle_collisions, expected_collisions);
+  }
+}
+
+TEST(ContactsTest, ObstacleDistancesMatchExactReferences) {
+  double worst_math = 0.0, worst_brute = 0.0;
+  int checked = 0;
+  std::vector<kinematics::Robot> robots = {testing::LoadTreeRobot(), kinematics::MakePlanar2()};
+  for (const std::string& name : kinematics::ShippedRobotNames()) {
+    robots.push_back(kinematics::LoadShippedRobot(name));
+  }
+  for (const kinematics::Robot& robot : robots) {
+    SCOPED_TRACE(robot.name);
+    CheckObstacleContactsAgainstReferences(robot, 100, &worst_math, &worst_brute, &checked);
+  }
+  fmt::print("  {} warning distances checked; max |MuJoCo − math| = {:.2e} m; max |brute force − math| = {:.2e} m\n",
+             checked, worst_math, worst_brute);
+  RecordProperty("max_contact_distance_error", fmt::format("{:.3e}", worst_math));
+  EXPECT_GT(checked, 100);
+}
+
+TEST(ContactsTest, SelfContactsOnlyForCheckedLinkPairs) {
+  std::vector<kinematics::Robot> robots = {testing::LoadTreeRobot()};
+  for (const std::string& name : kinematics::ShippedRobotNames()) {
+    robots.push_back(kinematics::LoadShippedRobot(name));
+  }
+  for (const kinematics::Robot& robot : robots) {
+    SCOPED_TRACE(robot.name);
+    auto wm = std::make_shared<const WorldModel>(robot);
+    World world(wm);
+    kinematics::Data kin(robot.model);
+    std::mt19937_64 rng(11);
+    const double margin = wm->options().warning_margin;
+    int seen = 0, seen_collisions = 0;
+    double worst = 0.0;
+    for (int s = 0; s < 200; ++s) {
+      const Eigen::VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      world.Reset(q);
+      kinematics::CalcForwardKinematics(robot.model, q, &kin);
+      const ContactReport& report = world.QueryContacts();
+      std::map<std::pair<int, int>, double> reported;
+      for (const WarningContact& w : report.warnings) {
+        ASSERT_EQ(w.other_kind, PartnerKind::kLink);
+        EXPECT_TRUE(wm->IsCheckedLinkPair(w.link, w.other_index));
+        EXPECT_LT(w.link, w.other_index);
+        auto [it, inserted] = reported.try_emplace({w.capsule, w.other_capsule}, w.distance);
+        if (!inserted) it->second = std::min(it->second, w.distance);
+      }
+      for (int a = 0; a < static_cast<int>(robot.capsules.size()); ++a) {
+        for (int b = 0; b < static_cast<int>(robot.capsules.size()); ++b) {
+          const int la = robot.capsules[a].link, lb = robot.capsules[b].link;
+          if (la >= lb || !wm->IsCheckedLinkPair(la, lb)) continue;
+          const double ref =
+              math::CapsuleCapsuleDistance(WorldCapsule(robot, kin, a), WorldCapsule(robot, kin, b)).distance;
+          const auto it = reported.find({a, b});
+          if (ref < margin - 1e-6) {
+            ASSERT_NE(it, reported.end()) << "capsules " << a << "," << b << " ref " << ref << " sample " << s;
+            EXPECT_NEAR(it->second, ref, 1e-9);
+            worst = std::max(worst, std::abs(it->second - ref));
+            ++seen;
+            seen_collisions += ref < 0.0;
+          } else if (ref > margin + 1e-6) {
+            EXPECT_EQ(it, reported.end());
+          }
+        }
+      }
+    }
+    fmt::print("  {:>10}: {} self warning pairs checked ({} colliding), max |MuJoCo − math| = {:.1e} m\n",
+               robot.name, seen, seen_collisions, worst);
+  }
+}
+
+TEST(ContactsTest, BaseLinkSeesObstaclesThroughExplicitPairs) {
+  // the tree robot's torso is the first moving link; its base has no capsule, so give one to a robot whose root has:
+  // planar2 with a capsule on its base link (link 0, welded to the world like every robot base).
+  kinematics::Robot robot = kinematics::MakePlanar2();
+  robot.capsules.push_back({0, Eigen::Vector3d(0, 0, -0.2), Eigen::Vector3d(0, 0, -0.05), 0.05});
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.1)};
+  World world(std::make_shared<const WorldModel>(robot, scene));
+  world.SetObstaclePose(0, Eigen::Vector3d(0.05 + 0.08 + 0.05, 0.0, -0.15), Eigen::Matrix3d::Identity());
+  const ContactReport& report = world.QueryContacts();
+  bool base_seen = false;
+  for (const WarningContact& w : report.warnings) {
+    if (w.link == 0) {
+      base_seen = true;
+      EXPECT_NEAR(w.distance, 0.08, 1e-9);
+    }
+  }
+  EXPECT_TRUE(base_seen);
+}
+
+TEST(ContactsTest, FloorCollisionsAreReported) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();
+  SceneSpec scene;
+  scene.has_floor = true;
+  scene.floor_height = -0.03;  // the arm (radius 0.04) moving in z = 0 dips 1 cm into it
+  World world(std::make_shared<const WorldModel>(robot, scene));
+  const ContactReport& report = world.QueryContacts();
+  ASSERT_EQ(report.num_collisions, 2);
+  for (const CollidingPair& p : report.colliding_pairs) {
+    EXPECT_EQ(p.other_kind, PartnerKind::kFloor);
+    EXPECT_NEAR(p.depth, 0.01, 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace rmpmarl::sim

@@ -1,0 +1,233 @@
+// World behaviour: servo tracking, model sharing, split stepping vs mj_step, input checks and NaN reporting.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/sim/world.h"
+#include "sim_test_util.h"
+
+namespace rmpmarl::sim {
+namespace {
+
+// the robot of the dynamic tests: the paper's Panda.
+kinematics::Robot ArmForDynamics() { return kinematics::LoadShippedRobot("panda"); }
+
+// a configuration inside the limits, `fraction` of the way from the lower to the upper limit (continuous: ±pi).
+Eigen::VectorXd Within(const WorldModel& wm, double fraction) {
+  Eigen::VectorXd q(wm.nq());
+  for (int i = 0; i < wm.nq(); ++i) {
+    const double lo = std::isfinite(wm.lower_limits()[i]) ? wm.lower_limits()[i] : -M_PI;
+    const double hi = std::isfinite(wm.upper_limits()[i]) ? wm.upper_limits()[i] : M_PI;
+    q[i] = lo + fraction * (hi - lo);
+  }
+  return q;
+}
+
+TEST(WorldTest, ServoTracksAStepCommand) {
+  // documented: with the default servo (ω_n = 40 rad/s, ζ = 1) a 0.3 rad step on every joint settles to 1e-3 rad
+  // within 0.4 s of simulated time (critically damped: (1 + ω t) e^{−ω t} · 0.3 < 1e-3 at t ≈ 0.2 s for the
+  // reference inertia; the configuration-dependent inertia and coupling leave some slack).
+  constexpr double kSettleTime = 0.4;
+  constexpr double kStep = 0.3;
+  for (const kinematics::Robot& robot : {ArmForDynamics(), kinematics::MakePlanar2()}) {
+    SCOPED_TRACE(robot.name);
+    auto wm = std::make_shared<const WorldModel>(robot);
+    World world(wm);
+    const Eigen::VectorXd q0 = Within(*wm, 0.4);
+    world.Reset(q0);
+    Eigen::VectorXd q_cmd = q0;
+    for (int i = 0; i < wm->nq(); ++i) {
+      const double span = std::min(wm->upper_limits()[i] - wm->lower_limits()[i], 2 * M_PI);
+      q_cmd[i] += std::min(kStep, 0.3 * span);
+    }
+    world.SetJointTargets(q_cmd);
+    double settled_at = -1.0;
+    const int steps = static_cast<int>(std::lround(1.0 / wm->options().timestep));
+    for (int s = 0; s < steps; ++s) {
+      ASSERT_TRUE(world.Step().ok);
+      const double err = (world.q() - q_cmd).cwiseAbs().maxCoeff();
+      if (err < 1e-3 && settled_at < 0.0) settled_at = world.time();
+      if (err >= 1e-3) settled_at = -1.0;  // must stay settled
+    }
+    fmt::print("  {}: |q − q_cmd| < 1e-3 rad from t = {:.3f} s on (max final error {:.1e})\n", robot.name, settled_at,
+               (world.q() - q_cmd).cwiseAbs().maxCoeff());
+    EXPECT_GE(settled_at, 0.0);
+    EXPECT_LE(settled_at, kSettleTime);
+    EXPECT_LT((world.q() - q_cmd).cwiseAbs().maxCoeff(), 1e-5);
+  }
+}
+
+TEST(WorldTest, TargetsAreClampedToTheJointLimits) {
+  auto wm = std::make_shared<const WorldModel>(kinematics::MakePlanar2());
+  World world(wm);
+  world.SetJointTargets(Eigen::Vector2d(10.0, -10.0));
+  EXPECT_EQ(world.joint_targets()[0], 3.0);
+  EXPECT_EQ(world.joint_targets()[1], -3.0);
+  EXPECT_EQ(world.mj_data()->ctrl[wm->dof_actuator(0)], 3.0);
+}
+
+TEST(WorldTest, WorldsSharingAModelAreIdenticalAndIndependent) {
+  const kinematics::Robot robot = ArmForDynamics();
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.1), ObstacleSpec::Cube(0.1)};
+  auto wm = std::make_shared<const WorldModel>(robot, scene);
+  World a(wm), b(wm), c(wm);
+  EXPECT_EQ(a.mj_model(), b.mj_model());  // one mjModel
+  std::mt19937_64 rng(3);
+  const Eigen::VectorXd q0 = testing::RandomConfiguration(robot.model, rng);
+  for (World* w : {&a, &b, &c}) w->Reset(q0);
+  c.SetObstaclePose(0, Eigen::Vector3d(0.4, 0.1, 0.3), testing::RandomRotation(rng));  // only c
+  std::vector<Eigen::VectorXd> targets;
+  for (int k = 0; k < 20; ++k) targets.push_back(testing::RandomConfiguration(robot.model, rng));
+  for (int k = 0; k < 20; ++k) {
+    a.SetJointTargets(targets[k]);
+    ASSERT_TRUE(a.Step(10).ok);
+    // c runs different commands in between; b steps after it.
+    c.SetJointTargets(targets[(k + 7) % 20]);
+    c.Step(5);
+    c.QueryContacts();
+    b.SetJointTargets(targets[k]);
+    ASSERT_TRUE(b.Step(10).ok);
+    ASSERT_EQ(a.q(), b.q()) << "step " << k;  // bitwise identical
+    ASSERT_EQ(a.qd(), b.qd());
+    EXPECT_EQ(a.time(), b.time());
+  }
+  EXPECT_NE(a.q(), c.q());
+  EXPECT_TRUE(a.ObstaclePose(0).isApprox(ParkedPose()));
+}
+
+TEST(WorldTest, SplitStepEqualsMujocosStep) {
+  // independent reference: a bare mjData stepped with mj_step under the same controls.
+  for (Integrator integrator : {Integrator::kImplicit, Integrator::kEuler}) {
+    WorldOptions options;
+    options.integrator = integrator;
+    const kinematics::Robot robot = testing::LoadTreeRobot();
+    auto wm = std::make_shared<const WorldModel>(robot, SceneSpec{}, options);
+    World world(wm);
+    std::unique_ptr<mjData, void (*)(mjData*)> ref(mj_makeData(wm->mj_model()), mj_deleteData);
+    std::mt19937_64 rng(5);
+    const Eigen::VectorXd q0 = testing::RandomConfiguration(robot.model, rng);
+    world.Reset(q0);
+    for (int i = 0; i < wm->nq(); ++i) {
+      ref->qpos[wm->dof_qpos_adr(i)] = q0[i];
+      ref->ctrl[wm->dof_actuator(i)] = q0[i];
+    }
+    for (int k = 0; k < 10; ++k) {
+      const Eigen::VectorXd q_cmd = testing::RandomConfiguration(robot.model, rng);
+      world.SetJointTargets(q_cmd);
+      for (int i = 0; i < wm->nq(); ++i) ref->ctrl[wm->dof_actuator(i)] = q_cmd[i];
+      for (int s = 0; s < 20; ++s) {
+        world.Step();
+        mj_step(wm->mj_model(), ref.get());
+      }
+      for (int i = 0; i < wm->nq(); ++i) {
+        ASSERT_EQ(world.q()[i], ref->qpos[wm->dof_qpos_adr(i)]) << "integrator " << int(integrator);  // bitwise
+        ASSERT_EQ(world.qd()[i], ref->qvel[wm->dof_vel_adr(i)]);
+      }
+    }
+  }
+}
+
+TEST(WorldTest, ResetKeepsTheSceneAndSetsTheState) {
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Sphere(0.05)};
+  auto wm = std::make_shared<const WorldModel>(kinematics::MakePlanar2(), scene);
+  World world(wm);
+  world.SetObstaclePose(0, Eigen::Vector3d(1.0, 2.0, 3.0), Eigen::Matrix3d::Identity());
+  world.SetTargetPosition(Eigen::Vector3d(0.3, 0.4, 0.0));
+  world.SetJointTargets(Eigen::Vector2d(1.0, 1.0));
+  world.Step(50);
+  world.Reset(Eigen::Vector2d(0.5, -0.5), Eigen::Vector2d(0.1, 0.2));
+  EXPECT_EQ(world.time(), 0.0);
+  EXPECT_EQ(world.q(), Eigen::Vector2d(0.5, -0.5));
+  EXPECT_EQ(world.qd(), Eigen::Vector2d(0.1, 0.2));
+  EXPECT_EQ(world.joint_targets(), Eigen::Vector2d(0.5, -0.5));
+  EXPECT_EQ(world.ObstaclePose(0).translation(), Eigen::Vector3d(1.0, 2.0, 3.0));
+  EXPECT_EQ(world.TargetPosition(), Eigen::Vector3d(0.3, 0.4, 0.0));
+  const int body = wm->obstacle_body(0);
+  EXPECT_EQ(world.mj_data()->xpos[3 * body + 2], 3.0);  // mjData's kinematics are current after Reset
+}
+
+template <typename F>
+void ExpectInputError(F&& f, std::initializer_list<std::string> needles) {
+  try {
+    f();
+    ADD_FAILURE() << "expected InputError";
+  } catch (const InputError& e) {
+    for (const std::string& needle : needles) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << "'" << needle << "' not in: " << e.what();
+    }
+  }
+}
+
+TEST(WorldTest, BadInputThrowsInputErrorWithClearMessages) {
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.1)};
+  auto wm = std::make_shared<const WorldModel>(kinematics::MakePlanar2(), scene);
+  World world(wm);
+  ExpectInputError([&] { world.SetJointTargets(Eigen::Vector3d(0, 0, 0)); }, {"q_cmd", "expected 2", "got 3"});
+  ExpectInputError([&] { world.SetJointTargets(Eigen::Vector2d(0, std::nan(""))); }, {"q_cmd", "joint2", "finite"});
+  ExpectInputError([&] { world.SetJointTargets(Eigen::Vector2d(INFINITY, 0)); }, {"q_cmd", "finite"});
+  ExpectInputError([&] { world.Reset(Eigen::VectorXd::Zero(1)); }, {"q0", "expected 2"});
+  ExpectInputError([&] { world.Reset(Eigen::Vector2d(0.0, 3.5)); }, {"q0[1]", "[-3, 3]", "3.5"});
+  ExpectInputError([&] { world.Reset(Eigen::Vector2d(0, 0), Eigen::Vector2d(0, NAN)); }, {"qd0", "finite"});
+  ExpectInputError([&] { world.SetObstaclePose(1, Eigen::Isometry3d::Identity()); }, {"[0, 1)", "got 1"});
+  ExpectInputError([&] { world.SetObstaclePose(0, Eigen::Vector3d(NAN, 0, 0), Eigen::Matrix3d::Identity()); },
+                   {"finite"});
+  ExpectInputError([&] { world.SetObstaclePose(0, Eigen::Vector3d::Zero(), 2.0 * Eigen::Matrix3d::Identity()); },
+                   {"rotation"});
+  ExpectInputError([&] { world.SetTargetPosition(Eigen::Vector3d(0, NAN, 0)); }, {"finite"});
+  ExpectInputError([&] { world.Step(0); }, {"num_steps", "got 0"});
+  ExpectInputError([&] { World w(nullptr); }, {"null"});
+  // a failed call leaves the world as it was.
+  EXPECT_EQ(world.joint_targets(), Eigen::Vector2d(0, 0));
+  EXPECT_TRUE(world.Step().ok);
+}
+
+int g_mujoco_warnings = 0;
+
+TEST(WorldTest, DivergenceIsReportedNotPropagated) {
+  // capture MuJoCo's warning text (its default handler prints it and appends to MUJOCO_LOG.TXT in the working
+  // directory); restored on exit.
+  struct WarningCapture {
+    void (*previous)(const char*) = mju_user_warning;
+    WarningCapture() {
+      g_mujoco_warnings = 0;
+      mju_user_warning = [](const char*) { ++g_mujoco_warnings; };
+    }
+    ~WarningCapture() { mju_user_warning = previous; }
+  } capture;
+  // an absurd explicit servo with the explicit integrator blows up within a few steps.
+  WorldOptions options;
+  options.integrator = Integrator::kEuler;
+  options.servo.kp = Eigen::Vector2d(1e12, 1e12);
+  options.servo.damping = Eigen::Vector2d(0.0, 0.0);
+  options.servo.armature = 0.0;
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.1, Eigen::Isometry3d(Eigen::Translation3d(2.0, 0.0, 0.0)))};
+  auto wm = std::make_shared<const WorldModel>(kinematics::MakePlanar2(), scene, options);
+  World world(wm);
+  world.SetJointTargets(Eigen::Vector2d(1.0, -1.0));
+  StepResult result;
+  int steps = 0;
+  for (; steps < 1000 && result.ok; ++steps) result = world.Step();
+  ASSERT_FALSE(result.ok) << "no divergence detected in 1000 steps";
+  EXPECT_NE(result.issue, StepIssue::kNone);
+  EXPECT_TRUE(result.state_was_reset);
+  EXPECT_TRUE(world.q().allFinite());
+  EXPECT_TRUE(world.qd().allFinite());
+  EXPECT_EQ(world.ObstaclePose(0).translation(), Eigen::Vector3d(2.0, 0.0, 0.0));  // scene kept
+  EXPECT_EQ(world.mj_data()->mocap_pos[3 * wm->obstacle_mocap(0)], 2.0);
+  EXPECT_GE(g_mujoco_warnings, 1);
+  fmt::print("  diverged after {} steps, issue {}\n", steps, static_cast<int>(result.issue));
+  // the world is usable again after a Reset.
+  world.Reset(Eigen::Vector2d(0.0, 0.0));
+  world.SetJointTargets(Eigen::Vector2d(0.0, 0.0));
+  EXPECT_TRUE(world.Step().ok);
+}
+
+}  // namespace
+}  // namespace rmpmarl::sim
