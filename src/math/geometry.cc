@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "rmpmarl/common/error.h"
+
 namespace rmpmarl::math {
 namespace {
 
@@ -32,7 +34,6 @@ inline DistanceResult SweptSphereResult(const Vector3d& q1, double r1, const Vec
   result.gradient_norm = 1.0;
   return result;
 }
-
 
 // minimiser over s ∈ [0,1] of g(s) = |p(s) − clamp(p(s), −h, h)|², p(s) = p_BA + s d_B, the squared distance of the
 // segment point to the box. g is convex, C¹ and piecewise quadratic with breakpoints where p_i(s) = ±h_i, so g' is
@@ -209,6 +210,7 @@ SegmentClosestPoints ClosestPointsSegmentSegment(const Vector3d& p_WA1, const Ve
 }
 
 DistanceResult CapsuleSphereDistance(const Capsule& capsule, const Sphere& sphere) {
+  RMPMARL_DASSERT(capsule.radius >= 0.0 && sphere.radius >= 0.0, "radii must be non-negative");
   // closest point on the segment to the centre (Ericson §5.1.2), then offset both by the radii
   const Vector3d d = capsule.p_WB - capsule.p_WA;
   const double dd = d.squaredNorm();
@@ -222,6 +224,7 @@ DistanceResult CapsuleSphereDistance(const Capsule& capsule, const Sphere& spher
 }
 
 DistanceResult CapsuleCapsuleDistance(const Capsule& capsule1, const Capsule& capsule2) {
+  RMPMARL_DASSERT(capsule1.radius >= 0.0 && capsule2.radius >= 0.0, "radii must be non-negative");
   const SegmentClosestPoints closest =
       ClosestPointsSegmentSegment(capsule1.p_WA, capsule1.p_WB, capsule2.p_WA, capsule2.p_WB);
   Vector3d n_W;
@@ -248,6 +251,8 @@ DistanceResult CapsuleBoxDistance(const Capsule& capsule, const Box& box) {
   // hence so is its restriction to the segment). Two exact 1-D analyses, see OutsideMinimiser and InteriorMinimiser:
   // the first gives the segment–box distance when the segment misses the box, the second the deepest point when it
   // meets it. Neither enumerates box edges, so an axis that passes through a face is handled like any other.
+  RMPMARL_DASSERT(capsule.radius >= 0.0 && (box.half_size.array() >= 0.0).all(),
+                  "the radius and the box half sizes must be non-negative");
   const auto R_WB = box.X_WB.linear();
   const Vector3d& p_WBo = box.X_WB.translation();
   const Vector3d& h = box.half_size;

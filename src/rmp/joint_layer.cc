@@ -4,33 +4,13 @@
 #include <cmath>
 #include <limits>
 
+#include "point_kinematics.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rmp {
-namespace {
-
-// column `dof` of the position Jacobian of world point p_W fixed on a link that dof moves.
-inline Eigen::Vector3d JacobianColumn(const kinematics::Model& model, const kinematics::Data& kin, int dof,
-                                      const Eigen::Vector3d& p_W) {
-  const int joint_link = model.dof_link(dof);
-  const Eigen::Vector3d axis = kin.axis_W.col(dof);
-  if (model.link(joint_link).joint_type == kinematics::JointType::kPrismatic) return axis;
-  return axis.cross(p_W - kin.X_WL[joint_link].translation());
-}
-
-// linear velocity of the material point of `link` at world point p_W.
-inline Eigen::Vector3d MaterialPointVelocity(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
-  return kin.v_WLo.col(link) + kin.w_WL.col(link).cross(p_W - kin.X_WL[link].translation());
-}
-
-// velocity-product acceleration of the material point of `link` at world point p_W.
-inline Eigen::Vector3d MaterialPointJdotQdot(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
-  const Eigen::Vector3d r = p_W - kin.X_WL[link].translation();
-  const Eigen::Vector3d w = kin.w_WL.col(link);
-  return kin.a_bias_WLo.col(link) + kin.alpha_bias_WL.col(link).cross(r) + w.cross(w.cross(r));
-}
-
-}  // namespace
+using internal::MaterialPointJdotQdot;
+using internal::MaterialPointVelocity;
+using internal::PointJacobianColumn;
 
 JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinematics::Data& kin, int dof,
                                     const Scene& scene, const BasicRmpParams& params,
@@ -49,7 +29,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
     const Eigen::Vector3d f = M * (weights.target_accel_scale * rmp.a);
-    const Eigen::Vector3d j = JacobianColumn(model, kin, dof, p_WE);
+    const Eigen::Vector3d j = PointJacobianColumn(model, kin, dof, p_WE);
     const Eigen::Vector3d jdqd = MaterialPointJdotQdot(kin, link, p_WE);
     force += j.dot(f - M * jdqd);
     metric += j.dot(M * j);
@@ -77,7 +57,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
         const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
         const double m = weights.collision_metric_scale * rmp.m;
         const double f = m * weights.collision_accel_scale * rmp.a;
-        const double j = n.dot(JacobianColumn(model, kin, dof, res.p_W1));
+        const double j = n.dot(PointJacobianColumn(model, kin, dof, res.p_W1));
         const double jdqd = n.dot(MaterialPointJdotQdot(kin, lc.link, res.p_W1));
         force += j * (f - m * jdqd);
         metric += j * m * j;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "point_kinematics.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rmp {
@@ -71,23 +72,6 @@ int CheckKinematicMap(const NodeSpec& node, int parent, const kinematics::Robot&
   }
   check_cutoff(m.cutoff);
   return 1;
-}
-
-// bounding sphere of a capsule: centre and radius
-inline double CapsuleBound(const math::Capsule& c, Eigen::Vector3d* centre) {
-  *centre = 0.5 * (c.p_WA + c.p_WB);
-  return 0.5 * (c.p_WB - c.p_WA).norm() + c.radius;
-}
-
-inline math::Capsule WorldCapsule(const kinematics::LinkCapsule& c, const kinematics::Data& kin) {
-  const Eigen::Isometry3d& X_WL = kin.X_WL[c.link];
-  return {X_WL * c.p_LA, X_WL * c.p_LB, c.radius};
-}
-
-// velocity-product acceleration of the material point of `link` currently at world point p_W
-inline Eigen::Vector3d WitnessJdotQdot(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
-  const Eigen::Isometry3d& X_WL = kin.X_WL[link];
-  return kinematics::CalcPointJdotQdot(kin, link, X_WL.linear().transpose() * (p_W - X_WL.translation()));
 }
 
 }  // namespace
@@ -173,8 +157,6 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
     : kinematics(tree.robot().model),
       f_root(Eigen::VectorXd::Zero(tree.nq())),
       M_root(Eigen::MatrixXd::Zero(tree.nq(), tree.nq())),
-      J1_(3, tree.nq()),
-      J2_(3, tree.nq()),
       resolver_(tree.nq(), resolve) {
   const int n = tree.num_nodes();
   node_.resize(n);
@@ -184,29 +166,46 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
     l.dim = tree.dim(i);
     l.parent_dim = tree.parent_dim(i);
     l.x_off = off;
-    off += l.dim;
-    l.xd_off = off;
-    off += l.dim;
-    l.jdqd_off = off;
-    off += l.dim;
+    l.xd_off = off + l.dim;
+    l.jdqd_off = off + 2 * l.dim;
+    off += 3 * l.dim;
+  }
+  fm_begin_ = off;
+  for (int i = 0; i < n; ++i) {
+    NodeLayout& l = node_[i];
     l.f_off = off;
-    off += l.dim;
-    l.M_off = off;
-    off += l.dim * l.dim;
-    l.J_off = off;
-    off += l.dim * l.parent_dim;
+    l.M_off = off + l.dim;
+    off += l.dim + l.dim * l.dim;
+  }
+  fm_end_ = off;
+  for (int i = 0; i < n; ++i) {
+    node_[i].J_off = off;
+    off += node_[i].dim * node_[i].parent_dim;
   }
   arena_.assign(off, 0.0);
   active_.assign(n, 0);
   distance_.resize(n);
-  // constant Jacobians of the affine maps
+  const kinematics::Robot& robot = tree.robot();
+  capsule_W_.resize(robot.capsules.size());
+  capsule_sphere_.resize(robot.capsules.size());
+  std::vector<char> used(robot.capsules.size(), 0);
   for (int i = 0; i < n; ++i) {
     if (const auto* m = std::get_if<JointAffineMap>(&tree.map(i))) {
+      // constant Jacobians of the affine maps
       for (size_t k = 0; k < m->dofs.size(); ++k) J(i)(static_cast<int>(k), m->dofs[k]) = m->scale[k];
     } else if (const auto* a = std::get_if<AffineMap>(&tree.map(i))) {
       J(i) = a->A;
+    } else if (const auto* d = std::get_if<CapsuleObstacleDistanceMap>(&tree.map(i))) {
+      used[d->capsule] = 1;
+      num_slots_ = std::max(num_slots_, d->obstacle + 1);
+    } else if (const auto* c = std::get_if<CapsuleCapsuleDistanceMap>(&tree.map(i))) {
+      used[c->capsule1] = used[c->capsule2] = 1;
     }
   }
+  for (int c = 0; c < static_cast<int>(used.size()); ++c) {
+    if (used[c]) used_capsules_.push_back(c);
+  }
+  obstacle_sphere_.resize(num_slots_);
 }
 
 void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -216,20 +215,38 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
   RMPMARL_DASSERT(q.size() == model.nq() && qd.size() == model.nq(), "PushForward: q or qd has the wrong size");
   kinematics::Data& kin = data->kinematics;
   kinematics::CalcVelocityKinematics(model, q, qd, &kin);
-  const int num_obstacles = static_cast<int>(scene.obstacles.size());
+  std::fill(data->arena_.begin() + data->fm_begin_, data->arena_.begin() + data->fm_end_, 0.0);
+
+  // broad phase: bounding spheres of the capsules in use and of the obstacles in the scene's slots
+  for (int c : data->used_capsules_) {
+    const kinematics::LinkCapsule& lc = robot.capsules[c];
+    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+    math::Capsule& capsule = data->capsule_W_[c];
+    capsule = {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    data->capsule_sphere_[c] << 0.5 * (capsule.p_WA + capsule.p_WB),
+        0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
+  }
+  const int num_obstacles = std::min(static_cast<int>(scene.obstacles.size()), data->num_slots_);
+  for (int s = 0; s < num_obstacles; ++s) {
+    const Obstacle& o = scene.obstacles[s];
+    data->obstacle_sphere_[s] << Centre(o), BoundingRadius(o);
+  }
+  // lower bound of the distance between two bounding spheres
+  auto lower_bound = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
+    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3];
+  };
 
   for (int i : tree.topological_order()) {
-    data->f(i).setZero();
-    data->M(i).setZero();
     const int parent = tree.parent(i);
     data->active_[i] = 0;
     if (parent >= 0 && !data->active_[parent]) continue;
     auto x = data->x(i);
     auto xd = data->xd(i);
     auto jdqd = data->Jdot_qd(i);
-    switch (tree.type(i)) {
+    const TaskMap& map = tree.map(i);
+    switch (static_cast<TaskMapType>(map.index())) {
       case TaskMapType::kJointAffine: {
-        const auto& m = std::get<JointAffineMap>(tree.map(i));
+        const auto& m = *std::get_if<JointAffineMap>(&map);
         for (size_t k = 0; k < m.dofs.size(); ++k) {
           x[k] = m.scale[k] * (q[m.dofs[k]] - m.offset[k]);
           xd[k] = m.scale[k] * qd[m.dofs[k]];
@@ -238,67 +255,63 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         break;
       }
       case TaskMapType::kLinkPoint: {
-        const auto& m = std::get<LinkPointMap>(tree.map(i));
-        x = kin.X_WL[m.link] * m.p_LP;
-        kinematics::CalcPointJacobian(model, kin, m.link, m.p_LP, data->J1_);
-        data->J(i) = data->J1_;
-        xd.noalias() = data->J1_ * qd;
-        jdqd = kinematics::CalcPointJdotQdot(kin, m.link, m.p_LP);
+        const auto& m = *std::get_if<LinkPointMap>(&map);
+        const Eigen::Vector3d p_W = kin.X_WL[m.link] * m.p_LP;
+        x = p_W;
+        auto J = data->J(i);
+        J.setZero();
+        for (int dof : model.link_dofs(m.link)) J.col(dof) = internal::PointJacobianColumn(model, kin, dof, p_W);
+        xd = internal::MaterialPointVelocity(kin, m.link, p_W);
+        jdqd = internal::MaterialPointJdotQdot(kin, m.link, p_W);
         break;
       }
       case TaskMapType::kCapsuleObstacleDistance: {
-        const auto& m = std::get<CapsuleObstacleDistanceMap>(tree.map(i));
+        const auto& m = *std::get_if<CapsuleObstacleDistanceMap>(&map);
         if (m.obstacle >= num_obstacles) continue;
-        const Obstacle& obstacle = scene.obstacles[m.obstacle];
-        const kinematics::LinkCapsule& lc = robot.capsules[m.capsule];
-        const math::Capsule capsule = WorldCapsule(lc, kin);
-        Eigen::Vector3d c;
-        const double bound = CapsuleBound(capsule, &c);
-        const double lower = (c - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+        const double lower = lower_bound(data->capsule_sphere_[m.capsule], data->obstacle_sphere_[m.obstacle]);
         if (lower > m.cutoff) {
           x[0] = lower;
           continue;
         }
-        const math::DistanceResult& res = data->distance_[i] = CapsuleObstacleDistance(capsule, obstacle);
+        const Obstacle& obstacle = scene.obstacles[m.obstacle];
+        const math::DistanceResult& res = data->distance_[i] =
+            CapsuleObstacleDistance(data->capsule_W_[m.capsule], obstacle);
         x[0] = res.distance;
         if (res.distance > m.cutoff) continue;
+        const int link = robot.capsules[m.capsule].link;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc.link, res.p_W1, data->J1_);
         auto J = data->J(i);
-        J.noalias() = n.transpose() * data->J1_;
-        xd[0] = J.row(0).dot(qd) - n.dot(obstacle.v_WO);
-        jdqd[0] = n.dot(WitnessJdotQdot(kin, lc.link, res.p_W1));
+        J.setZero();
+        internal::AddDistanceJacobianRow(model, kin, link, res.p_W1, n, 1.0, J.data());
+        xd[0] = n.dot(internal::MaterialPointVelocity(kin, link, res.p_W1) - obstacle.v_WO);
+        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, link, res.p_W1));
         break;
       }
       case TaskMapType::kCapsuleCapsuleDistance: {
-        const auto& m = std::get<CapsuleCapsuleDistanceMap>(tree.map(i));
-        const kinematics::LinkCapsule& lc1 = robot.capsules[m.capsule1];
-        const kinematics::LinkCapsule& lc2 = robot.capsules[m.capsule2];
-        const math::Capsule c1 = WorldCapsule(lc1, kin);
-        const math::Capsule c2 = WorldCapsule(lc2, kin);
-        Eigen::Vector3d o1, o2;
-        const double b1 = CapsuleBound(c1, &o1);
-        const double b2 = CapsuleBound(c2, &o2);
-        const double lower = (o1 - o2).norm() - b1 - b2;
+        const auto& m = *std::get_if<CapsuleCapsuleDistanceMap>(&map);
+        const double lower = lower_bound(data->capsule_sphere_[m.capsule1], data->capsule_sphere_[m.capsule2]);
         if (lower > m.cutoff) {
           x[0] = lower;
           continue;
         }
-        const math::DistanceResult& res = data->distance_[i] = math::CapsuleCapsuleDistance(c1, c2);
+        const math::DistanceResult& res = data->distance_[i] =
+            math::CapsuleCapsuleDistance(data->capsule_W_[m.capsule1], data->capsule_W_[m.capsule2]);
         x[0] = res.distance;
         if (res.distance > m.cutoff) continue;
+        const int link1 = robot.capsules[m.capsule1].link, link2 = robot.capsules[m.capsule2].link;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc1.link, res.p_W1, data->J1_);
-        kinematics::CalcPointJacobianAtWorldPoint(model, kin, lc2.link, res.p_W2, data->J2_);
-        data->J1_ -= data->J2_;
         auto J = data->J(i);
-        J.noalias() = n.transpose() * data->J1_;
-        xd[0] = J.row(0).dot(qd);
-        jdqd[0] = n.dot(WitnessJdotQdot(kin, lc1.link, res.p_W1) - WitnessJdotQdot(kin, lc2.link, res.p_W2));
+        J.setZero();
+        internal::AddDistanceJacobianRow(model, kin, link1, res.p_W1, n, 1.0, J.data());
+        internal::AddDistanceJacobianRow(model, kin, link2, res.p_W2, n, -1.0, J.data());
+        xd[0] = n.dot(internal::MaterialPointVelocity(kin, link1, res.p_W1) -
+                      internal::MaterialPointVelocity(kin, link2, res.p_W2));
+        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, link1, res.p_W1) -
+                        internal::MaterialPointJdotQdot(kin, link2, res.p_W2));
         break;
       }
       case TaskMapType::kAffine: {
-        const auto& m = std::get<AffineMap>(tree.map(i));
+        const auto& m = *std::get_if<AffineMap>(&map);
         x.noalias() = m.A * data->x(parent);
         x += m.b;
         xd.noalias() = m.A * data->xd(parent);
@@ -311,29 +324,53 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
 }
 
 void Pullback(const Tree& tree, TreeData* data) {
+  const int nq = tree.nq();
   data->f_root.setZero();
   data->M_root.setZero();
+  double* M_root = data->M_root.data();  // column-major nq × nq
   const std::vector<int>& order = tree.topological_order();
   for (auto it = order.rbegin(); it != order.rend(); ++it) {
     const int i = *it;
     if (!data->active_[i]) continue;
     const int parent = tree.parent(i);
-    Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
-                                                      : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
-    Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
-                                                      : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
     const auto f = data->f(i);
     const auto M = data->M(i);
     if (const auto* m = std::get_if<JointAffineMap>(&tree.map(i))) {
       // sparse selection Jacobian: f_q[d_k] += s_k f_k, M_q[d_k, d_l] += s_k s_l M_kl (J̇q̇ = 0)
+      Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
+                                                        : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
+      Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
+                                                        : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
       const int dim = static_cast<int>(m->dofs.size());
       for (int k = 0; k < dim; ++k) {
         f_parent[m->dofs[k]] += m->scale[k] * f[k];
         for (int l = 0; l < dim; ++l) M_parent(m->dofs[k], m->dofs[l]) += m->scale[k] * m->scale[l] * M(k, l);
       }
+    } else if (parent < 0 && tree.dim(i) == 1) {
+      // 1-D leaf of the root (distances): f_q += (f − m J̇q̇) Jᵀ and the lower triangle of M_q += m JᵀJ
+      const double mm = M(0, 0);
+      if (mm == 0.0 && f[0] == 0.0) continue;
+      const double* J = data->J(i).data();
+      const double g = f[0] - mm * data->Jdot_qd(i)[0];
+      for (int c = 0; c < nq; ++c) {
+        const double Jc = J[c];
+        if (Jc == 0.0) continue;
+        data->f_root[c] += g * Jc;
+        const double s = mm * Jc;
+        double* col = M_root + c * nq;
+        for (int r = c; r < nq; ++r) col[r] += s * J[r];
+      }
     } else {
+      Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
+                                                        : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
+      Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
+                                                        : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
       PullbackAccumulate(data->J(i), data->Jdot_qd(i), f, M, f_parent, M_parent);
     }
+  }
+  // the 1-D leaves filled only the lower triangle: mirror it (every other pullback kept M_root symmetric)
+  for (int c = 0; c < nq; ++c) {
+    for (int r = c + 1; r < nq; ++r) M_root[r * nq + c] = M_root[c * nq + r];
   }
 }
 

@@ -30,29 +30,53 @@ struct OffscreenRenderer::Impl {
 
 namespace {
 
-// an initialised EGL display: a GPU device if one is exposed, else Mesa's surfaceless platform, else the default.
-EGLDisplay OpenDisplay(std::string* why_not) {
+// EGL displays to try, best first: a GPU device if one is exposed, Mesa's surfaceless platform, the default display.
+std::vector<EGLDisplay> CandidateDisplays() {
+  std::vector<EGLDisplay> candidates;
   auto get_platform_display =
       reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-  std::vector<EGLDisplay> candidates;
   if (get_platform_display != nullptr) {
     auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
     if (query_devices != nullptr) {
       EGLDeviceEXT devices[8];
       EGLint count = 0;
-      if (query_devices(8, devices, &count) && count > 0) {
-        candidates.push_back(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[0], nullptr));
+      if (query_devices(8, devices, &count)) {
+        for (EGLint i = 0; i < count; ++i) {
+          candidates.push_back(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr));
+        }
       }
     }
     candidates.push_back(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr));
   }
   candidates.push_back(eglGetDisplay(EGL_DEFAULT_DISPLAY));
-  for (EGLDisplay display : candidates) {
-    EGLint major = 0, minor = 0;
-    if (display != EGL_NO_DISPLAY && eglInitialize(display, &major, &minor)) return display;
+  return candidates;
+}
+
+// makes a desktop-OpenGL context current on `display`; returns EGL_NO_CONTEXT (and why) when it cannot.
+EGLContext MakeContext(EGLDisplay display, std::string* why_not) {
+  EGLint major = 0, minor = 0;
+  if (display == EGL_NO_DISPLAY || !eglInitialize(display, &major, &minor)) {
+    *why_not = fmt::format("EGL display cannot be initialised (EGL error 0x{:x})", eglGetError());
+    return EGL_NO_CONTEXT;
   }
-  *why_not = fmt::format("no EGL display could be initialised (EGL error 0x{:x})", eglGetError());
-  return EGL_NO_DISPLAY;
+  const EGLint config_attributes[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
+                                      EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
+                                      EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT,
+                                      EGL_NONE};
+  EGLConfig config;
+  EGLint num_configs = 0;
+  if (!eglChooseConfig(display, config_attributes, &config, 1, &num_configs) || num_configs < 1) {
+    *why_not = "EGL offers no OpenGL configuration with 24-bit depth";
+  } else if (!eglBindAPI(EGL_OPENGL_API)) {
+    *why_not = "EGL cannot bind the desktop OpenGL API";
+  } else {
+    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, nullptr);
+    if (context != EGL_NO_CONTEXT && eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) return context;
+    if (context != EGL_NO_CONTEXT) eglDestroyContext(display, context);
+    *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
+  }
+  eglTerminate(display);
+  return EGL_NO_CONTEXT;
 }
 
 }  // namespace
@@ -67,24 +91,18 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   renderer->options_ = options;
   renderer->impl_ = std::make_unique<Impl>();
   Impl& impl = *renderer->impl_;
-  impl.display = OpenDisplay(why_not);
-  if (impl.display == EGL_NO_DISPLAY) return nullptr;
-  const EGLint config_attributes[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
-                                      EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT,
-                                      EGL_NONE};
-  EGLConfig config;
-  EGLint num_configs = 0;
-  if (!eglChooseConfig(impl.display, config_attributes, &config, 1, &num_configs) || num_configs < 1) {
-    *why_not = "EGL offers no OpenGL configuration with 24-bit depth";
-    return nullptr;
+  std::string reasons;
+  for (EGLDisplay display : CandidateDisplays()) {
+    std::string why;
+    impl.context = MakeContext(display, &why);
+    if (impl.context != EGL_NO_CONTEXT) {
+      impl.display = display;
+      break;
+    }
+    reasons += (reasons.empty() ? "" : "; ") + why;
   }
-  if (!eglBindAPI(EGL_OPENGL_API)) {
-    *why_not = "EGL cannot bind the desktop OpenGL API";
-    return nullptr;
-  }
-  impl.context = eglCreateContext(impl.display, config, EGL_NO_CONTEXT, nullptr);
-  if (impl.context == EGL_NO_CONTEXT || !eglMakeCurrent(impl.display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl.context)) {
-    *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
+  if (impl.context == EGL_NO_CONTEXT) {
+    *why_not = reasons.empty() ? "no EGL display found" : reasons;
     return nullptr;
   }
   const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));

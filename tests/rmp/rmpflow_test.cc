@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <random>
 
@@ -214,7 +215,96 @@ std::vector<kinematics::Robot> Arms() {
   return arms;
 }
 
-@@NEW@@
+// world position of the end effector at configuration q
+Eigen::Vector3d EndEffectorAt(const kinematics::Robot& robot, const Eigen::VectorXd& q) {
+  kinematics::Data kin(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &kin);
+  return kinematics::CalcPointPosition(kin, robot.end_effector.link, robot.end_effector.X_LE.translation());
+}
+
+// smallest signed distance between the robot's capsules at q and the obstacle
+double Clearance(const kinematics::Robot& robot, const Eigen::VectorXd& q, const Obstacle& obstacle) {
+  kinematics::Data kin(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &kin);
+  double clearance = std::numeric_limits<double>::infinity();
+  for (const kinematics::LinkCapsule& c : robot.capsules) {
+    const math::Capsule capsule{kin.X_WL[c.link] * c.p_LA, kin.X_WL[c.link] * c.p_LB, c.radius};
+    clearance = std::min(clearance, CapsuleObstacleDistance(capsule, obstacle).distance);
+  }
+  return clearance;
+}
+
+// A reaching task from the home posture: the target is the end effector at a random configuration (so it is
+// reachable) at least 0.3 m away; with_obstacle adds a 4 cm sphere halfway along the straight line, at least 5 cm
+// clear of the arm at the start and at the goal configuration.
+struct ReachTask {
+  Eigen::VectorXd q_start;
+  Scene scene;
+  double start_error = 0.0;
+};
+
+std::vector<ReachTask> ReachTasks(const kinematics::Robot& robot, const Eigen::VectorXd& home, bool with_obstacle,
+                                  int count, std::mt19937_64& rng) {
+  std::vector<ReachTask> tasks;
+  const Eigen::Vector3d start = EndEffectorAt(robot, home);
+  for (int attempt = 0; attempt < 1000 && static_cast<int>(tasks.size()) < count; ++attempt) {
+    Eigen::VectorXd q_goal = home;
+    for (int i = 0; i < q_goal.size(); ++i) {
+      const auto& lim = robot.model.limits()[i];
+      const double lo = std::isfinite(lim.lower) ? lim.lower + 0.3 : -M_PI;
+      const double hi = std::isfinite(lim.upper) ? lim.upper - 0.3 : M_PI;
+      q_goal[i] = std::clamp(home[i] + testing::Uniform(rng, -1.0, 1.0), lo, hi);
+    }
+    ReachTask task;
+    task.q_start = home;
+    task.scene.p_WT = EndEffectorAt(robot, q_goal);
+    task.start_error = (task.scene.p_WT - start).norm();
+    if (task.start_error < 0.3) continue;
+    if (with_obstacle) {
+      const Obstacle sphere = Obstacle::MakeSphere(0.5 * (start + task.scene.p_WT), 0.04);
+      if (Clearance(robot, home, sphere) < 0.05 || Clearance(robot, q_goal, sphere) < 0.05) continue;
+      task.scene.obstacles.push_back(sphere);
+    }
+    tasks.push_back(task);
+  }
+  EXPECT_EQ(static_cast<int>(tasks.size()), count) << robot.name;
+  return tasks;
+}
+
+TEST(RmpflowPolicyTest, OpenLoopReachesStaticTargets) {
+  std::mt19937_64 rng(52);
+  for (const kinematics::Robot& robot : Arms()) {
+    RmpflowPolicy policy(robot, LoadRmpflowOptions(RmpflowConfigPath(robot.name)), 0);
+    double worst = 0.0, slowest = 0.0;
+    for (const ReachTask& task : ReachTasks(robot, policy.home(), false, 5, rng)) {
+      const RolloutResult r = Rollout(robot, &policy, task.q_start, task.scene, 5.0);
+      ASSERT_TRUE(r.finite);
+      EXPECT_LT(r.final_error, 0.01) << robot.name << " start error " << task.start_error;
+      worst = std::max(worst, r.final_error);
+      slowest = std::max(slowest, r.time_to_1cm < 0 ? 99.0 : r.time_to_1cm);
+    }
+    std::printf("[ reach    ] %-7s 5 targets >= 0.3 m away: worst final error %.2e m, all within 1 cm after %.2f s\n",
+                robot.name.c_str(), worst, slowest);
+  }
+}
+
+TEST(RmpflowPolicyTest, OpenLoopKeepsClearanceAroundObstacleInTheWay) {
+  std::mt19937_64 rng(53);
+  for (const kinematics::Robot& robot : Arms()) {
+    RmpflowPolicy policy(robot, LoadRmpflowOptions(RmpflowConfigPath(robot.name)), 1);
+    double min_clearance = std::numeric_limits<double>::infinity(), worst = 0.0;
+    for (const ReachTask& task : ReachTasks(robot, policy.home(), true, 5, rng)) {
+      const RolloutResult r = Rollout(robot, &policy, task.q_start, task.scene, 5.0);
+      ASSERT_TRUE(r.finite);
+      EXPECT_GT(r.min_clearance, 0.0) << robot.name << " start error " << task.start_error;
+      min_clearance = std::min(min_clearance, r.min_clearance);
+      worst = std::max(worst, r.final_error);
+    }
+    std::printf("[ obstacle ] %-7s 5 targets behind a sphere: min clearance %.4f m, worst final error %.3f m\n",
+                robot.name.c_str(), min_clearance, worst);
+  }
+}
+
 TEST(RmpflowPolicyTest, EveryShippedRobotGivesFiniteAccelerations) {
   std::mt19937_64 rng(51);
   std::vector<kinematics::Robot> robots = {testing::LoadTreeRobot(), kinematics::MakePlanar2()};

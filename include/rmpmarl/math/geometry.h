@@ -4,6 +4,8 @@
 /// Convention: `distance` < 0 means penetration (its magnitude is the penetration depth); `p_W1` lies on the first
 /// shape's surface, `p_W2` on the second's; `n_W` is the unit normal pointing from shape 2 towards shape 1, i.e. the
 /// gradient of the distance with respect to a translation of shape 1 (so p_W1 ≈ p_W2 + distance · n_W).
+/// Exception: in capsule–box penetration the gradient can be shorter than 1 (`gradient_norm`), and p_W2 then lies
+/// inside the box; see CapsuleBoxDistance. All radii and half sizes must be ≥ 0 (checked in debug builds).
 #include <Eigen/Geometry>
 
 namespace rmpmarl::math {
@@ -66,19 +68,23 @@ DistanceResult CapsuleSphereDistance(const Capsule& capsule, const Sphere& spher
 /// All these normals are perpendicular to both axes, so both witness points stay on their surfaces.
 DistanceResult CapsuleCapsuleDistance(const Capsule& capsule1, const Capsule& capsule2);
 
-/// signed distance capsule (shape 1) – oriented box (shape 2), defined as min over the axis segment of the box's
-/// signed distance function, minus the radius; exact also in penetration and when the segment passes through a face.
-/// Outside, this is the Euclidean distance and n_W points from the box's closest point to the axis's closest point.
-/// Inside, the box SDF is max_i(|p_i| − h_i) (minus the distance to the nearest face), so the value is NOT the
-/// minimum-translation penetration depth: when the deepest axis point is equidistant from two faces i ≠ j (the
-/// generic case for an axis crossing the box obliquely), the distance is smooth but its gradient is the blend
-/// (|d_j| n_i + |d_i| n_j)/(|d_i| + |d_j|) of the two outward face normals (d = axis direction in the box frame),
-/// whose length `gradient_norm` lies in [1/√2, 1); it is 0 when the two faces are opposite (axis crossing the
-/// mid-plane of a slab, where the distance is locally constant). n_W is the normalised gradient (perpendicular to
-/// the axis), or in the zero-gradient case the next-nearest face normal made perpendicular to the axis. p_W1 is
-/// always on the capsule surface; p_W2 = p_W1 − distance · n_W is on the box surface except when gradient_norm < 1,
-/// where it lies inside the box. Flat minima (axis parallel to a face) report the minimiser with the smallest
-/// segment parameter outside the box and the midpoint-free choice of the candidate search inside.
+/// signed distance capsule (shape 1) – oriented box (shape 2), defined as the minimum over the capsule's axis segment
+/// of the box's signed distance function, minus the radius; exact also in penetration and when the axis passes
+/// through a face with both end points outside.
+/// - Axis outside the box: the Euclidean segment–box distance minus the radius; n_W points from the box's closest
+///   point p_W2 (on its surface) to the axis's closest point. When the closest set is not unique (axis parallel to a
+///   face) the smallest segment parameter of it is reported.
+/// - Axis meeting the box: inside the box the SDF is max_i(|p_i| − h_i) (minus the distance to the nearest face), so
+///   this is the depth of the deepest axis point, NOT the minimum-translation penetration depth. When that point is
+///   equidistant from two adjacent faces i ≠ j (the generic case for an axis crossing the box obliquely) the
+///   distance is still differentiable but its gradient is the blend (|d_j| n_i + |d_i| n_j)/(|d_i| + |d_j|) of the
+///   two outward face normals (d = axis direction in the box frame): n_W is its normalisation (perpendicular to the
+///   axis) and gradient_norm ∈ [1/√2, 1) its length. When the two faces are opposite (axis crossing the mid-plane of
+///   a slab) the distance is locally constant, gradient_norm = 0, and n_W is the next-nearest face's normal made
+///   perpendicular to the axis. Otherwise (deepest point at an end point, or axis parallel to the nearest face) n_W
+///   is the nearest face's outward normal and gradient_norm = 1.
+/// p_W1 = deepest/closest axis point − radius · n_W always lies on the capsule's surface; p_W2 = p_W1 − distance · n_W
+/// lies on the box's surface except when gradient_norm < 1, where it is inside the box.
 DistanceResult CapsuleBoxDistance(const Capsule& capsule, const Box& box);
 
 }  // namespace rmpmarl::math

@@ -189,10 +189,16 @@ class TreeData {
     int x_off = 0, xd_off = 0, jdqd_off = 0, f_off = 0, M_off = 0, J_off = 0;
   };
   std::vector<NodeLayout> node_;
-  std::vector<double> arena_;
+  std::vector<double> arena_;  // [x, ẋ, J̇ẏ of every node][f, M of every node (zeroed at once)][J of every node]
+  int fm_begin_ = 0, fm_end_ = 0;
   std::vector<char> active_;
   std::vector<math::DistanceResult> distance_;
-  Eigen::Matrix3Xd J1_, J2_;  // scratch point Jacobians (3 × nq)
+  // per evaluation: world capsules with bounding spheres, obstacle bounding spheres (broad phase)
+  std::vector<math::Capsule> capsule_W_;
+  std::vector<Eigen::Vector4d> capsule_sphere_;   // centre, radius
+  std::vector<Eigen::Vector4d> obstacle_sphere_;  // centre, radius, per obstacle slot
+  std::vector<int> used_capsules_;
+  int num_slots_ = 0;
   RmpResolver resolver_;
 };
 
