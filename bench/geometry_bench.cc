@@ -20,7 +20,7 @@ Vector3d RandomPoint(std::mt19937_64& rng, double half) {
   return Vector3d(u(rng), u(rng), u(rng));
 }
 
-// capsules with end points in [-1.2, 1.2]³ and radii in [0, r_max]
+// kInputs capsules with end points in [-half, half]³ and radii in [0, r_max]
 std::vector<Capsule> RandomCapsules(std::mt19937_64& rng, double half, double r_max) {
   std::uniform_real_distribution<double> radius(0.0, r_max);
   std::vector<Capsule> capsules(kInputs);
@@ -28,11 +28,10 @@ std::vector<Capsule> RandomCapsules(std::mt19937_64& rng, double half, double r_
   return capsules;
 }
 
-// randomly posed boxes near the origin; penetrating = true keeps only pairs in penetration, false only separated
-// ones, and no value keeps the natural mix
+// which capsule–box pairs a benchmark draws: the natural mix (~30 % penetrating), or only one kind
 enum class Mix { kAll, kSeparated, kPenetrating };
 
-// capsule–box input pairs of the requested mix
+// randomly posed boxes near the origin and capsules around them, filtered to the requested mix
 void RandomCapsuleBoxPairs(Mix mix, std::vector<Capsule>* capsules, std::vector<Box>* boxes) {
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> half(0.05, 0.6), radius(0.0, 0.2);
@@ -104,7 +103,8 @@ void BM_ClosestPointsSegmentSegment(benchmark::State& state) {
   const std::vector<Capsule> first = RandomCapsules(rng, 1.0, 0.0), second = RandomCapsules(rng, 1.0, 0.0);
   int i = 0;
   for (auto _ : state) {
-    SegmentClosestPoints result = ClosestPointsSegmentSegment(first[i].p_WA, first[i].p_WB, second[i].p_WA, second[i].p_WB);
+    SegmentClosestPoints result =
+        ClosestPointsSegmentSegment(first[i].p_WA, first[i].p_WB, second[i].p_WA, second[i].p_WB);
     benchmark::DoNotOptimize(result);
     i = (i + 1) & (kInputs - 1);
   }

@@ -67,9 +67,12 @@ rmp::Scene BoxScene(int count) {
 }
 
 // full RMPflow evaluation: q, q̇, scene ↦ q̈
-void BM_RmpflowEvaluate(benchmark::State& state, bool one_capsule_per_link, int num_boxes) {
+// (radius > 0 overrides the collision RMP's deactivation radius r, default 0.5 m)
+void BM_RmpflowEvaluate(benchmark::State& state, bool one_capsule_per_link, int num_boxes, double radius) {
   const kinematics::Robot robot = BenchRobot(one_capsule_per_link);
-  rmp::RmpflowPolicy policy(robot, rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name)), num_boxes);
+  rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name));
+  if (radius > 0.0) options.collision.metric_modulation_radius = radius;
+  rmp::RmpflowPolicy policy(robot, options, num_boxes);
   const rmp::Scene scene = BoxScene(num_boxes);
   std::vector<Eigen::VectorXd> qs, qds;
   States(robot.model, &qs, &qds);
@@ -115,9 +118,10 @@ void BM_JointLayer(benchmark::State& state, int dof, bool with_kinematics) {
   state.counters["collision_terms"] = terms / static_cast<double>(n);
 }
 
-BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes, true, 20);
-BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_20boxes, false, 20);
-BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_0boxes, true, 0);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes, true, 20, 0.0);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes_r0.2, true, 20, 0.2);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_20boxes, false, 20, 0.0);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_0boxes, true, 0, 0.0);
 BENCHMARK_CAPTURE(BM_JointLayer, joint4_20boxes, 3, false);
 BENCHMARK_CAPTURE(BM_JointLayer, joint4_20boxes_with_kinematics, 3, true);
 BENCHMARK_CAPTURE(BM_JointLayer, joint1_20boxes_with_kinematics, 0, true);

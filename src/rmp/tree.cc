@@ -144,6 +144,28 @@ Tree::Tree(const kinematics::Robot& robot, std::vector<NodeSpec> nodes) : robot_
       }
     }
   }
+  flat_.reserve(n);
+  for (int i : order_) {
+    const Node& node = nodes_[i];
+    Flat f;
+    f.node = i;
+    f.parent = node.parent;
+    f.type = static_cast<TaskMapType>(node.spec.map.index());
+    f.dim = node.dim;
+    if (const auto* m = std::get_if<CapsuleObstacleDistanceMap>(&node.spec.map)) {
+      f.capsule1 = m->capsule;
+      f.link1 = robot_.capsules[m->capsule].link;
+      f.obstacle = m->obstacle;
+      f.cutoff = m->cutoff;
+    } else if (const auto* c = std::get_if<CapsuleCapsuleDistanceMap>(&node.spec.map)) {
+      f.capsule1 = c->capsule1;
+      f.capsule2 = c->capsule2;
+      f.link1 = robot_.capsules[c->capsule1].link;
+      f.link2 = robot_.capsules[c->capsule2].link;
+      f.cutoff = c->cutoff;
+    }
+    flat_.push_back(f);
+  }
 }
 
 int Tree::FindNode(std::string_view name) const {
@@ -231,91 +253,89 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
     const Obstacle& o = scene.obstacles[s];
     data->obstacle_sphere_[s] << Centre(o), BoundingRadius(o);
   }
-  // lower bound of the distance between two bounding spheres
-  auto lower_bound = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
-    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3];
+  // a pair is skipped when its bounding spheres are farther apart than the cutoff (compared squared, so that the
+  // branch does not wait for the square root; the root only feeds x, a lower bound of the distance)
+  auto beyond = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b, double cutoff, double* lower) {
+    const double d2 = (a.head<3>() - b.head<3>()).squaredNorm();
+    const double reach = cutoff + a[3] + b[3];
+    if (!(d2 > reach * reach)) return false;
+    *lower = std::sqrt(d2) - a[3] - b[3];
+    return true;
   };
 
-  for (int i : tree.topological_order()) {
-    const int parent = tree.parent(i);
+  for (const Tree::Flat& node : tree.flat_) {
+    const int i = node.node;
+    const int parent = node.parent;
     data->active_[i] = 0;
     if (parent >= 0 && !data->active_[parent]) continue;
-    auto x = data->x(i);
-    auto xd = data->xd(i);
-    auto jdqd = data->Jdot_qd(i);
-    const TaskMap& map = tree.map(i);
-    switch (static_cast<TaskMapType>(map.index())) {
+    double* x = data->arena_.data() + data->node_[i].x_off;
+    double* xd = data->arena_.data() + data->node_[i].xd_off;
+    double* jdqd = data->arena_.data() + data->node_[i].jdqd_off;
+    double* J = data->arena_.data() + data->node_[i].J_off;
+    switch (node.type) {
       case TaskMapType::kJointAffine: {
-        const auto& m = *std::get_if<JointAffineMap>(&map);
+        const auto& m = *std::get_if<JointAffineMap>(&tree.map(i));
         for (size_t k = 0; k < m.dofs.size(); ++k) {
           x[k] = m.scale[k] * (q[m.dofs[k]] - m.offset[k]);
           xd[k] = m.scale[k] * qd[m.dofs[k]];
+          jdqd[k] = 0.0;
         }
-        jdqd.setZero();
         break;
       }
       case TaskMapType::kLinkPoint: {
-        const auto& m = *std::get_if<LinkPointMap>(&map);
+        const auto& m = *std::get_if<LinkPointMap>(&tree.map(i));
         const Eigen::Vector3d p_W = kin.X_WL[m.link] * m.p_LP;
-        x = p_W;
-        auto J = data->J(i);
-        J.setZero();
-        for (int dof : model.link_dofs(m.link)) J.col(dof) = internal::PointJacobianColumn(model, kin, dof, p_W);
-        xd = internal::MaterialPointVelocity(kin, m.link, p_W);
-        jdqd = internal::MaterialPointJdotQdot(kin, m.link, p_W);
+        Eigen::Map<Eigen::Vector3d> x3(x), xd3(xd), jdqd3(jdqd);
+        x3 = p_W;
+        Eigen::Map<Eigen::Matrix3Xd> J3(J, 3, model.nq());
+        J3.setZero();
+        for (int dof : model.link_dofs(m.link)) J3.col(dof) = internal::PointJacobianColumn(model, kin, dof, p_W);
+        xd3 = internal::MaterialPointVelocity(kin, m.link, p_W);
+        jdqd3 = internal::MaterialPointJdotQdot(kin, m.link, p_W);
         break;
       }
       case TaskMapType::kCapsuleObstacleDistance: {
-        const auto& m = *std::get_if<CapsuleObstacleDistanceMap>(&map);
-        if (m.obstacle >= num_obstacles) continue;
-        const double lower = lower_bound(data->capsule_sphere_[m.capsule], data->obstacle_sphere_[m.obstacle]);
-        if (lower > m.cutoff) {
-          x[0] = lower;
+        if (node.obstacle >= num_obstacles) continue;
+        if (beyond(data->capsule_sphere_[node.capsule1], data->obstacle_sphere_[node.obstacle], node.cutoff, x)) {
           continue;
         }
-        const Obstacle& obstacle = scene.obstacles[m.obstacle];
+        const Obstacle& obstacle = scene.obstacles[node.obstacle];
         const math::DistanceResult& res = data->distance_[i] =
-            CapsuleObstacleDistance(data->capsule_W_[m.capsule], obstacle);
+            CapsuleObstacleDistance(data->capsule_W_[node.capsule1], obstacle);
         x[0] = res.distance;
-        if (res.distance > m.cutoff) continue;
-        const int link = robot.capsules[m.capsule].link;
+        if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-        auto J = data->J(i);
-        J.setZero();
-        internal::AddDistanceJacobianRow(model, kin, link, res.p_W1, n, 1.0, J.data());
-        xd[0] = n.dot(internal::MaterialPointVelocity(kin, link, res.p_W1) - obstacle.v_WO);
-        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, link, res.p_W1));
+        std::fill(J, J + model.nq(), 0.0);
+        internal::AddDistanceJacobianRow(model, kin, node.link1, res.p_W1, n, 1.0, J);
+        xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) - obstacle.v_WO);
+        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1));
         break;
       }
       case TaskMapType::kCapsuleCapsuleDistance: {
-        const auto& m = *std::get_if<CapsuleCapsuleDistanceMap>(&map);
-        const double lower = lower_bound(data->capsule_sphere_[m.capsule1], data->capsule_sphere_[m.capsule2]);
-        if (lower > m.cutoff) {
-          x[0] = lower;
+        if (beyond(data->capsule_sphere_[node.capsule1], data->capsule_sphere_[node.capsule2], node.cutoff, x)) {
           continue;
         }
         const math::DistanceResult& res = data->distance_[i] =
-            math::CapsuleCapsuleDistance(data->capsule_W_[m.capsule1], data->capsule_W_[m.capsule2]);
+            math::CapsuleCapsuleDistance(data->capsule_W_[node.capsule1], data->capsule_W_[node.capsule2]);
         x[0] = res.distance;
-        if (res.distance > m.cutoff) continue;
-        const int link1 = robot.capsules[m.capsule1].link, link2 = robot.capsules[m.capsule2].link;
+        if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-        auto J = data->J(i);
-        J.setZero();
-        internal::AddDistanceJacobianRow(model, kin, link1, res.p_W1, n, 1.0, J.data());
-        internal::AddDistanceJacobianRow(model, kin, link2, res.p_W2, n, -1.0, J.data());
-        xd[0] = n.dot(internal::MaterialPointVelocity(kin, link1, res.p_W1) -
-                      internal::MaterialPointVelocity(kin, link2, res.p_W2));
-        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, link1, res.p_W1) -
-                        internal::MaterialPointJdotQdot(kin, link2, res.p_W2));
+        std::fill(J, J + model.nq(), 0.0);
+        internal::AddDistanceJacobianRow(model, kin, node.link1, res.p_W1, n, 1.0, J);
+        internal::AddDistanceJacobianRow(model, kin, node.link2, res.p_W2, n, -1.0, J);
+        xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) -
+                      internal::MaterialPointVelocity(kin, node.link2, res.p_W2));
+        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1) -
+                        internal::MaterialPointJdotQdot(kin, node.link2, res.p_W2));
         break;
       }
       case TaskMapType::kAffine: {
-        const auto& m = *std::get_if<AffineMap>(&map);
-        x.noalias() = m.A * data->x(parent);
-        x += m.b;
-        xd.noalias() = m.A * data->xd(parent);
-        jdqd.setZero();
+        const auto& m = *std::get_if<AffineMap>(&tree.map(i));
+        auto xv = data->x(i);
+        xv.noalias() = m.A * data->x(parent);
+        xv += m.b;
+        data->xd(i).noalias() = m.A * data->xd(parent);
+        data->Jdot_qd(i).setZero();
         break;
       }
     }
@@ -327,44 +347,44 @@ void Pullback(const Tree& tree, TreeData* data) {
   const int nq = tree.nq();
   data->f_root.setZero();
   data->M_root.setZero();
+  double* f_root = data->f_root.data();
   double* M_root = data->M_root.data();  // column-major nq × nq
-  const std::vector<int>& order = tree.topological_order();
-  for (auto it = order.rbegin(); it != order.rend(); ++it) {
-    const int i = *it;
+  for (auto it = tree.flat_.rbegin(); it != tree.flat_.rend(); ++it) {
+    const int i = it->node;
     if (!data->active_[i]) continue;
-    const int parent = tree.parent(i);
-    const auto f = data->f(i);
-    const auto M = data->M(i);
-    if (const auto* m = std::get_if<JointAffineMap>(&tree.map(i))) {
-      // sparse selection Jacobian: f_q[d_k] += s_k f_k, M_q[d_k, d_l] += s_k s_l M_kl (J̇q̇ = 0)
-      Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
-                                                        : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
-      Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
-                                                        : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
-      const int dim = static_cast<int>(m->dofs.size());
-      for (int k = 0; k < dim; ++k) {
-        f_parent[m->dofs[k]] += m->scale[k] * f[k];
-        for (int l = 0; l < dim; ++l) M_parent(m->dofs[k], m->dofs[l]) += m->scale[k] * m->scale[l] * M(k, l);
-      }
-    } else if (parent < 0 && tree.dim(i) == 1) {
+    const int parent = it->parent;
+    const TreeData::NodeLayout& layout = data->node_[i];
+    if (parent < 0 && it->dim == 1 && it->type != TaskMapType::kJointAffine) {
       // 1-D leaf of the root (distances): f_q += (f − m J̇q̇) Jᵀ and the lower triangle of M_q += m JᵀJ
-      const double mm = M(0, 0);
-      if (mm == 0.0 && f[0] == 0.0) continue;
-      const double* J = data->J(i).data();
-      const double g = f[0] - mm * data->Jdot_qd(i)[0];
+      const double* arena = data->arena_.data();
+      const double f = arena[layout.f_off], mm = arena[layout.M_off];
+      if (mm == 0.0 && f == 0.0) continue;
+      const double* J = arena + layout.J_off;
+      const double g = f - mm * arena[layout.jdqd_off];
       for (int c = 0; c < nq; ++c) {
         const double Jc = J[c];
-        if (Jc == 0.0) continue;
-        data->f_root[c] += g * Jc;
+        f_root[c] += g * Jc;
         const double s = mm * Jc;
         double* col = M_root + c * nq;
         for (int r = c; r < nq; ++r) col[r] += s * J[r];
       }
+      continue;
+    }
+    const auto f = data->f(i);
+    const auto M = data->M(i);
+    Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
+                                                      : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
+    Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
+                                                      : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
+    if (it->type == TaskMapType::kJointAffine) {
+      // sparse selection Jacobian: f_q[d_k] += s_k f_k, M_q[d_k, d_l] += s_k s_l M_kl (J̇q̇ = 0)
+      const auto& m = *std::get_if<JointAffineMap>(&tree.map(i));
+      const int dim = static_cast<int>(m.dofs.size());
+      for (int k = 0; k < dim; ++k) {
+        f_parent[m.dofs[k]] += m.scale[k] * f[k];
+        for (int l = 0; l < dim; ++l) M_parent(m.dofs[k], m.dofs[l]) += m.scale[k] * m.scale[l] * M(k, l);
+      }
     } else {
-      Eigen::Ref<Eigen::VectorXd> f_parent = parent < 0 ? Eigen::Ref<Eigen::VectorXd>(data->f_root)
-                                                        : Eigen::Ref<Eigen::VectorXd>(data->f(parent));
-      Eigen::Ref<Eigen::MatrixXd> M_parent = parent < 0 ? Eigen::Ref<Eigen::MatrixXd>(data->M_root)
-                                                        : Eigen::Ref<Eigen::MatrixXd>(data->M(parent));
       PullbackAccumulate(data->J(i), data->Jdot_qd(i), f, M, f_parent, M_parent);
     }
   }

@@ -268,8 +268,10 @@ TEST(GeometryTest, CapsuleSphereMatchesBruteForce) {
     EXPECT_EQ(r.gradient_norm, 1.0);
     ExpectOnCapsuleSurface(capsule, r.p_W1);
     EXPECT_NEAR((r.p_W2 - sphere.p_WC).norm(), sphere.radius, kWitnessTolerance);
-    ExpectGradient([&](const Vector3d& delta) { return CapsuleSphereDistance(Translated(capsule, delta), sphere).distance; },
-                   r, &tally);
+    auto distance = [&](const Vector3d& delta) {
+      return CapsuleSphereDistance(Translated(capsule, delta), sphere).distance;
+    };
+    ExpectGradient(distance, r, &tally);
   }
   std::printf("capsule-sphere: %d/%d penetrating, max |error| %.3g, gradient checked %d (skipped %d), max %.3g\n",
               penetrating, kRandomPairs, max_error, tally.checked, tally.skipped, tally.max_error);
@@ -338,8 +340,8 @@ TEST(GeometryTest, CapsuleCapsuleMatchesBruteForce) {
     EXPECT_EQ(r.gradient_norm, 1.0);
     ExpectOnCapsuleSurface(c1, r.p_W1);
     ExpectOnCapsuleSurface(c2, r.p_W2);
-    ExpectGradient([&](const Vector3d& delta) { return CapsuleCapsuleDistance(Translated(c1, delta), c2).distance; },
-                   r, &tally);
+    auto distance = [&](const Vector3d& delta) { return CapsuleCapsuleDistance(Translated(c1, delta), c2).distance; };
+    ExpectGradient(distance, r, &tally);
   }
   std::printf("capsule-capsule: %d/%d penetrating, max |error| %.3g, gradient checked %d (skipped %d), max %.3g\n",
               penetrating, kRandomPairs, max_error, tally.checked, tally.skipped, tally.max_error);
@@ -413,8 +415,8 @@ void CheckCapsuleBox(const Capsule& capsule, const Box& box, GradientTally* tall
   } else {
     EXPECT_LE(sdf2, kWitnessTolerance);  // documented: inside the box when the gradient is a blend of face normals
   }
-  ExpectGradient([&](const Vector3d& delta) { return CapsuleBoxDistance(Translated(capsule, delta), box).distance; },
-                 r, tally);
+  auto distance = [&](const Vector3d& delta) { return CapsuleBoxDistance(Translated(capsule, delta), box).distance; };
+  ExpectGradient(distance, r, tally);
 }
 
 TEST(GeometryTest, CapsuleBoxMatchesBruteForce) {
@@ -466,7 +468,8 @@ TEST(GeometryTest, CapsuleBoxNearlyAxisAlignedMatchesBruteForce) {
     box.half_size = Vector3d(half(rng), half(rng), half(rng));
     // build the axis in the box frame: two coordinates shared by both end points (parallel to a box axis) or one
     // shared coordinate (parallel to a face); coordinates sometimes snapped to ±h or 0
-    Vector3d a_B(coordinate(rng), coordinate(rng), coordinate(rng)), e_B(coordinate(rng), coordinate(rng), coordinate(rng));
+    Vector3d a_B(coordinate(rng), coordinate(rng), coordinate(rng));
+    Vector3d e_B(coordinate(rng), coordinate(rng), coordinate(rng));
     const int along = axis(rng);
     const bool parallel_to_axis = unit(rng) < 0.5;
     for (int i = 0; i < 3; ++i) {
@@ -497,9 +500,9 @@ struct BoxCase {
   Vector3d half_size;
   Vector3d p_BA, p_BE;  // capsule end points in the box frame
   double radius;
-  double distance;              // exact signed distance
-  Vector3d n_B;                 // expected normal in the box frame (zero: not checked)
-  double gradient_norm;         // expected |gradient|
+  double distance;       // exact signed distance
+  Vector3d n_B;          // expected normal in the box frame (zero: not checked)
+  double gradient_norm;  // expected |gradient|
 };
 
 TEST(GeometryTest, CapsuleBoxDegenerateCases) {
@@ -522,7 +525,8 @@ TEST(GeometryTest, CapsuleBoxDegenerateCases) {
       {"sphere outside a corner", ones, {1.3, 1.4, -1.2}, {1.3, 1.4, -1.2}, 0.1, std::sqrt(0.29) - 0.1,
        Vector3d(0.3, 0.4, -0.2).normalized(), 1.0},
       {"sphere centre inside", ones, {0.2, -0.7, 0.1}, {0.2, -0.7, 0.1}, 0.5, -0.8, {0, -1, 0}, 1.0},
-      {"axis past an edge", ones, {2, 2, -3}, {2, 2, 3}, 0.1, std::sqrt(2.0) - 0.1, Vector3d(1, 1, 0).normalized(), 1.0},
+      {"axis past an edge", ones, {2, 2, -3}, {2, 2, 3}, 0.1, std::sqrt(2.0) - 0.1, Vector3d(1, 1, 0).normalized(),
+       1.0},
   };
   std::mt19937_64 rng(606);
   for (const BoxCase& c : cases) {

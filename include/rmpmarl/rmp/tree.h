@@ -87,6 +87,8 @@ struct NodeSpec {
 /// The type of a node's task map (index of TaskMap's alternative).
 enum class TaskMapType { kJointAffine, kLinkPoint, kCapsuleObstacleDistance, kCapsuleCapsuleDistance, kAffine };
 
+class TreeData;
+
 /// An immutable RMPflow tree over a robot.
 class Tree {
  public:
@@ -112,18 +114,31 @@ class Tree {
   const std::vector<int>& topological_order() const { return order_; }
 
  private:
+  friend void PushForward(const Tree&, const Eigen::Ref<const Eigen::VectorXd>&,
+                          const Eigen::Ref<const Eigen::VectorXd>&, const Scene&, TreeData*);
+  friend void Pullback(const Tree&, TreeData*);
+
   struct Node {
     NodeSpec spec;
     int parent = -1;
     int dim = 0;
     int parent_dim = 0;
   };
+  // what the evaluation loops read, packed (one cache line per node), in topological order
+  struct Flat {
+    int node = -1;
+    int parent = -1;
+    TaskMapType type = TaskMapType::kJointAffine;
+    int dim = 0;
+    int capsule1 = -1, capsule2 = -1, link1 = -1, link2 = -1, obstacle = -1;
+    double cutoff = 0.0;
+  };
   kinematics::Robot robot_;
   std::vector<Node> nodes_;
   std::vector<int> order_;
+  std::vector<Flat> flat_;
 };
 
-class TreeData;
 void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
                  const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene, TreeData* data);
 void Pullback(const Tree& tree, TreeData* data);
