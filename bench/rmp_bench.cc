@@ -118,6 +118,24 @@ void BM_JointLayer(benchmark::State& state, int dof, bool with_kinematics) {
   state.counters["collision_terms"] = terms / static_cast<double>(n);
 }
 
+// the basic layer at all 7 joints in one pass (each distance computed once), kinematics included
+void BM_JointLayersAllJoints(benchmark::State& state) {
+  const kinematics::Robot robot = BenchRobot(/*one_capsule_per_link=*/true);
+  kinematics::Data kin(robot.model);
+  const rmp::Scene scene = BoxScene(20);
+  std::vector<Eigen::VectorXd> qs, qds;
+  States(robot.model, &qs, &qds);
+  const std::vector<rmp::JointLayerWeights> weights(robot.model.nq());
+  std::vector<rmp::JointLayerResult> results(robot.model.nq());
+  size_t n = 0;
+  for (auto _ : state) {
+    const size_t k = n++ & (kStates - 1);
+    kinematics::CalcVelocityKinematics(robot.model, qs[k], qds[k], &kin);
+    rmp::EvaluateJointLayers(robot, kin, scene, rmp::BasicRmpParams{}, weights, results);
+    benchmark::DoNotOptimize(results.data());
+  }
+}
+
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes, true, 20, 0.0);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes_r0.2, true, 20, 0.2);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_20boxes, false, 20, 0.0);
@@ -125,5 +143,6 @@ BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_0boxes, true, 0, 0.0);
 BENCHMARK_CAPTURE(BM_JointLayer, joint4_20boxes, 3, false);
 BENCHMARK_CAPTURE(BM_JointLayer, joint4_20boxes_with_kinematics, 3, true);
 BENCHMARK_CAPTURE(BM_JointLayer, joint1_20boxes_with_kinematics, 0, true);
+BENCHMARK(BM_JointLayersAllJoints);
 
 }  // namespace

@@ -1,6 +1,10 @@
-// The basic movement layer at one joint: paper RMPs pulled back through one Jacobian column.
+// The basic movement layer at one joint (or at every joint at once): paper RMPs pulled back through one Jacobian
+// column.
 #include "rmpmarl/rmp/joint_layer.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -71,6 +75,84 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
   result.lambda = relative_regularizer * (1.0 + metric);
   result.qdd = force / (metric + result.lambda);
   return result;
+}
+
+
+void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                         const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                         std::span<JointLayerResult> results, double relative_regularizer) {
+  const kinematics::Model& model = robot.model;
+  const int nq = model.nq();
+  if (static_cast<int>(weights.size()) != nq || static_cast<int>(results.size()) != nq) {
+    throw InputError(fmt::format("EvaluateJointLayers: robot '{}' has {} joints but got {} weights and {} results",
+                                 robot.name, nq, weights.size(), results.size()));
+  }
+  RMPMARL_DASSERT(kin.has_velocities, "EvaluateJointLayers: CalcVelocityKinematics must run first");
+  for (JointLayerResult& r : results) {
+    r = JointLayerResult{};
+    r.min_distance = std::numeric_limits<double>::infinity();
+  }
+
+  if (scene.has_target) {
+    const int link = robot.end_effector.link;
+    const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
+    const Eigen::Vector3d v_rel = MaterialPointVelocity(kin, link, p_WE) - scene.v_WT;
+    const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
+    const Eigen::Vector3d jdqd = MaterialPointJdotQdot(kin, link, p_WE);
+    for (int dof : model.link_dofs(link)) {
+      const JointLayerWeights& w = weights[dof];
+      if (!w.use_target) continue;
+      const Eigen::Matrix3d M = w.target_metric_scale * rmp.M;
+      const Eigen::Vector3d f = M * (w.target_accel_scale * rmp.a);
+      const Eigen::Vector3d j = PointJacobianColumn(model, kin, dof, p_WE);
+      results[dof].force += j.dot(f - M * jdqd);
+      results[dof].metric += j.dot(M * j);
+    }
+  }
+
+  // each capsule–obstacle distance once, shared by every joint that moves the capsule
+  const double r = params.collision.metric_modulation_radius;
+  for (const kinematics::LinkCapsule& lc : robot.capsules) {
+    const std::vector<int>& dofs = model.link_dofs(lc.link);
+    if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
+    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+    const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
+    const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
+    for (const Obstacle& obstacle : scene.obstacles) {
+      const double lower = (centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+      if (lower > r) {
+        for (int dof : dofs) {
+          if (weights[dof].use_collision) results[dof].min_distance = std::min(results[dof].min_distance, lower);
+        }
+        continue;
+      }
+      const math::DistanceResult res = CapsuleObstacleDistance(capsule, obstacle);
+      for (int dof : dofs) {
+        if (weights[dof].use_collision) results[dof].min_distance = std::min(results[dof].min_distance, res.distance);
+      }
+      if (res.distance > r) continue;
+      const Eigen::Vector3d n = res.gradient_norm * res.n_W;
+      const double xd = n.dot(MaterialPointVelocity(kin, lc.link, res.p_W1) - obstacle.v_WO);
+      const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
+      const double jdqd = n.dot(MaterialPointJdotQdot(kin, lc.link, res.p_W1));
+      for (int dof : dofs) {
+        const JointLayerWeights& w = weights[dof];
+        if (!w.use_collision) continue;
+        const double m = w.collision_metric_scale * rmp.m;
+        const double f = m * w.collision_accel_scale * rmp.a;
+        const double j = n.dot(PointJacobianColumn(model, kin, dof, res.p_W1));
+        results[dof].force += j * (f - m * jdqd);
+        results[dof].metric += j * m * j;
+        ++results[dof].collision_terms;
+      }
+    }
+  }
+
+  for (JointLayerResult& res : results) {
+    res.lambda = relative_regularizer * (1.0 + res.metric);
+    res.qdd = res.force / (res.metric + res.lambda);
+  }
 }
 
 }  // namespace rmpmarl::rmp

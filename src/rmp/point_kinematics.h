@@ -3,6 +3,7 @@
 // with world-frame vectors so that no link-frame round trip and no full 3 × nq Jacobian is needed. They follow the
 // conventions of kinematics/forward_kinematics.cc (the joint acts at the child link origin, URDF).
 #include <Eigen/Core>
+#include <vector>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/model.h"
@@ -30,6 +31,16 @@ inline void AddDistanceJacobianRow(const kinematics::Model& model, const kinemat
     } else {
       row[dof] += sign * axis.dot((p_W - kin.X_WL[joint_link].translation()).cross(n));
     }
+  }
+}
+
+// the same row update with per-dof joint origins o_W (3 × nq) and prismatic flags gathered once per evaluation.
+inline void AddDistanceJacobianRow(const kinematics::Model& model, const kinematics::Data& kin,
+                                   const Eigen::Matrix3Xd& origin_W, const std::vector<char>& prismatic, int link,
+                                   const Eigen::Vector3d& p_W, const Eigen::Vector3d& n, double sign, double* row) {
+  for (int dof : model.link_dofs(link)) {
+    const Eigen::Vector3d axis = kin.axis_W.col(dof);
+    row[dof] += sign * (prismatic[dof] ? axis.dot(n) : axis.dot((p_W - origin_W.col(dof)).cross(n)));
   }
 }
 

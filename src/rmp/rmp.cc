@@ -99,16 +99,37 @@ void PullbackAccumulate(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen:
     M_parent.noalias() += m * J.row(0).transpose() * J.row(0);
     return;
   }
-  // f − M J̇q̇ and M J, formed element by element so that no temporary is heap-allocated
+  // f − M J̇q̇, then M_parent += Jᵀ (M J) one column of M J at a time, all without temporaries on the heap
+  constexpr Eigen::Index kSmall = 8;
   for (Eigen::Index r = 0; r < dim; ++r) {
     double g = f[r];
     for (Eigen::Index c = 0; c < dim; ++c) g -= M(r, c) * Jdot_qd[c];
     f_parent.noalias() += g * J.row(r).transpose();
   }
-  for (Eigen::Index r = 0; r < dim; ++r) {
-    for (Eigen::Index c = 0; c < dim; ++c) {
-      const double m = M(r, c);
-      if (m != 0.0) M_parent.noalias() += m * J.row(r).transpose() * J.row(c);
+  if (dim > kSmall) {
+    for (Eigen::Index r = 0; r < dim; ++r) {
+      for (Eigen::Index c = 0; c < dim; ++c) {
+        const double m = M(r, c);
+        if (m != 0.0) M_parent.noalias() += m * J.row(r).transpose() * J.row(c);
+      }
+    }
+    return;
+  }
+  const Eigen::Index n = J.cols();
+  double mj[kSmall];
+  for (Eigen::Index c = 0; c < n; ++c) {
+    bool any = false;
+    for (Eigen::Index k = 0; k < dim; ++k) {
+      double v = 0.0;
+      for (Eigen::Index l = 0; l < dim; ++l) v += M(k, l) * J(l, c);
+      mj[k] = v;
+      any = any || v != 0.0;
+    }
+    if (!any) continue;
+    for (Eigen::Index r = 0; r < n; ++r) {
+      double v = 0.0;
+      for (Eigen::Index k = 0; k < dim; ++k) v += J(k, r) * mj[k];
+      M_parent(r, c) += v;
     }
   }
 }

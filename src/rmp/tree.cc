@@ -228,6 +228,12 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
     if (used[c]) used_capsules_.push_back(c);
   }
   obstacle_sphere_.resize(num_slots_);
+  const kinematics::Model& model = robot.model;
+  dof_origin_W_.setZero(3, model.nq());
+  dof_prismatic_.resize(model.nq());
+  for (int i = 0; i < model.nq(); ++i) {
+    dof_prismatic_[i] = model.link(model.dof_link(i)).joint_type == kinematics::JointType::kPrismatic;
+  }
 }
 
 void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -238,6 +244,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
   kinematics::Data& kin = data->kinematics;
   kinematics::CalcVelocityKinematics(model, q, qd, &kin);
   std::fill(data->arena_.begin() + data->fm_begin_, data->arena_.begin() + data->fm_end_, 0.0);
+  for (int i = 0; i < model.nq(); ++i) data->dof_origin_W_.col(i) = kin.X_WL[model.dof_link(i)].translation();
 
   // broad phase: bounding spheres of the capsules in use and of the obstacles in the scene's slots
   for (int c : data->used_capsules_) {
@@ -306,7 +313,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         std::fill(J, J + model.nq(), 0.0);
-        internal::AddDistanceJacobianRow(model, kin, node.link1, res.p_W1, n, 1.0, J);
+        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link1, res.p_W1, n, 1.0, J);
         xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) - obstacle.v_WO);
         jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1));
         break;
@@ -321,8 +328,8 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         std::fill(J, J + model.nq(), 0.0);
-        internal::AddDistanceJacobianRow(model, kin, node.link1, res.p_W1, n, 1.0, J);
-        internal::AddDistanceJacobianRow(model, kin, node.link2, res.p_W2, n, -1.0, J);
+        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link1, res.p_W1, n, 1.0, J);
+        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link2, res.p_W2, n, -1.0, J);
         xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) -
                       internal::MaterialPointVelocity(kin, node.link2, res.p_W2));
         jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1) -

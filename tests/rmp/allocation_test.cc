@@ -138,10 +138,13 @@ TEST(AllocationTest, JointLayerAndResolverAllocateNothing) {
   const Eigen::VectorXd f = testing::RandomVector(n, rng);
   Eigen::VectorXd a(n);
   double sum = 0.0;
+  const std::vector<JointLayerWeights> weights(robot.model.nq());
+  std::vector<JointLayerResult> results(robot.model.nq());
   AllocationCounter counter;
   for (int dof = 0; dof < robot.model.nq(); ++dof) {
     sum += EvaluateJointLayer(robot, kin, dof, scene, BasicRmpParams{}, JointLayerWeights{}).qdd;
   }
+  EvaluateJointLayers(robot, kin, scene, BasicRmpParams{}, weights, results);
   resolver.Solve(M, f, a);
   EXPECT_EQ(counter.count(), 0);
   EXPECT_TRUE(std::isfinite(sum));

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "rmp_test_util.h"
+#include "rmpmarl/common/error.h"
 #include "rmpmarl/rmp/tree.h"
 
 namespace rmpmarl::rmp {
@@ -112,6 +113,43 @@ TEST(JointLayerTest, MatchesTheScalarPullbackFormula) {
   }
   EXPECT_GT(collision_terms, 100);
   EXPECT_GT(checked, 500);
+}
+
+TEST(JointLayerTest, AllJointsAtOnceEqualsOneJointAtATime) {
+  std::mt19937_64 rng(42);
+  for (const kinematics::Robot& robot : {testing::LoadArm(), testing::LoadTreeRobot()}) {
+    kinematics::Data kin(robot.model);
+    const int nq = robot.model.nq();
+    for (int trial = 0; trial < 30; ++trial) {
+      Scene scene;
+      for (int k = 0; k < 6; ++k) {
+        scene.obstacles.push_back(Obstacle::MakeSphere(RandomVector3(rng, -0.6, 0.6) + Eigen::Vector3d(0, 0, 0.4),
+                                                       Uniform(rng, 0.03, 0.15), RandomVector3(rng, -0.3, 0.3)));
+      }
+      scene.p_WT = RandomVector3(rng, -0.5, 0.5);
+      std::vector<JointLayerWeights> weights(nq);
+      for (JointLayerWeights& w : weights) {
+        w.use_target = rng() % 4 != 0;
+        w.use_collision = rng() % 4 != 0;
+        w.target_accel_scale = Uniform(rng, 0.0, 2.0);
+        w.collision_metric_scale = Uniform(rng, 0.0, 2.0);
+      }
+      kinematics::CalcVelocityKinematics(robot.model, RandomConfiguration(robot.model, rng),
+                                         RandomVelocity(robot.model, rng), &kin);
+      std::vector<JointLayerResult> all(nq);
+      EvaluateJointLayers(robot, kin, scene, BasicRmpParams{}, weights, all);
+      for (int dof = 0; dof < nq; ++dof) {
+        const JointLayerResult one = EvaluateJointLayer(robot, kin, dof, scene, BasicRmpParams{}, weights[dof]);
+        EXPECT_NEAR(all[dof].qdd, one.qdd, 1e-9 * (1.0 + std::abs(one.qdd)));
+        EXPECT_NEAR(all[dof].metric, one.metric, 1e-9 * (1.0 + one.metric));
+        EXPECT_EQ(all[dof].collision_terms, one.collision_terms);
+        EXPECT_EQ(all[dof].min_distance, one.min_distance);
+      }
+    }
+    std::vector<JointLayerResult> wrong(nq + 1);
+    EXPECT_THROW(EvaluateJointLayers(robot, kin, Scene{}, BasicRmpParams{}, std::vector<JointLayerWeights>(nq), wrong),
+                 InputError);
+  }
 }
 
 TEST(JointLayerTest, PlanarArmTargetOnlyByHand) {

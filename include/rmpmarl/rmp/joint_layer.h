@@ -11,6 +11,7 @@
 /// collision pair j_k = g n_Wᵀ (column i of J_WP1) with a_k = s_a · a, M_k = s_m · m; J̇_k q̇ is the full curvature
 /// term of the task given all joint velocities (the same one the tree uses, see tree.h).
 #include <Eigen/Core>
+#include <span>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
@@ -42,7 +43,9 @@ struct JointLayerResult {
   double metric = 0.0;       ///< Σ_k j_kᵀ M_k j_k
   double lambda = 0.0;       ///< regulariser used
   int collision_terms = 0;   ///< collision pairs within the deactivation radius r
-  double min_distance = 0.0; ///< smallest capsule–obstacle distance among the capsules joint i moves (+inf: none)
+  /// smallest capsule–obstacle distance among the capsules joint i moves (+inf: none, or use_collision false);
+  /// pairs beyond r may report a bounding-sphere lower bound (> r) instead of their distance
+  double min_distance = 0.0;
 };
 
 /// the basic layer at dof `dof`: selected paper RMPs pulled back through joint i's own Jacobian column and resolved.
@@ -51,5 +54,13 @@ struct JointLayerResult {
 JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinematics::Data& kin, int dof,
                                     const Scene& scene, const BasicRmpParams& params,
                                     const JointLayerWeights& weights, double relative_regularizer = 1e-6);
+
+/// the basic layer at every joint at once (results[i] equals EvaluateJointLayer at dof i with weights[i], up to
+/// rounding), computing each capsule–obstacle distance once instead of once per joint that moves the capsule.
+/// Throws InputError unless weights and results have nq entries. Allocates nothing.
+/// \pre as EvaluateJointLayer.
+void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                         const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                         std::span<JointLayerResult> results, double relative_regularizer = 1e-6);
 
 }  // namespace rmpmarl::rmp

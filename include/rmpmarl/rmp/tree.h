@@ -214,6 +214,8 @@ class TreeData {
   std::vector<Eigen::Vector4d> obstacle_sphere_;  // centre, radius, per obstacle slot
   std::vector<int> used_capsules_;
   int num_slots_ = 0;
+  Eigen::Matrix3Xd dof_origin_W_;     // per evaluation: origin of every dof's joint in W
+  std::vector<char> dof_prismatic_;   // per dof: prismatic joint
   RmpResolver resolver_;
 };
 

@@ -1,0 +1,89 @@
+#pragma once
+/// Environments as specs (EnvPool's design): an environment declares its observation, global-state and action
+/// layout and its reward terms in an EnvSpec; the generic batched engine (vec_env.h) runs any Env on a thread pool
+/// with preallocated batch buffers. Multi-agent aware: each env has `num_agents` agents with same-sized local
+/// observations and actions (one per joint for the per-joint agents; 1 for single-agent baselines) and one global
+/// state for a centralised critic.
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace rmpmarl::rl {
+
+/// Layout of one agent's action as a flat float vector: [option?, continuous..., terminate?].
+///  - option: a categorical choice in {0, …, num_options − 1}, sent as a float holding the index (absent when
+///    num_options == 0);
+///  - continuous: num_continuous raw values; the env clips each to [low, high] (documented per task);
+///  - terminate: a Bernoulli flag (≥ 0.5 means terminate the running option), present when has_termination.
+struct ActionSpec {
+  int num_options = 0;
+  std::vector<std::string> option_names;   ///< size num_options
+  int num_continuous = 0;
+  std::vector<std::string> continuous_names;  ///< size num_continuous
+  std::vector<float> low;                  ///< size num_continuous
+  std::vector<float> high;                 ///< size num_continuous
+  bool has_termination = false;
+
+  /// floats per agent action.
+  int size() const { return (num_options > 0 ? 1 : 0) + num_continuous + (has_termination ? 1 : 0); }
+  /// offset of the first continuous value in the flat action.
+  int continuous_offset() const { return num_options > 0 ? 1 : 0; }
+  /// offset of the termination flag (valid when has_termination).
+  int termination_offset() const { return continuous_offset() + num_continuous; }
+};
+
+/// Everything a learner needs to know about an environment, fixed for its lifetime.
+struct EnvSpec {
+  std::string task;                              ///< e.g. "reach-avoid"
+  int num_agents = 1;
+  int local_obs_dim = 0;
+  std::vector<std::string> local_obs_names;      ///< size local_obs_dim
+  int global_state_dim = 0;
+  std::vector<std::string> global_state_names;   ///< size global_state_dim
+  ActionSpec action;                             ///< per agent
+  std::vector<std::string> reward_terms;         ///< the logged reward terms; the reward is their sum
+  double discount = 0.99;                        ///< γ
+  int max_episode_steps = 0;                     ///< truncation horizon
+  double control_dt = 0.0;                       ///< seconds of simulated time per env step
+};
+
+/// Per-episode metrics, reported when an episode ends.
+struct EpisodeMetrics {
+  bool success = false;                  ///< task-defined (e.g. no collision in the episode)
+  bool invalid = false;                  ///< ended because of a non-finite state or action
+  int collisions = 0;                    ///< collision events (a pair entering penetration)
+  double mean_tracking_error_mm = 0.0;   ///< mean end-effector–target distance over the episode
+  double final_tracking_error_mm = 0.0;  ///< at the last step
+  double min_clearance_m = 0.0;          ///< smallest robot–obstacle signed distance seen (+inf: never within margin)
+  int length = 0;                        ///< env steps
+  double episode_return = 0.0;           ///< undiscounted sum of rewards
+};
+
+/// Where one env writes one step's results: views into the engine's batch buffers (row-major).
+struct StepOutput {
+  float* local_obs = nullptr;     ///< num_agents × local_obs_dim
+  float* global_state = nullptr;  ///< global_state_dim
+  float* reward_terms = nullptr;  ///< reward_terms.size()
+  float* reward = nullptr;        ///< 1: the sum of the terms
+  std::uint8_t* terminated = nullptr;  ///< 1: the episode ended (collision-free end, failure, invalid)
+  std::uint8_t* truncated = nullptr;   ///< 1: the episode hit max_episode_steps
+  float* option_started = nullptr;     ///< num_agents: 1 where the agent's action started a new option this step
+  EpisodeMetrics* metrics = nullptr;   ///< written when terminated or truncated
+};
+
+/// One environment instance. Implementations own their simulation state (e.g. a sim::World over a shared
+/// WorldModel), allocate nothing in Step, and draw every random number from the engine-provided RNG.
+class Env {
+ public:
+  virtual ~Env() = default;
+  virtual const EnvSpec& spec() const = 0;
+  /// starts a new episode (domain randomisation happens here) and writes its first observation; reward terms,
+  /// reward and flags are written as zero.
+  virtual void Reset(std::mt19937_64& rng, const StepOutput& out) = 0;
+  /// applies `actions` (num_agents × spec().action.size() floats, row-major) and advances one control step.
+  /// Non-finite or out-of-layout actions end the episode flagged invalid (never NaN in the outputs).
+  virtual void Step(const float* actions, std::mt19937_64& rng, const StepOutput& out) = 0;
+};
+
+}  // namespace rmpmarl::rl

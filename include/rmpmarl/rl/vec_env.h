@@ -1,0 +1,62 @@
+#pragma once
+/// The generic batched engine: reset/step over N environments on a thread pool, with preallocated batch buffers,
+/// auto-reset, and env k's RNG seeded with seed + k. Results are identical for a given seed whatever the thread
+/// count (each env is stepped by exactly one thread and draws only from its own RNG).
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "rmpmarl/rl/env.h"
+
+namespace rmpmarl::rl {
+
+/// makes env number `env_id` (called once per env at construction, on the constructing thread).
+using EnvFactory = std::function<std::unique_ptr<Env>(int env_id)>;
+
+struct VecEnvOptions {
+  int num_envs = 1;
+  std::uint64_t seed = 0;
+  int num_threads = 1;  ///< worker threads (1: step on the calling thread)
+};
+
+/// Batch buffers; rows are envs (for per-agent arrays, env-major: row = env * num_agents + agent).
+struct Batch {
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> local_obs;     ///< (N·A) × obs_dim
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> global_state;  ///< N × state_dim
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> reward_terms;  ///< N × terms
+  Eigen::VectorXf reward;                                                               ///< N
+  std::vector<std::uint8_t> terminated;                                                 ///< N
+  std::vector<std::uint8_t> truncated;                                                  ///< N
+  Eigen::VectorXf option_started;                                                       ///< N·A
+  /// global state at the last step of an episode that ended this step (before the auto-reset), for bootstrapping
+  /// truncated episodes; rows of envs that did not end are unspecified.
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> final_global_state;
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> final_local_obs;  ///< likewise, (N·A) × obs
+  std::vector<EpisodeMetrics> metrics;  ///< N, valid where terminated or truncated this step
+};
+
+class VecEnv {
+ public:
+  /// builds num_envs envs with `factory`; all must share one EnvSpec layout (checked). Throws InputError.
+  VecEnv(const EnvFactory& factory, const VecEnvOptions& options);
+  ~VecEnv();
+  VecEnv(const VecEnv&) = delete;
+  VecEnv& operator=(const VecEnv&) = delete;
+
+  const EnvSpec& spec() const;
+  int num_envs() const;
+  /// resets every env (RNGs re-seeded with seed + k) and fills the batch with first observations.
+  void Reset();
+  /// steps every env with `actions` ((N·A) × action_size, row-major); envs whose episode ends are auto-reset:
+  /// their batch rows then hold the new episode's first observation, and final_* hold the last one.
+  void Step(const float* actions);
+  const Batch& batch() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rmpmarl::rl

@@ -1,0 +1,170 @@
+#pragma once
+/// Reactive control in MuJoCo (docs/control.md): an acceleration policy (q, q̇, scene) ↦ q̈ — RMPflow now, the
+/// learned per-joint agents later — integrated at the control rate into commanded joint positions for the World's
+/// position servos.
+///
+/// Integration: semi-implicit Euler on the controller's own commanded state (q_cmd, q̇_cmd), in substeps h ≤
+/// `max_substep`:  q̇_cmd ← clamp(q̇_cmd + h q̈, ±v_max);  q_cmd ← clamp(q_cmd + h q̇_cmd, limits) (velocity zeroed at a
+/// limit). The commanded state, not the measured one, is integrated because the MuJoCo position servo has no velocity
+/// feed-forward: a command q + h q̇ built from the measured state would brake the joint (docs/control.md).
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rmp/rmpflow.h"
+#include "rmpmarl/rmp/scene.h"
+#include "rmpmarl/sim/world.h"
+
+namespace rmpmarl::sim {
+
+/// A joint-space acceleration policy the ReactiveController drives: RMPflow, or later the learned per-joint agents.
+class AccelerationPolicy {
+ public:
+  virtual ~AccelerationPolicy();
+
+  /// q̈ for the joint state (q, q̇) in `scene`; q̈ has nq() entries. Should not allocate. Non-finite output is
+  /// allowed: the controller catches it, holds position and counts it.
+  virtual void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                        const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) = 0;
+  /// called by ReactiveController::Reset at the start of every episode with the initial configuration (default:
+  /// nothing).
+  virtual void Reset(const Eigen::Ref<const Eigen::VectorXd>& q0);
+  /// a short name for logs and results ("rmpflow").
+  virtual std::string name() const = 0;
+  /// number of joints the policy is built for.
+  virtual int nq() const = 0;
+};
+
+/// The RMPflow baseline (rmp::RmpflowPolicy) as an AccelerationPolicy.
+class RmpflowAccelerationPolicy final : public AccelerationPolicy {
+ public:
+  /// RMPflow for `robot` with slots for up to `max_obstacles` obstacles. Throws InputError (bad options).
+  RmpflowAccelerationPolicy(const kinematics::Robot& robot, const rmp::RmpflowOptions& options, int max_obstacles);
+  /// the same with the robot's shipped parameters: LoadRmpflowOptions(RmpflowConfigPath(robot.name)).
+  RmpflowAccelerationPolicy(const kinematics::Robot& robot, int max_obstacles);
+
+  void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) override;
+  std::string name() const override { return "rmpflow"; }
+  int nq() const override;
+
+  rmp::RmpflowPolicy& rmpflow() { return policy_; }
+  const rmp::RmpflowPolicy& rmpflow() const { return policy_; }
+
+ private:
+  rmp::RmpflowPolicy policy_;
+};
+
+/// Which joint state the policy is evaluated at.
+enum class PolicyInput {
+  /// the controller's integrated state (q_cmd, q̇_cmd) at every substep — RMPflow's ideal-integrator assumption, as in
+  /// Lula's RmpFlow (default). The measured state enters through the re-synchronisation (resync_threshold).
+  kCommanded,
+  /// MuJoCo's measured (q, q̇), once per control step; q̈ is held over the substeps. The servo lag (≈ 2ζ/ω_n = 50 ms)
+  /// then sits inside the policy's feedback loop, which stiff RMP damping gains do not tolerate well.
+  kMeasured,
+};
+
+/// Options of the ReactiveController.
+struct ControllerOptions {
+  /// control rate [Hz]; the period must be a whole number of physics timesteps (100 Hz = 5 × 2 ms).
+  double control_rate = 100.0;
+  /// largest internal integration step h [s]; the control period is split into ceil(period / max_substep) equal
+  /// substeps. Keeps semi-implicit Euler stable for stiff RMP gains (needs k_d h < 2; RMPflow's joint-limit damper
+  /// has k_d = 200 1/s). Lula integrates RMPflow at ≤ 3.34 ms.
+  double max_substep = 0.002;
+  PolicyInput policy_input = PolicyInput::kCommanded;
+  /// v_max,i = velocity_limit_scale × URDF velocity limit of dof i (no clamp where the URDF gives none), > 0.
+  double velocity_limit_scale = 1.0;
+  /// [rad or m] when max_i |q_cmd,i − q_i| exceeds this at the start of a control step (the arm was pushed, or blocked
+  /// by a collision), the commanded state restarts from the measured one. +inf: never. Must exceed the servo's
+  /// tracking lag (≈ 2ζ/ω_n · |q̇| = 0.05 rad at 1 rad/s).
+  double resync_threshold = 0.25;
+};
+
+/// throws InputError (expected vs got) unless the options are valid for a world with the given physics timestep.
+void ValidateControllerOptions(const ControllerOptions& options, double physics_timestep);
+
+/// Result of one control step.
+struct ControlStepResult {
+  bool finite = true;         ///< false: the policy returned a non-finite q̈; the command holds position (q̇_cmd = 0)
+  bool resynced = false;      ///< the commanded state was restarted from the measured state
+  int position_clamps = 0;    ///< substep × dof events where q_cmd was clamped to a joint limit
+  int velocity_clamps = 0;    ///< substep × dof events where q̇_cmd was clamped to ±v_max
+  double compute_us = 0.0;    ///< wall time of policy evaluation + integration [µs] (steady_clock)
+};
+
+/// Counters over the steps since the last Reset.
+struct ControllerStats {
+  long steps = 0;              ///< control steps
+  long nonfinite_outputs = 0;  ///< control steps whose policy output was non-finite
+  long resyncs = 0;
+  long position_clamps = 0;
+  long velocity_clamps = 0;
+  double total_compute_us = 0.0;
+  double max_compute_us = 0.0;
+
+  /// mean wall time of a control step [µs] (0 before the first step).
+  double mean_compute_us() const { return steps > 0 ? total_compute_us / static_cast<double>(steps) : 0.0; }
+};
+
+/// Drives an AccelerationPolicy at the control rate: reads the World's q, q̇, evaluates q̈, integrates the commanded
+/// state and sets the servo targets. Step() allocates nothing.
+class ReactiveController {
+ public:
+  /// a controller for worlds of `model`. Throws InputError for a null policy, a policy of the wrong size, or bad
+  /// options (ValidateControllerOptions).
+  ReactiveController(const WorldModel& model, std::unique_ptr<AccelerationPolicy> policy,
+                     ControllerOptions options = {});
+
+  /// starts an episode: the commanded state becomes the world's measured state (clamped to the limits), the
+  /// counters are zeroed and the policy is reset.
+  void Reset(const World& world);
+
+  /// one control step: Update(world.q(), world.qd(), scene), then world.SetJointTargets(q_cmd()). Does not step the
+  /// physics (the caller steps physics_steps_per_control() times).  \pre Reset.
+  ControlStepResult Step(World& world, const rmp::Scene& scene);
+
+  /// the control computation without a World: measured (q, q̇) in, commanded state (q_cmd(), qd_cmd()) out. Throws
+  /// InputError unless q, q̇ have nq finite entries.
+  ControlStepResult Update(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                           const rmp::Scene& scene);
+
+  /// commanded joint positions / velocities after the last step.
+  const Eigen::VectorXd& q_cmd() const { return q_cmd_; }
+  const Eigen::VectorXd& qd_cmd() const { return qd_cmd_; }
+  /// the policy's last q̈ (as returned, possibly non-finite).
+  const Eigen::VectorXd& qdd() const { return qdd_; }
+
+  int nq() const { return static_cast<int>(q_cmd_.size()); }
+  const ControllerOptions& options() const { return options_; }
+  AccelerationPolicy& policy() { return *policy_; }
+  const AccelerationPolicy& policy() const { return *policy_; }
+  const ControllerStats& stats() const { return stats_; }
+  /// control period [s] = physics_steps_per_control() × physics timestep.
+  double control_period() const { return period_; }
+  int physics_steps_per_control() const { return physics_steps_; }
+  /// substeps per control step and their length h [s].
+  int substeps() const { return substeps_; }
+  double substep() const { return period_ / substeps_; }
+  /// per-dof velocity clamp v_max (+inf where none) and position limits (±inf for continuous joints).
+  const Eigen::VectorXd& velocity_limits() const { return v_max_; }
+  const Eigen::VectorXd& lower_limits() const { return lower_; }
+  const Eigen::VectorXd& upper_limits() const { return upper_; }
+
+ private:
+  // one semi-implicit Euler substep of length h with acceleration qdd_; counts clamps into `result`.
+  void Integrate(double h, ControlStepResult* result);
+
+  std::unique_ptr<AccelerationPolicy> policy_;
+  ControllerOptions options_;
+  double period_ = 0.0;
+  int physics_steps_ = 1;
+  int substeps_ = 1;
+  Eigen::VectorXd lower_, upper_, v_max_;
+  Eigen::VectorXd q_cmd_, qd_cmd_, qdd_;
+  ControllerStats stats_;
+};
+
+}  // namespace rmpmarl::sim
