@@ -49,7 +49,8 @@ inline Eigen::Vector3d MaterialPointVelocity(const kinematics::Data& kin, int li
   return kin.v_WLo.col(link) + kin.w_WL.col(link).cross(p_W - kin.X_WL[link].translation());
 }
 
-// velocity-product acceleration (J̇q̇) of the material point of `link` at world point p_W.  \pre CalcVelocityKinematics.
+// velocity-product acceleration (J̇q̇) of the material point of `link` at world point p_W.
+// \pre CalcVelocityKinematics.
 inline Eigen::Vector3d MaterialPointJdotQdot(const kinematics::Data& kin, int link, const Eigen::Vector3d& p_W) {
   const Eigen::Vector3d r = p_W - kin.X_WL[link].translation();
   const Eigen::Vector3d w = kin.w_WL.col(link);

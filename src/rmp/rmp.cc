@@ -22,8 +22,8 @@ void CheckRmp(const NaturalRmp& rmp, std::string_view what) {
 // throws InputError unless the task map's Jacobian and curvature term match its value.
 void CheckMap(const TaskMapValue& map, std::string_view what) {
   if (map.J.rows() != map.x.size() || map.Jdot_qd.size() != map.x.size()) {
-    throw InputError(fmt::format("{}: task map of dimension {} needs a {}-row Jacobian and J̇q̇ of size {}, got {} rows "
-                                 "and {}", what, map.x.size(), map.x.size(), map.x.size(), map.J.rows(),
+    throw InputError(fmt::format("{}: task map of dimension {} needs a {}-row Jacobian and J̇q̇ of size {}, got {} "
+                                 "rows and {}", what, map.x.size(), map.x.size(), map.x.size(), map.J.rows(),
                                  map.Jdot_qd.size()));
   }
 }

@@ -75,8 +75,9 @@ RmpflowPolicy::RmpflowPolicy(const kinematics::Robot& robot, const RmpflowOption
                                          "(limits [{}, {}])", options.joint_limit_buffer, model.dof_name(i),
                                          robot.name, lim.lower, lim.upper));
           }
-          nodes.push_back({"joint_limit_lower/" + model.dof_name(i), "", JointAffineMap{{i}, {1.0 / (hi - lo)}, {lo}}});
-          nodes.push_back({"joint_limit_upper/" + model.dof_name(i), "", JointAffineMap{{i}, {-1.0 / (hi - lo)}, {hi}}});
+          const double scale = 1.0 / (hi - lo);
+          nodes.push_back({"joint_limit_lower/" + model.dof_name(i), "", JointAffineMap{{i}, {scale}, {lo}}});
+          nodes.push_back({"joint_limit_upper/" + model.dof_name(i), "", JointAffineMap{{i}, {-scale}, {hi}}});
         }
         for (int i = 0; i < model.nq(); ++i) {
           nodes.push_back({"velocity_cap/" + model.dof_name(i), "", JointAffineMap{{i}, {}, {}}});

@@ -39,7 +39,8 @@ class ConfigReader {
       if (!allowed.count(name)) {
         std::string list;
         for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(entry.first, key.empty() ? name : key + "." + name, fmt::format("unknown key (expected one of: {})", list));
+        Fail(entry.first, key.empty() ? name : key + "." + name,
+             fmt::format("unknown key (expected one of: {})", list));
       }
     }
   }

@@ -270,6 +270,11 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
     return true;
   };
 
+  // row += sign · nᵀ J_WP of world point p_W on `link`
+  auto add_row = [&](int link, const Eigen::Vector3d& p_W, const Eigen::Vector3d& n, double sign, double* row) {
+    internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, link, p_W, n, sign, row);
+  };
+
   for (const Tree::Flat& node : tree.flat_) {
     const int i = node.node;
     const int parent = node.parent;
@@ -313,7 +318,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         std::fill(J, J + model.nq(), 0.0);
-        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link1, res.p_W1, n, 1.0, J);
+        add_row(node.link1, res.p_W1, n, 1.0, J);
         xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) - obstacle.v_WO);
         jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1));
         break;
@@ -328,8 +333,8 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         if (res.distance > node.cutoff) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         std::fill(J, J + model.nq(), 0.0);
-        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link1, res.p_W1, n, 1.0, J);
-        internal::AddDistanceJacobianRow(model, kin, data->dof_origin_W_, data->dof_prismatic_, node.link2, res.p_W2, n, -1.0, J);
+        add_row(node.link1, res.p_W1, n, 1.0, J);
+        add_row(node.link2, res.p_W2, n, -1.0, J);
         xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) -
                       internal::MaterialPointVelocity(kin, node.link2, res.p_W2));
         jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1) -

@@ -82,22 +82,30 @@ ReactiveController::ReactiveController(const WorldModel& model, std::unique_ptr<
     const double v = model.kinematic_model().limits()[i].velocity;
     v_max_[i] = v > 0.0 ? options_.velocity_limit_scale * v : std::numeric_limits<double>::infinity();
   }
+  feedforward_.setZero(nq);
+  if (options_.velocity_feedforward) {
+    const ServoGains& gains = model.servo_gains();
+    for (int i = 0; i < nq; ++i) feedforward_[i] = gains.damping[i] / gains.kp[i];
+  }
   q_cmd_ = Eigen::VectorXd::Zero(nq).cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_.setZero(nq);
   qdd_.setZero(nq);
+  q_target_ = q_cmd_;
 }
 
 void ReactiveController::Reset(const World& world) {
   q_cmd_ = world.q().cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_ = world.qd().cwiseMax(-v_max_).cwiseMin(v_max_);
   qdd_.setZero();
+  q_target_ = q_cmd_;
   stats_ = ControllerStats{};
   policy_->Reset(q_cmd_);
 }
 
 ControlStepResult ReactiveController::Step(World& world, const rmp::Scene& scene) {
   const ControlStepResult result = Update(world.q(), world.qd(), scene);
-  world.SetJointTargets(q_cmd_);
+  q_target_ = q_cmd_ + feedforward_.cwiseProduct(qd_cmd_);
+  world.SetJointTargets(q_target_);
   return result;
 }
 

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "rmpmarl/common/error.h"
 
@@ -65,6 +66,22 @@ TEST(JointRmpsTest, VelocityCapActsOnlyInTheDampingRegion) {
   // a cap below the damping region shrinks the region to the cap
   rmp = EvalJointVelocityCapRmp(p, 0.2, 0.1);
   EXPECT_NEAR(rmp.a, -100.0, 1e-9);
+}
+
+TEST(JointRmpsTest, MetricsAreNonNegativeAndFiniteEverywhere) {
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> x(-2.0, 2.0), v(-20.0, 20.0);
+  const JointLimitRmpParams limit;
+  const JointVelocityCapRmpParams cap;
+  for (int trial = 0; trial < 5000; ++trial) {
+    const double xs = trial % 5 == 0 ? 0.0 : x(rng);
+    const Rmp1 l = EvalJointLimitRmp(limit, xs, v(rng));
+    ASSERT_TRUE(std::isfinite(l.a) && std::isfinite(l.m));
+    EXPECT_GE(l.m, 0.0);
+    const Rmp1 c = EvalJointVelocityCapRmp(cap, 0.5 + std::abs(x(rng)), v(rng));
+    ASSERT_TRUE(std::isfinite(c.a) && std::isfinite(c.m));
+    EXPECT_GE(c.m, 0.0);
+  }
 }
 
 TEST(JointRmpsTest, ValidationRejectsBadValues) {

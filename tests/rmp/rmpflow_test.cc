@@ -169,6 +169,7 @@ struct RolloutResult {
   double final_error = 0.0;
   double min_clearance = 0.0;
   double time_to_1cm = -1.0;
+  double min_self_distance = std::numeric_limits<double>::infinity();  // over the evaluated self pairs
   bool finite = true;
 };
 
@@ -183,6 +184,7 @@ RolloutResult Rollout(const kinematics::Robot& robot, RmpflowPolicy* policy, Eig
   const int steps = static_cast<int>(duration / dt);
   for (int step = 0; step < steps; ++step) {
     policy->Evaluate(q, qd, scene, qdd);
+    r.min_self_distance = std::min(r.min_self_distance, policy->diagnostics().min_self_distance);
     if (!qdd.allFinite()) {
       r.finite = false;
       return r;
@@ -275,16 +277,18 @@ TEST(RmpflowPolicyTest, OpenLoopReachesStaticTargets) {
   std::mt19937_64 rng(52);
   for (const kinematics::Robot& robot : Arms()) {
     RmpflowPolicy policy(robot, LoadRmpflowOptions(RmpflowConfigPath(robot.name)), 0);
-    double worst = 0.0, slowest = 0.0;
+    double worst = 0.0, slowest = 0.0, min_self = std::numeric_limits<double>::infinity();
     for (const ReachTask& task : ReachTasks(robot, policy.home(), false, 5, rng)) {
       const RolloutResult r = Rollout(robot, &policy, task.q_start, task.scene, 5.0);
       ASSERT_TRUE(r.finite);
+      min_self = std::min(min_self, r.min_self_distance);
+      EXPECT_GT(r.min_self_distance, 0.0) << robot.name;  // self-collision avoidance keeps the links apart
       EXPECT_LT(r.final_error, 0.01) << robot.name << " start error " << task.start_error;
       worst = std::max(worst, r.final_error);
       slowest = std::max(slowest, r.time_to_1cm < 0 ? 99.0 : r.time_to_1cm);
     }
-    std::printf("[ reach    ] %-7s 5 targets >= 0.3 m away: worst final error %.2e m, all within 1 cm after %.2f s\n",
-                robot.name.c_str(), worst, slowest);
+    std::printf("[ reach    ] %-7s 5 targets >= 0.3 m away: worst final error %.2e m, all within 1 cm after %.2f s, "
+                "min self distance %.3f m\n", robot.name.c_str(), worst, slowest, min_self);
   }
 }
 

@@ -64,6 +64,25 @@ TEST(TreeBuildTest, RejectsStructureErrors) {
   ExpectInputError([&] { Tree(robot, {{"d", "", CapsuleCapsuleDistanceMap{1, 1, 1.0}}}); }, "same link");
 }
 
+TEST(SceneTest, ValidateSceneRejectsBadObstacles) {
+  Scene scene;
+  scene.obstacles.push_back(Obstacle::MakeSphere(Eigen::Vector3d(0.1, 0.2, 0.3), 0.1));
+  scene.obstacles.push_back(Obstacle::MakeBox(Eigen::Isometry3d::Identity(), Eigen::Vector3d(0.1, 0.2, 0.3)));
+  EXPECT_NO_THROW(ValidateScene(scene, "scene"));
+  Scene bad = scene;
+  bad.obstacles[0].sphere.radius = 0.0;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "obstacles[0]");
+  bad = scene;
+  bad.obstacles[1].box.X_WB.linear() *= 2.0;  // not a rotation
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "obstacles[1]");
+  bad = scene;
+  bad.obstacles[1].v_WO.x() = NAN;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "v_WO");
+  bad = scene;
+  bad.p_WT.z() = INFINITY;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "target");
+}
+
 TEST(TreeBuildTest, OrdersParentsBeforeChildren) {
   const kinematics::Robot robot = kinematics::MakePlanar2();
   const AffineMap square{Eigen::MatrixXd::Identity(2, 2), Eigen::VectorXd::Zero(2)};

@@ -21,7 +21,8 @@
 /// Curvature terms kept for the distance maps: J̇q̇ = g n_Wᵀ (a_P1 − a_P2), the velocity-product accelerations of
 /// the witness points as material points of their links (a_P2 = 0 for an obstacle, which moves at constant
 /// velocity). Dropped: the rotation of n_W and the sliding of the witness points over the surfaces (curvature of
-/// the shapes), as in RMPflow implementations; they vanish for a sphere–point pair at rest and are second order.
+/// the shapes), as RMPflow implementations do (they are quadratic in the velocities as well, but need the shapes'
+/// curvature at the witness points).
 ///
 /// Distance nodes are skipped (marked inactive, J not computed, nothing pulled back) when the obstacle slot is empty
 /// in the Scene or the distance exceeds the node's `cutoff` (use the RMP's deactivation radius r, beyond which its
@@ -172,7 +173,9 @@ class TreeData {
     return CMat(node_[node].J_off, node_[node].dim, node_[node].parent_dim);
   }
   Eigen::Map<const Eigen::VectorXd> f(int node) const { return CVec(node_[node].f_off, node_[node].dim); }
-  Eigen::Map<const Eigen::MatrixXd> M(int node) const { return CMat(node_[node].M_off, node_[node].dim, node_[node].dim); }
+  Eigen::Map<const Eigen::MatrixXd> M(int node) const {
+    return CMat(node_[node].M_off, node_[node].dim, node_[node].dim);
+  }
   /// false when the node was skipped this evaluation (empty obstacle slot, beyond cutoff, or inactive parent).
   bool active(int node) const { return active_[node] != 0; }
   /// witness points and normal of a distance node (PushForward; meaningful while the node is active).

@@ -77,6 +77,10 @@ struct ControllerOptions {
   PolicyInput policy_input = PolicyInput::kCommanded;
   /// v_max,i = velocity_limit_scale × URDF velocity limit of dof i (no clamp where the URDF gives none), > 0.
   double velocity_limit_scale = 1.0;
+  /// servo target = q_cmd + (d_i / kp_i) q̇_cmd: with the servo's joint damping d_i this turns τ = kp (q_target − q)
+  /// − d q̇ into kp (q_cmd − q) + d (q̇_cmd − q̇), a PD that tracks the commanded velocity too (MuJoCo 2.2.2's
+  /// position actuator has no velocity reference). Removes the servo's velocity lag 2ζ/ω_n · q̇ (50 ms).
+  bool velocity_feedforward = true;
   /// [rad or m] when max_i |q_cmd,i − q_i| exceeds this at the start of a control step (the arm was pushed, or blocked
   /// by a collision), the commanded state restarts from the measured one. +inf: never. Must exceed the servo's
   /// tracking lag (≈ 2ζ/ω_n · |q̇| = 0.05 rad at 1 rad/s).
@@ -122,8 +126,8 @@ class ReactiveController {
   /// counters are zeroed and the policy is reset.
   void Reset(const World& world);
 
-  /// one control step: Update(world.q(), world.qd(), scene), then world.SetJointTargets(q_cmd()). Does not step the
-  /// physics (the caller steps physics_steps_per_control() times).  \pre Reset.
+  /// one control step: Update(world.q(), world.qd(), scene), then world.SetJointTargets(servo_target()). Does not
+  /// step the physics (the caller steps physics_steps_per_control() times).  \pre Reset.
   ControlStepResult Step(World& world, const rmp::Scene& scene);
 
   /// the control computation without a World: measured (q, q̇) in, commanded state (q_cmd(), qd_cmd()) out. Throws
@@ -134,6 +138,8 @@ class ReactiveController {
   /// commanded joint positions / velocities after the last step.
   const Eigen::VectorXd& q_cmd() const { return q_cmd_; }
   const Eigen::VectorXd& qd_cmd() const { return qd_cmd_; }
+  /// the servo target of the last Step: q_cmd + (d/kp) q̇_cmd with velocity_feedforward, else q_cmd.
+  const Eigen::VectorXd& servo_target() const { return q_target_; }
   /// the policy's last q̈ (as returned, possibly non-finite).
   const Eigen::VectorXd& qdd() const { return qdd_; }
 
@@ -163,7 +169,8 @@ class ReactiveController {
   int physics_steps_ = 1;
   int substeps_ = 1;
   Eigen::VectorXd lower_, upper_, v_max_;
-  Eigen::VectorXd q_cmd_, qd_cmd_, qdd_;
+  Eigen::VectorXd feedforward_;  // d_i / kp_i, or 0
+  Eigen::VectorXd q_cmd_, qd_cmd_, qdd_, q_target_;
   ControllerStats stats_;
 };
 

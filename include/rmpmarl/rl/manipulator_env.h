@@ -1,0 +1,185 @@
+#pragma once
+/// The manipulator environment (docs/environments.md): ONE Env implementation parameterised by robot, scenario and
+/// interface mode; the paper's tasks (pretrain-2link, reach-avoid, line-crossing, cluttered) are TaskConfigs.
+///
+///   auto context = rl::MakeTaskContext(rl::LoadShippedTaskConfig("reach-avoid"));  // builds the variant pool once
+///   rl::VecEnv envs(rl::MakeManipulatorEnvFactory(context), {.num_envs = 64, .seed = 1, .num_threads = 2});
+///
+/// A TaskContext is built once per config and shared (read-only) by every env: it owns the pool of K link-length
+/// variants, each compiled into one sim::WorldModel. An env picks a variant per reset and never builds a model.
+/// Env::Step allocates nothing.
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/rl/env.h"
+#include "rmpmarl/rl/reward.h"
+#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/rl/vec_env.h"
+#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/sim/scenario.h"
+#include "rmpmarl/sim/world.h"
+
+namespace rmpmarl::rl {
+
+/// a geometrically similar copy of `robot` scaled by s: joint offsets, capsule end points and radii, and the
+/// end-effector offset (so self-collision properties are unchanged). Throws InputError unless s > 0.
+kinematics::Robot ScaleRobot(const kinematics::Robot& robot, double s);
+
+/// the robot a task config names, before randomisation (planar2 with the mid link lengths, or a shipped arm).
+kinematics::Robot NominalTaskRobot(const TaskConfig& config);
+
+/// Makes a scenario for a robot variant (tests and tools: replaces the task's own scenario).
+using ScenarioMaker = std::function<std::unique_ptr<sim::Scenario>(const kinematics::Robot& variant_robot)>;
+
+/// One link-length variant of the task's robot, compiled once.
+struct RobotVariant {
+  std::shared_ptr<const sim::WorldModel> world_model;
+  double link_scale = 1.0;                      ///< URDF arms: the uniform scale (1 for planar2)
+  std::array<double, 2> planar2_lengths = {0, 0};  ///< planar2: link lengths [m]
+};
+
+/// Everything an env of one task shares with its siblings, built once: the validated config, the EnvSpec, the
+/// variant pool (K WorldModels) and the obstacle layout. Immutable after construction; safe to share across threads.
+class TaskContext {
+ public:
+  /// validates `config` (InputError), loads the robot and builds config.randomization.variants WorldModels.
+  /// `scenario` (optional) replaces the task's scenario for every variant.
+  explicit TaskContext(TaskConfig config, ScenarioMaker scenario = {});
+
+  const TaskConfig& config() const { return config_; }
+  const EnvSpec& spec() const { return spec_; }
+  int nq() const { return nq_; }
+  int num_agents() const { return spec_.num_agents; }
+  int num_obstacles() const { return num_obstacles_; }
+  int num_variants() const { return static_cast<int>(variants_.size()); }
+  const RobotVariant& variant(int k) const { return variants_[k]; }
+  /// per-episode choices of the scenario besides the variant (line-crossing: the speeds; else 1).
+  int num_scenario_settings() const { return num_settings_; }
+  /// a fresh scenario for variant k and setting s (envs call this lazily, once per pair).
+  std::unique_ptr<sim::Scenario> MakeScenario(int variant, int setting) const;
+  const GlobalStateLayout& global_layout() const { return global_layout_; }
+
+ private:
+  TaskConfig config_;
+  ScenarioMaker scenario_maker_;
+  EnvSpec spec_;
+  int nq_ = 0;
+  int num_obstacles_ = 0;
+  int num_settings_ = 1;
+  std::vector<RobotVariant> variants_;
+  GlobalStateLayout global_layout_{InterfaceMode::kDirect, 0, 0};
+};
+
+/// std::make_shared<const TaskContext>(config, scenario).
+std::shared_ptr<const TaskContext> MakeTaskContext(TaskConfig config, ScenarioMaker scenario = {});
+
+/// WorldModels built by TaskContexts in this process so far (tests check that envs and resets build none).
+long WorldModelsBuilt();
+
+/// What happened in the last Step (diagnostics, tests). Sized at construction.
+struct StepInfo {
+  bool invalid = false;            ///< the step ended the episode as invalid
+  int collision_events = 0;        ///< collision events in this step
+  double distance_before = 0.0;    ///< ‖p_E − p_T‖ before the step [m]
+  double distance_after = 0.0;     ///< after [m]
+  RewardTerms reward;              ///< the step's terms
+  Eigen::VectorXd joint_reach;     ///< R_i per joint (before δ_i)
+  Eigen::VectorXd dq_command;      ///< commanded joint displacement of the step
+  Eigen::VectorXd qdd;             ///< per-joint-rmp: the basic layer's q̈ of the step
+};
+
+/// The manipulator environment. See docs/environments.md for the observation, action and reward definitions.
+class ManipulatorEnv final : public Env {
+ public:
+  explicit ManipulatorEnv(std::shared_ptr<const TaskContext> context);
+  ~ManipulatorEnv() override;
+
+  const EnvSpec& spec() const override { return context_->spec(); }
+  void Reset(std::mt19937_64& rng, const StepOutput& out) override;
+  /// \pre Reset. Actions: num_agents × action size floats; see Step(std::span) for the checked form.
+  void Step(const float* actions, std::mt19937_64& rng, const StepOutput& out) override;
+  /// the same with a size check: a wrong count ends the episode flagged invalid.
+  void Step(std::span<const float> actions, std::mt19937_64& rng, const StepOutput& out);
+
+  const TaskContext& context() const { return *context_; }
+  const sim::World& world() const { return *world_; }
+  const sim::Scenario& scenario() const { return *scenario_; }
+  /// the variant of the current episode.
+  int variant() const { return variant_; }
+  /// the scenario setting of the current episode (line-crossing: index into the speeds).
+  int scenario_setting() const { return setting_; }
+  const OptionMachine& option_machine(int agent) const { return options_[agent]; }
+  const StepInfo& last_step() const { return info_; }
+  /// the metrics of the running episode so far.
+  const EpisodeMetrics& metrics() const { return metrics_; }
+  /// steps taken in the current episode.
+  int steps() const { return steps_; }
+
+ private:
+  struct JointWarning;
+  void StartEpisode(std::mt19937_64& rng);
+  bool ValidActions(const float* actions) const;
+  void ApplyActions(const float* actions, float* option_started);
+  bool AdvancePhysics();  // false when MuJoCo diverged
+  void CountCollisions(const sim::ContactReport& report);
+  void UpdateKinematics();
+  void WriteObservation(const StepOutput& out) const;
+  void WriteLocal(int agent, float* o) const;
+  void WriteGlobal(float* s) const;
+  void Finish(const StepOutput& out, bool terminated, bool truncated, bool invalid);
+  void SanitiseOutputs(const StepOutput& out);
+
+  std::shared_ptr<const TaskContext> context_;
+  const TaskConfig& config_;
+  int nq_;
+  int num_agents_;
+  // simulation
+  std::unique_ptr<sim::World> world_;
+  int variant_ = -1;
+  int setting_ = 0;
+  std::vector<std::unique_ptr<sim::Scenario>> scenarios_;  // [variant * settings + setting], made lazily
+  sim::Scenario* scenario_ = nullptr;
+  const kinematics::Robot* robot_ = nullptr;               // the current variant's robot
+  class PerJointRmpPolicy;
+  PerJointRmpPolicy* policy_ = nullptr;                    // owned by controller_
+  std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp
+  int physics_steps_ = 1;
+  double control_period_ = 0.0;
+  rmp::Scene scene_;
+  const sim::ContactReport* report_ = nullptr;
+  // commanded state (direct modes) and the step's command change
+  Eigen::VectorXd q_cmd_, q_cmd_before_, v_max_, dq_max_;
+  // kinematics of the current state
+  kinematics::Data kin_;
+  Eigen::Vector3d p_WE_ = Eigen::Vector3d::Zero(), v_WE_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_WT_ = Eigen::Vector3d::Zero(), v_WT_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3Xd J_WE_, J_WE_before_;
+  Eigen::Vector3d e_before_ = Eigen::Vector3d::Zero();  // p_T − p_E at the start of the step
+  std::vector<JointWarning> warnings_;
+  // options and reward state
+  std::vector<OptionMachine> options_;
+  std::vector<std::uint8_t> terminate_flags_;
+  Eigen::VectorXd joint_weights_;  // δ_i
+  ReachCycleTracker cycles_;
+  std::vector<long> pair_last_seen_;  // per (link, partner) pair: physics step index it was last in penetration
+  long physics_step_ = 0;
+  int step_collisions_ = 0;
+  double step_min_clearance_ = 0.0;
+  // episode
+  bool active_ = false;
+  int steps_ = 0;
+  double tracking_sum_mm_ = 0.0;
+  EpisodeMetrics metrics_;
+  StepInfo info_;
+};
+
+/// an EnvFactory making ManipulatorEnvs that share `context` (the lambda holds the shared_ptr).
+EnvFactory MakeManipulatorEnvFactory(std::shared_ptr<const TaskContext> context);
+
+}  // namespace rmpmarl::rl

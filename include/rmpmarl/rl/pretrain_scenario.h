@@ -1,0 +1,37 @@
+#pragma once
+/// The pre-training scenario of the paper (IV.A) as a sim::Scenario: a target ball without collision volume in
+/// uniform linear motion in a random in-plane direction (reflected in the workspace box), and one cube placed on the
+/// target's path, so tracking the target means going around the cube. Domain randomisation per episode: target
+/// start and direction (Scenario helpers), speed, the cube's position along the path, its (optional) velocity, and
+/// the start configuration (SetNextStart, pre-training only).
+#include <Eigen/Core>
+
+#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/sim/scenario.h"
+
+namespace rmpmarl::rl {
+
+/// the position reached after t seconds by a point starting at p with velocity v that reflects at the faces of
+/// `box` (as sim::Scenario::Advance moves the target); along degenerate box axes the coordinate is pinned.
+Eigen::Vector3d ReflectedPosition(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t,
+                                  const Eigen::AlignedBox3d& box);
+
+/// `pretrain-2link`.
+class PretrainScenario final : public sim::Scenario {
+ public:
+  /// throws InputError for bad options.
+  PretrainScenario(const kinematics::Robot& robot, const PretrainScenarioOptions& options);
+
+  /// the start configuration of the following Resets (clamped to the joint limits); empty: the ready posture.
+  void SetNextStart(const Eigen::VectorXd& q0);
+  /// the ready posture (sim::ReadyConfiguration), around which pre-training randomises q0.
+  const Eigen::VectorXd& ready() const { return ready_; }
+  const PretrainScenarioOptions& options() const { return options_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  PretrainScenarioOptions options_;
+  Eigen::VectorXd ready_;
+};
+
+}  // namespace rmpmarl::rl

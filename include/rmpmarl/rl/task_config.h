@@ -1,0 +1,190 @@
+#pragma once
+/// The configuration of a manipulator task (docs/environments.md): ONE environment parameterised by robot, scenario
+/// and agent interface; the paper's four tasks are configurations of it, shipped as configs/tasks/<task>.yaml.
+/// DefaultTaskConfig(task) equals the shipped file (checked by a test); LoadTaskConfig starts from those defaults,
+/// applies the keys present and rejects unknown keys and out-of-range values with an InputError naming file and key.
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rmpmarl/rmp/joint_layer.h"
+#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/sim/scenario.h"
+
+namespace rmpmarl::rl {
+
+/// How the agents act (the three learners of the paper's comparison).
+enum class InterfaceMode {
+  kPerJointRmp,     ///< `per-joint-rmp`: one agent per joint choosing an RMP option + gain/priority scales (MARL-RMP)
+  kDirect,          ///< `direct`: one agent commanding every Δq_i, no RMPs (the PPO baseline)
+  kPerJointDirect,  ///< `per-joint-direct`: one agent per joint commanding its own Δq_i, no RMPs (MARL-PPO)
+};
+
+/// How a running option ends (besides its built-in conditions, docs/environments.md).
+enum class OptionTermination {
+  kLearned,  ///< the action's termination flag (≥ 0.5) ends the option after the step
+  kFixed,    ///< the option runs exactly `horizon` steps (no termination flag in the action)
+};
+
+/// Which scenario moves target and obstacles.
+enum class TaskKind {
+  kPretrain2Link,  ///< `pretrain-2link`: planar2, target in linear motion, one obstacle on the target's path (IV.A)
+  kReachAvoid,     ///< `reach-avoid`: moving target, up to four crossing cubes (IV.B; sim::CrossingScenario)
+  kLineCrossing,   ///< `line-crossing`: a line of cubes crossing at speed v, stop on impact (IV.C, Table 4)
+  kCluttered,      ///< `cluttered`: static cubes 20–50 cm around the start end effector (IV.C)
+};
+
+/// When the scenario moves obstacles and target inside one env step.
+enum class ScenarioUpdate {
+  kPhysicsStep,  ///< after every physics timestep (smooth motion; one extra mj_step1 per timestep)
+  kControlStep,  ///< once per env step by the control period (cheaper; obstacles jump v·T)
+};
+
+/// "per-joint-rmp", "direct", "per-joint-direct".
+std::string_view InterfaceModeName(InterfaceMode mode);
+/// "learned", "fixed".
+std::string_view OptionTerminationName(OptionTermination termination);
+/// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".
+std::string_view TaskKindName(TaskKind kind);
+
+/// Episode timing and ending.
+struct EpisodeConfig {
+  int max_steps = 500;                  ///< truncation horizon [env steps], ≥ 1
+  double control_rate = 100.0;          ///< env steps per simulated second [Hz]; period = whole physics timesteps
+  double physics_timestep = 0.002;      ///< MuJoCo timestep [s]
+  bool terminate_on_collision = false;  ///< end the episode at the first collision event
+  double discount = 0.99;               ///< γ, in (0, 1]
+  ScenarioUpdate scenario_update = ScenarioUpdate::kPhysicsStep;
+  /// success also needs the final tracking error below this [m] (+inf: success = no collision, not invalid).
+  double success_max_final_error = std::numeric_limits<double>::infinity();
+};
+
+/// The per-joint-rmp action (options, docs/environments.md).
+struct OptionConfig {
+  OptionTermination termination = OptionTermination::kLearned;
+  /// fixed: the option length [steps]; learned: only the normaliser of the `option_age` observation. ≥ 1.
+  int horizon = 10;
+  /// scale = exp(clip(u, −1, 1) · ln gain_range) for every gain/priority parameter u, so scale ∈ [1/g, g]. ≥ 1.
+  double gain_range = 4.0;
+};
+
+/// The direct and per-joint-direct actions: Δq_i = clip(u_i, −1, 1) · max_speed_fraction · v_max,i · T.
+struct DirectConfig {
+  double max_speed_fraction = 1.0;  ///< (0, 1]
+};
+
+/// Observation scaling (every feature O(1), docs/environments.md).
+struct ObservationConfig {
+  double length_scale = 0.5;      ///< ℓ [m]: positions and levers are divided by it
+  double speed_scale = 1.0;       ///< v_s [m/s]: linear velocities are divided by it
+  double warning_distance = 0.15; ///< [m] the sensing margin of the World (paper: 15 cm warning distance)
+  int max_obstacles = 4;          ///< obstacle slots of the global state (≥ the scenario's obstacle count)
+};
+
+/// Reward of eq (14): r = Σ δ_i R_i + γ_d R_d + R_t − φ (every term logged separately).
+struct RewardConfig {
+  std::vector<double> joint_reach_weights = {1.0};  ///< δ_i: one value (every joint) or one per joint, ≥ 0
+  double joint_reach_tolerance = 1e-4;  ///< η [m]: R_i = 1 needs the sub-target residual to shrink by more
+  double distance_weight = 1.0;         ///< γ_d ≥ 0 (0 disables R_d)
+  double distance_unit = 0.001;         ///< R_d = (d_prev − d)/unit: one point per 0.1 cm [m], > 0
+  double time_reward = 25.0;            ///< R_t when a reach cycle is shorter than the previous one, ≥ 0
+  double reach_tolerance = 0.02;        ///< a reach cycle ends when d ≤ this [m], > 0
+  double reach_release = 0.04;          ///< a new cycle starts when d > this after a reach [m], > reach_tolerance
+  double collision_penalty = 75.0;      ///< φ per collision event, ≥ 0
+};
+
+/// Planar two-link arm parameters (robot: planar2).
+struct Planar2Config {
+  std::array<double, 2> link1_length = {0.5, 0.5};  ///< [min, max] for domain randomisation [m]
+  std::array<double, 2> link2_length = {0.5, 0.5};
+  double link_radius = 0.04;
+  double joint_limit = 3.0;
+  double velocity_limit = 3.0;
+};
+
+/// Domain randomisation (paper III.F, Table 2), drawn per reset.
+struct RandomizationConfig {
+  /// K robot variants built once per TaskContext (one WorldModel each); one is picked per reset. ≥ 1.
+  int variants = 1;
+  bool include_nominal = true;          ///< variant 0 is the unscaled robot
+  std::uint64_t seed = 0;               ///< seed of the variant draw (fixed per task, not per env)
+  /// URDF arms: uniform geometric scale of every joint offset, capsule (end points and radius) and the end-effector
+  /// offset, drawn in [min, max] per variant. planar2 draws its two link lengths instead (Planar2Config).
+  std::array<double, 2> link_scale = {1.0, 1.0};
+  /// pre-training only: q0 = clamp(U(−spread, spread) around the start posture) [rad] (pretrain-2link only)
+  double initial_q_spread = 0.0;
+  /// pre-training: q̇0,i = U(−f, f) · v_max,i, f in [0, 1]
+  double initial_qd_fraction = 0.0;
+};
+
+/// The `pretrain-2link` scenario (docs/environments.md): a target in uniform linear motion in a random in-plane
+/// direction (reflected in the workspace box) and one cube placed on the target's path.
+struct PretrainScenarioOptions {
+  std::array<double, 2> target_speed = {0.05, 0.25};   ///< [m/s], per episode
+  double obstacle_side = 0.1;                          ///< cube side [m]
+  std::array<double, 2> obstacle_lead_time = {1.0, 3.0};  ///< the cube sits where the target will be after t [s]
+  std::array<double, 2> obstacle_speed = {0.0, 0.0};   ///< [m/s] (0: static), random in-plane direction
+  double start_clearance = 0.05;  ///< cube ≥ this from the arm at q0 [m]
+  double target_clearance = 0.0;  ///< cube surface ≥ this from the target's start [m]
+  int max_attempts = 1000;
+  sim::WorkspaceOptions workspace;
+};
+
+/// Scenario parameters of every kind (only the task's own part is read).
+struct ScenarioConfig {
+  PretrainScenarioOptions pretrain;
+  sim::CrossingOptions crossing;            ///< reach-avoid
+  sim::LineCrossingOptions line_crossing;   ///< line-crossing (speed ignored: see speeds)
+  sim::ClutteredOptions cluttered;
+  /// line-crossing: the line's speed is drawn per episode from this list [m/s] (the paper sweeps 0.2 … 2.8)
+  std::vector<double> line_speeds = {0.2, 0.6, 1.2, 1.8, 2.8};
+};
+
+/// The basic movement layer (paper RMPs, eqs 5–9) under the agents.
+struct BasicLayerConfig {
+  rmp::BasicRmpParams params;          ///< target_rmp, collision_rmp (defaults: see DefaultTaskConfig)
+  double relative_regularizer = 1e-6;  ///< λ rule of EvaluateJointLayer, > 0
+};
+
+/// A whole task.
+struct TaskConfig {
+  std::string source = "<defaults>";  ///< file it was loaded from (error messages)
+  TaskKind task = TaskKind::kReachAvoid;
+  std::string robot = "panda";        ///< "planar2" or a shipped arm (kinematics::ShippedRobotNames)
+  InterfaceMode interface = InterfaceMode::kPerJointRmp;
+  EpisodeConfig episode;
+  sim::ControllerOptions controller;  ///< control_rate is taken from episode.control_rate
+  OptionConfig options;
+  DirectConfig direct;
+  ObservationConfig observation;
+  RewardConfig reward;
+  RandomizationConfig randomization;
+  Planar2Config planar2;
+  ScenarioConfig scenario;
+  BasicLayerConfig basic_layer;
+};
+
+/// the task names in order: pretrain-2link, reach-avoid, line-crossing, cluttered.
+std::vector<std::string> TaskNames();
+/// the task called `name`; throws InputError listing the known names.
+TaskKind ParseTaskKind(std::string_view name);
+/// the defaults of a task (equal to configs/tasks/<task>.yaml).
+TaskConfig DefaultTaskConfig(TaskKind task);
+/// configs/tasks/ (beside the models directory, like configs/rmpflow/).
+std::filesystem::path TaskConfigDirectory();
+/// configs/tasks/<name>.yaml.
+std::filesystem::path TaskConfigPath(std::string_view name);
+/// loads a task file: `task:` picks the defaults, the other keys override them. Throws InputError naming the file
+/// and key for unknown keys, wrong types, non-finite or out-of-range values.
+TaskConfig LoadTaskConfig(const std::filesystem::path& path);
+/// the shipped config of a task: LoadTaskConfig(TaskConfigPath(name)).
+TaskConfig LoadShippedTaskConfig(std::string_view name);
+/// throws InputError naming `where` (a file) and the key unless every value is in range (called by the loader and
+/// by TaskContext for configs built in code).
+void ValidateTaskConfig(const TaskConfig& config, std::string_view where);
+
+}  // namespace rmpmarl::rl

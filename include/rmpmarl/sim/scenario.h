@@ -1,0 +1,310 @@
+#pragma once
+/// The scenarios of the paper's experiments (section IV; docs/control.md): a target in uniform linear motion inside a
+/// per-robot workspace box, cube obstacles crossing the workspace, a line of obstacles crossing it where an obstacle
+/// that hits the robot stops at the point of impact (Fig. 7), cluttered static obstacles, and static set-ups for
+/// tests. A Scenario is a plain, seeded, step-able object: Reset(seed) draws an episode, Advance(dt) moves obstacles
+/// and target and writes their poses into the World's mocap bodies, FillScene() gives the policies the same obstacles
+/// and target with their velocities. Scenarios are reusable by the RL environments (one Scenario per World).
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <random>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rmp/scene.h"
+#include "rmpmarl/sim/mjcf.h"
+#include "rmpmarl/sim/world.h"
+
+namespace rmpmarl::sim {
+
+/// How the target workspace box is derived from the robot's reach R (in the robot's front frame: x forward).
+struct WorkspaceOptions {
+  double near = 0.35;         ///< the box spans [near·R, far·R] along the front axis from the base z axis
+  double far = 0.75;
+  double half_width = 0.4;    ///< and ± half_width·R sideways
+  double half_height = 0.25;  ///< |z − z_S| ≤ half_height·R, z_S the shoulder height
+  double min_height = 0.1;    ///< and z ≥ min_height [m] (above the base plane; spatial arms only)
+  int samples = 4000;         ///< random configurations sampled for the reach (fixed internal seed)
+};
+
+/// The region in front of a robot where targets move and obstacles cross (docs/control.md).
+struct Workspace {
+  Eigen::Vector3d p_WS = Eigen::Vector3d::Zero();  ///< shoulder point (0, 0, z of the link moved by dof 1 at q = 0)
+  /// the front axis: of ±x, ±y the one closest to the horizontal direction of the end effector at the start posture
+  Eigen::Vector3d front = Eigen::Vector3d::UnitX();
+  double reach = 0.0;             ///< R = max ‖p_WE − p_WS‖ over the sampled configurations [m]
+  double horizontal_reach = 0.0;  ///< max horizontal distance of the end effector from the base z axis [m]
+  bool planar = false;            ///< the end effector stays in a plane z = const (planar2); box.z is that plane
+  Eigen::AlignedBox3d box;        ///< the target region (axis-aligned, since `front` is)
+
+  /// the horizontal axis to the left of `front`: z × front.
+  Eigen::Vector3d lateral() const { return Eigen::Vector3d(-front.y(), front.x(), 0.0); }
+};
+
+/// the workspace of `robot` whose start posture is q_start (deterministic). Throws InputError for bad options.
+Workspace MakeWorkspace(const kinematics::Robot& robot, const Eigen::VectorXd& q_start,
+                        const WorkspaceOptions& options = {});
+
+/// the start posture of the scenarios: the `home` of the robot's shipped RMPflow config
+/// (configs/rmpflow/<robot>.yaml) when it has one, else the middle of each joint's limits (0 for continuous joints).
+Eigen::VectorXd ReadyConfiguration(const kinematics::Robot& robot);
+
+/// The end-effector target of an episode: p_WT moves with constant v_WT and is reflected at the faces of `bounds`
+/// (velocity component flipped); along a degenerate axis of `bounds` the coordinate is pinned.
+struct TargetState {
+  Eigen::Vector3d p_WT = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v_WT = Eigen::Vector3d::Zero();  ///< [m/s]
+  Eigen::AlignedBox3d bounds;                       ///< reflection box (only used while v_WT ≠ 0)
+};
+
+/// One obstacle of an episode. Its centre moves along the line p_start + s·direction with ṡ = speed (s < 0: still on
+/// its way to the start of the path, outside the robot's reach); at s > path_length the scenario re-draws the path
+/// or wraps s back by `wrap`. An obstacle with stop_on_impact that collides with the robot stops for the rest of the
+/// episode (paper Fig. 7).
+struct ObstacleState {
+  Eigen::Vector3d p_start = ParkedPose().translation();
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitX();  ///< unit
+  Eigen::Matrix3d R_WO = Eigen::Matrix3d::Identity();     ///< orientation of the obstacle centre frame
+  double speed = 0.0;        ///< [m/s] ≥ 0; 0: static
+  double s = 0.0;            ///< arc length along the path [m]
+  double path_length = 0.0;  ///< [m]
+  double wrap = 0.0;         ///< at s > path_length: s −= wrap (> 0), or the scenario re-draws the path (0)
+  bool stop_on_impact = false;
+  bool stopped = false;      ///< hit the robot and stopped (stop_on_impact)
+  double stop_time = -1.0;   ///< scenario time of the impact [s], −1 before
+  int paths = 1;             ///< paths travelled so far (1 + re-draws/wraps)
+
+  Eigen::Vector3d p_WO() const { return p_start + s * direction; }
+  Eigen::Vector3d v_WO() const { return (stopped ? 0.0 : speed) * direction; }
+};
+
+/// Base of every scenario: owns the episode state and its RNG (std::mt19937_64, seeded by Reset only).
+class Scenario {
+ public:
+  virtual ~Scenario();
+  Scenario(const Scenario&) = delete;
+  Scenario& operator=(const Scenario&) = delete;
+
+  /// registry name ("crossing", ...).
+  const std::string& name() const { return name_; }
+  /// obstacle shapes/sizes (parked) and the target marker: build the WorldModel from this.
+  const SceneSpec& scene_spec() const { return spec_; }
+  int num_obstacles() const { return static_cast<int>(spec_.obstacles.size()); }
+  const kinematics::Robot& robot() const { return robot_; }
+  const Workspace& workspace() const { return workspace_; }
+  /// a sensible episode length for this scenario [s] (the CLI's default).
+  double default_duration() const { return default_duration_; }
+
+  /// draws episode `seed` (same seed → the same episode), resets the world's robot to q_start() with q̇ = 0 and
+  /// places obstacles and target. Throws InputError when `world` was not built from scene_spec() and robot().
+  void Reset(std::uint64_t seed, World& world);
+  /// advances the scenario by dt [s]: obstacles with stop_on_impact that collide in `contacts` (the report of the
+  /// world's current state) stop where they are; the others move; the target moves and reflects. Writes the new
+  /// poses of what moved into `world`. Allocates nothing.  \pre Reset.
+  void Advance(double dt, const ContactReport& contacts, World& world);
+  /// the obstacles (shape, pose, velocity) and the target (position, velocity) as the policies see them. Allocates
+  /// only when scene->obstacles has to grow.
+  void FillScene(rmp::Scene* scene) const;
+
+  /// scenario time since Reset [s].
+  double time() const { return time_; }
+  const Eigen::VectorXd& q_start() const { return q_start_; }
+  const TargetState& target() const { return target_; }
+  const std::vector<ObstacleState>& obstacles() const { return obstacles_; }
+  /// the obstacle as an rmp::Obstacle (shape from scene_spec(), pose and velocity from obstacles()).
+  rmp::Obstacle ObstacleAsRmp(int j) const;
+
+ protected:
+  /// `spec` fixes the obstacle shapes; q_start defaults to ReadyConfiguration(robot) when empty.
+  Scenario(std::string name, const kinematics::Robot& robot, SceneSpec spec, double default_duration,
+           const WorkspaceOptions& workspace, const Eigen::VectorXd& q_start);
+
+  /// draws a new episode into q_start_, target_ and obstacles_ (already sized num_obstacles()); time_ = 0.
+  virtual void Draw(std::mt19937_64& rng) = 0;
+  /// obstacle j passed the end of its path and has wrap == 0: re-draw its path (default: it stays at the end).
+  virtual void OnPathEnd(int j, std::mt19937_64& rng);
+
+  /// a random unit direction: uniform on the sphere, or on the circle z = 0 for a planar workspace.
+  Eigen::Vector3d RandomDirection(std::mt19937_64& rng) const;
+  /// a uniform random point of the workspace box.
+  Eigen::Vector3d RandomWorkspacePoint(std::mt19937_64& rng) const;
+  /// a target starting at a random workspace point moving at `speed` in a random direction, reflected in the box.
+  TargetState RandomMovingTarget(double speed, std::mt19937_64& rng) const;
+  /// smallest signed distance between the robot's capsules at q and obstacle j placed at p_WO (shape from spec).
+  double RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Vector3d& p_WO) const;
+  /// end-effector position at q.
+  Eigen::Vector3d EndEffectorAt(const Eigen::VectorXd& q) const;
+
+  std::string name_;
+  kinematics::Robot robot_;
+  Workspace workspace_;
+  SceneSpec spec_;
+  double default_duration_ = 10.0;
+  Eigen::VectorXd q_start_;
+  std::mt19937_64 rng_;
+  double time_ = 0.0;
+  TargetState target_;
+  std::vector<ObstacleState> obstacles_;
+};
+
+/// Options of `static-reach`: a static target at the end effector of a random configuration near the start posture
+/// (reachable by construction, away from singularities and self-collision), optionally with one obstacle in the
+/// middle of the straight segment from the start end-effector position to the target.
+struct StaticReachOptions {
+  Eigen::VectorXd q_start;            ///< empty: ReadyConfiguration(robot)
+  double joint_spread = 1.0;          ///< q_goal,i = q_start,i + U(−spread, spread) [rad or m] ...
+  double limit_margin = 0.2;          ///< ... clamped this far inside the joint limits
+  double min_distance = 0.25;         ///< ‖p_WT − p_WE(q_start)‖ ≥ this [m]
+  double min_singular_value = 0.1;    ///< smallest singular value of the end-effector position Jacobian at q_goal
+  double min_self_clearance = 0.02;   ///< [m] between checked link pairs at q_goal
+  double min_height = 0.05;           ///< capsules of links moved by ≥ 2 dofs above z = this at q_goal [m] (spatial arms)
+  bool obstacle_on_path = false;      ///< one obstacle at the midpoint of the segment p_WE(q_start) → p_WT
+  ObstacleSpec obstacle = ObstacleSpec::Sphere(0.04);  ///< its shape and size (the pose is drawn)
+  double obstacle_clearance = 0.05;   ///< the obstacle is this far from the arm at q_start and q_goal [m]
+  int max_attempts = 20000;           ///< draws before giving up (InputError)
+  WorkspaceOptions workspace;
+};
+
+/// `static-reach` (and `static-obstacle` with obstacle_on_path).
+class StaticReachScenario final : public Scenario {
+ public:
+  StaticReachScenario(const kinematics::Robot& robot, const StaticReachOptions& options = {});
+  /// the configuration whose end effector is the target of the current episode.
+  const Eigen::VectorXd& q_goal() const { return q_goal_; }
+  const StaticReachOptions& options() const { return options_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  StaticReachOptions options_;
+  Eigen::VectorXd q_goal_;
+};
+
+/// Options of a fully specified static set-up (tests): fixed start, target and obstacles; no randomness.
+struct StaticSceneOptions {
+  Eigen::VectorXd q_start;                  ///< empty: ReadyConfiguration(robot)
+  Eigen::Vector3d p_WT = Eigen::Vector3d(0.4, 0.0, 0.4);
+  std::vector<ObstacleSpec> obstacles;      ///< with their poses X_WO
+};
+
+/// `static`: the set-up of StaticSceneOptions (not in the registry: it needs explicit data).
+class StaticScenario final : public Scenario {
+ public:
+  StaticScenario(const kinematics::Robot& robot, const StaticSceneOptions& options);
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  StaticSceneOptions options_;
+};
+
+/// Options of `crossing` (the default): the paper's moving-target tracking with four cube obstacles crossing the
+/// workspace on straight horizontal lines, each re-drawn when it leaves.
+struct CrossingOptions {
+  int num_obstacles = 4;            ///< the paper's red, green, yellow and blue cubes
+  double obstacle_side = 0.1;       ///< cube side [m]
+  double obstacle_speed = 0.3;      ///< [m/s]
+  double target_speed = 0.1;        ///< [m/s], random direction, reflected in the workspace box
+  double min_base_distance = 0.3;   ///< every path passes at least this far from the base z axis (horizontally) [m]
+  double spawn_margin = 0.3;        ///< paths start and end this far outside the horizontal reach [m]
+  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace;
+};
+
+/// `crossing`.
+class CrossingScenario final : public Scenario {
+ public:
+  CrossingScenario(const kinematics::Robot& robot, const CrossingOptions& options = {});
+  const CrossingOptions& options() const { return options_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  void OnPathEnd(int j, std::mt19937_64& rng) override;
+  // a new horizontal path through a random workspace point for obstacle j (s = 0 at its start).
+  void DrawPath(int j, std::mt19937_64& rng);
+  CrossingOptions options_;
+};
+
+/// Options of `line-crossing` (paper section IV-C, Table 4, Fig. 7): a line of cubes, one behind the other, crossing
+/// the workspace sideways at `speed`, repeatedly; an obstacle that hits the robot stops at the point of impact.
+struct LineCrossingOptions {
+  int num_obstacles = 5;
+  double obstacle_side = 0.08;      ///< cube side [m]
+  double spacing = 0.25;            ///< centre-to-centre distance along the line [m]
+  double speed = 0.6;               ///< [m/s]; the paper sweeps 0.2, 0.6, 1.2, 1.8, 2.8
+  double target_speed = 0.1;        ///< [m/s]
+  double max_yaw_deg = 30.0;        ///< the line runs sideways (±Workspace::lateral()) turned by U(±max_yaw) about z
+  double min_base_distance = 0.3;   ///< the line passes at least this far from the base z axis [m]
+  double spawn_margin = 0.3;        ///< the line starts and ends this far outside the horizontal reach [m]
+  bool stop_on_impact = true;
+  bool repeat = true;               ///< the line crosses again and again (false: once)
+  /// the line passes through this point (e.g. the start end-effector position); unset: a random workspace point
+  std::optional<Eigen::Vector3d> through;
+  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace;
+};
+
+/// `line-crossing`.
+class LineCrossingScenario final : public Scenario {
+ public:
+  LineCrossingScenario(const kinematics::Robot& robot, const LineCrossingOptions& options = {});
+  const LineCrossingOptions& options() const { return options_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  LineCrossingOptions options_;
+};
+
+/// Options of `cluttered` (paper section IV-C): static cubes at random distances of 20–50 cm from the start
+/// end-effector position, in uniformly random directions (lateral and vertical), while the target moves.
+struct ClutteredOptions {
+  int num_obstacles = 6;
+  double obstacle_side = 0.08;      ///< cube side [m]
+  double min_distance = 0.2;        ///< obstacle centre distance from p_WE(q_start) [m]
+  double max_distance = 0.5;
+  double target_speed = 0.1;        ///< [m/s]
+  double start_clearance = 0.05;    ///< obstacles are this far from the arm at q_start [m]
+  double target_clearance = 0.05;   ///< and their surface this far from the target's start [m]
+  int max_attempts = 20000;
+  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace;
+};
+
+/// `cluttered`.
+class ClutteredScenario final : public Scenario {
+ public:
+  ClutteredScenario(const kinematics::Robot& robot, const ClutteredOptions& options = {});
+  const ClutteredOptions& options() const { return options_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  ClutteredOptions options_;
+};
+
+/// Generic overrides a command line can apply to any registered scenario (unset: the scenario's default).
+struct ScenarioOverrides {
+  std::optional<double> obstacle_speed;  ///< [m/s] (crossing, line-crossing)
+  std::optional<double> target_speed;    ///< [m/s] (crossing, line-crossing, cluttered)
+  std::optional<int> num_obstacles;      ///< (crossing, line-crossing, cluttered)
+};
+
+/// Makes a scenario for a robot.
+using ScenarioFactory =
+    std::function<std::unique_ptr<Scenario>(const kinematics::Robot& robot, const ScenarioOverrides& overrides)>;
+
+/// the default scenario of the CLI.
+inline constexpr std::string_view kDefaultScenario = "crossing";
+
+/// registered scenario names in registration order: crossing, line-crossing, cluttered, static-reach,
+/// static-obstacle, then any added by RegisterScenario.
+std::vector<std::string> ScenarioNames();
+/// the scenario called `name`; throws InputError listing the known names.
+std::unique_ptr<Scenario> MakeScenario(std::string_view name, const kinematics::Robot& robot,
+                                       const ScenarioOverrides& overrides = {});
+/// adds a scenario to the registry (not thread-safe; call at start-up). Throws InputError for a taken name.
+void RegisterScenario(const std::string& name, ScenarioFactory factory);
+
+}  // namespace rmpmarl::sim

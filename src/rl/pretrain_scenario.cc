@@ -1,0 +1,104 @@
+// The pre-training scenario: moving target, one cube on its path.
+#include "rmpmarl/rl/pretrain_scenario.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+sim::SceneSpec PretrainScene(const PretrainScenarioOptions& o) {
+  sim::SceneSpec spec;
+  spec.obstacles.push_back(sim::ObstacleSpec::Cube(o.obstacle_side));
+  spec.has_target = true;
+  return spec;
+}
+
+double Uniform(std::mt19937_64& rng, const std::array<double, 2>& range) {
+  return range[1] > range[0] ? std::uniform_real_distribution<double>(range[0], range[1])(rng) : range[0];
+}
+
+}  // namespace
+
+Eigen::Vector3d ReflectedPosition(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t,
+                                  const Eigen::AlignedBox3d& box) {
+  Eigen::Vector3d out;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = box.min()[a], hi = box.max()[a];
+    if (!(hi > lo)) {
+      out[a] = lo;
+      continue;
+    }
+    // unfold: a triangle wave of period 2L over the box
+    const double L = hi - lo;
+    double x = std::fmod(p[a] - lo + v[a] * t, 2.0 * L);
+    if (x < 0.0) x += 2.0 * L;
+    out[a] = lo + (x <= L ? x : 2.0 * L - x);
+  }
+  return out;
+}
+
+PretrainScenario::PretrainScenario(const kinematics::Robot& robot, const PretrainScenarioOptions& options)
+    : Scenario("pretrain-2link", robot, PretrainScene(options), 8.0, options.workspace, Eigen::VectorXd()),
+      options_(options),
+      ready_(q_start_) {
+  ValidateTaskConfig([&] {
+    TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+    c.scenario.pretrain = options;
+    return c;
+  }(), "PretrainScenarioOptions");
+}
+
+void PretrainScenario::SetNextStart(const Eigen::VectorXd& q0) {
+  const kinematics::Model& m = robot_.model;
+  if (q0.size() == 0) {
+    q_start_ = ready_;
+    return;
+  }
+  if (q0.size() != m.nq() || !q0.allFinite()) {
+    throw InputError(fmt::format("PretrainScenario::SetNextStart: expected {} finite values, got {}", m.nq(),
+                                 q0.size()));
+  }
+  q_start_ = q0.cwiseMax(m.LowerLimits()).cwiseMin(m.UpperLimits());
+}
+
+void PretrainScenario::Draw(std::mt19937_64& rng) {
+  const PretrainScenarioOptions& o = options_;
+  const double half_diagonal = 0.5 * o.obstacle_side * std::sqrt(3.0);
+  double best_clearance = -std::numeric_limits<double>::infinity();
+  sim::TargetState best_target;
+  Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
+  for (int attempt = 0; attempt < o.max_attempts; ++attempt) {
+    const sim::TargetState t = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
+    const Eigen::Vector3d p = ReflectedPosition(t.p_WT, t.v_WT, Uniform(rng, o.obstacle_lead_time), t.bounds);
+    if ((p - t.p_WT).norm() - half_diagonal < o.target_clearance) continue;
+    const double clearance = RobotClearance(q_start_, 0, p);
+    if (clearance > best_clearance) {
+      best_clearance = clearance;
+      best_target = t;
+      best_p = p;
+    }
+    if (clearance >= o.start_clearance) break;
+  }
+  if (!std::isfinite(best_clearance)) {  // no draw kept its distance from the target: use a last plain draw
+    best_target = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
+    best_p = ReflectedPosition(best_target.p_WT, best_target.v_WT, Uniform(rng, o.obstacle_lead_time),
+                               best_target.bounds);
+  }
+  target_ = best_target;
+  sim::ObstacleState& cube = obstacles_[0];
+  cube.p_start = best_p;
+  cube.R_WO.setIdentity();
+  cube.s = 0.0;
+  cube.speed = Uniform(rng, o.obstacle_speed);
+  cube.direction = cube.speed > 0.0 ? RandomDirection(rng) : Eigen::Vector3d::UnitX();
+  cube.path_length = cube.speed > 0.0 ? 100.0 : 0.0;  // far beyond any episode: it just keeps going
+  cube.wrap = 0.0;
+}
+
+}  // namespace rmpmarl::rl

@@ -1,0 +1,660 @@
+// Task configurations: defaults per task, YAML loading with file/key messages, validation.
+#include "rmpmarl/rl/task_config.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <initializer_list>
+#include <set>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/robot.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// reads YAML nodes; every message names the file, line and dotted key.
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key, const std::string& message) const {
+    if (node.IsDefined() && node.Mark().line >= 0) {
+      throw InputError(fmt::format("{}:{}: key '{}': {}", file_, node.Mark().line + 1, key, message));
+    }
+    throw InputError(fmt::format("{}: key '{}': {}", file_, key, message));
+  }
+
+  void CheckKeys(const YAML::Node& map, const std::string& key, const std::set<std::string>& allowed) const {
+    if (!map.IsMap()) Fail(map, key.empty() ? "<root>" : key, "expected a mapping");
+    for (const auto& entry : map) {
+      const std::string name = entry.first.as<std::string>();
+      if (!allowed.count(name)) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        Fail(entry.first, key.empty() ? name : key + "." + name,
+             fmt::format("unknown key (expected one of: {})", list));
+      }
+    }
+  }
+
+  double Number(const YAML::Node& node, const std::string& key, bool allow_inf = false) const {
+    double value = 0.0;
+    if (!node.IsScalar() || !YAML::convert<double>::decode(node, value)) {
+      Fail(node, key, fmt::format("expected a number, got '{}'", node.IsScalar() ? node.Scalar() : "non-scalar"));
+    }
+    if (std::isnan(value) || (!allow_inf && !std::isfinite(value))) {
+      Fail(node, key, fmt::format("expected a finite number, got {}", node.Scalar()));
+    }
+    return value;
+  }
+
+  int Integer(const YAML::Node& node, const std::string& key) const {
+    const double value = Number(node, key);
+    if (value != std::round(value) || std::abs(value) > 1e9) {
+      Fail(node, key, fmt::format("expected an integer, got {}", node.Scalar()));
+    }
+    return static_cast<int>(value);
+  }
+
+  bool Bool(const YAML::Node& node, const std::string& key) const {
+    bool value = false;
+    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+      Fail(node, key, fmt::format("expected true or false, got '{}'", node.IsScalar() ? node.Scalar() : "non-scalar"));
+    }
+    return value;
+  }
+
+  std::string String(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsScalar()) Fail(node, key, "expected a string");
+    return node.Scalar();
+  }
+
+  std::array<double, 2> Range(const YAML::Node& node, const std::string& key) const {
+    if (node.IsScalar()) {
+      const double v = Number(node, key);
+      return {v, v};
+    }
+    if (!node.IsSequence() || node.size() != 2) Fail(node, key, "expected [min, max] or a single number");
+    const std::array<double, 2> r = {Number(node[0], key + "[0]"), Number(node[1], key + "[1]")};
+    if (r[0] > r[1]) Fail(node, key, fmt::format("expected min <= max, got [{}, {}]", r[0], r[1]));
+    return r;
+  }
+
+  std::vector<double> List(const YAML::Node& node, const std::string& key) const {
+    if (node.IsScalar()) return {Number(node, key)};
+    if (!node.IsSequence() || node.size() == 0) Fail(node, key, "expected a number or a non-empty list of numbers");
+    std::vector<double> values;
+    for (size_t i = 0; i < node.size(); ++i) values.push_back(Number(node[i], fmt::format("{}[{}]", key, i)));
+    return values;
+  }
+
+  // an enumeration value among `names`.
+  int Choice(const YAML::Node& node, const std::string& key, std::initializer_list<std::string_view> names) const {
+    const std::string value = String(node, key);
+    int i = 0;
+    std::string list;
+    for (std::string_view n : names) {
+      if (value == n) return i;
+      list += fmt::format("{}'{}'", i == 0 ? "" : ", ", n);
+      ++i;
+    }
+    Fail(node, key, fmt::format("expected one of {}, got '{}'", list, value));
+  }
+
+ private:
+  std::string file_;
+};
+
+// a numeric/bool field of a section: key and setter.
+struct Field {
+  std::string key;
+  std::function<void(const YAML::Node&, const std::string&)> read;
+};
+
+// reads a mapping whose allowed keys are exactly `fields`.
+void ReadSection(const Reader& r, const YAML::Node& node, const std::string& key, const std::vector<Field>& fields) {
+  std::set<std::string> allowed;
+  for (const Field& f : fields) allowed.insert(f.key);
+  r.CheckKeys(node, key, allowed);
+  for (const Field& f : fields) {
+    if (const YAML::Node value = node[f.key]) f.read(value, key + "." + f.key);
+  }
+}
+
+Field Num(const Reader& r, std::string key, double* target, bool allow_inf = false) {
+  return {key, [&r, target, allow_inf](const YAML::Node& n, const std::string& k) { *target = r.Number(n, k, allow_inf); }};
+}
+Field Int(const Reader& r, std::string key, int* target) {
+  return {key, [&r, target](const YAML::Node& n, const std::string& k) { *target = r.Integer(n, k); }};
+}
+Field Flag(const Reader& r, std::string key, bool* target) {
+  return {key, [&r, target](const YAML::Node& n, const std::string& k) { *target = r.Bool(n, k); }};
+}
+Field Rng(const Reader& r, std::string key, std::array<double, 2>* target) {
+  return {key, [&r, target](const YAML::Node& n, const std::string& k) { *target = r.Range(n, k); }};
+}
+
+Field Workspace(const Reader& r, sim::WorkspaceOptions* w) {
+  return {"workspace", [&r, w](const YAML::Node& n, const std::string& k) {
+            ReadSection(r, n, k,
+                        {Num(r, "near", &w->near), Num(r, "far", &w->far), Num(r, "half_width", &w->half_width),
+                         Num(r, "half_height", &w->half_height), Num(r, "min_height", &w->min_height),
+                         Int(r, "samples", &w->samples)});
+          }};
+}
+
+void ReadTargetRmp(const Reader& r, const YAML::Node& node, const std::string& key, rmp::TargetRmpParams* p) {
+  std::vector<Field> fields = {Num(r, "accel_p_gain", &p->accel_p_gain),
+                               Num(r, "accel_d_gain", &p->accel_d_gain),
+                               Num(r, "accel_norm_eps", &p->accel_norm_eps),
+                               Num(r, "metric_alpha_length_scale", &p->metric_alpha_length_scale),
+                               Num(r, "min_metric_alpha", &p->min_metric_alpha),
+                               Num(r, "max_metric_scalar", &p->max_metric_scalar),
+                               Num(r, "min_metric_scalar", &p->min_metric_scalar),
+                               Num(r, "proximity_metric_boost_scalar", &p->proximity_metric_boost_scalar),
+                               Num(r, "proximity_metric_boost_length_scale", &p->proximity_metric_boost_length_scale)};
+  fields.push_back({"damping", [&r, p](const YAML::Node& n, const std::string& k) {
+                      p->damping = r.Choice(n, k, {"quadratic", "linear"}) == 0 ? rmp::TargetDamping::kQuadratic
+                                                                                : rmp::TargetDamping::kLinear;
+                    }});
+  ReadSection(r, node, key, fields);
+}
+
+void ReadCollisionRmp(const Reader& r, const YAML::Node& node, const std::string& key, rmp::CollisionRmpParams* p) {
+  ReadSection(r, node, key,
+              {Num(r, "repulsion_gain", &p->repulsion_gain), Num(r, "repulsion_std_dev", &p->repulsion_std_dev),
+               Num(r, "damping_gain", &p->damping_gain), Num(r, "damping_std_dev", &p->damping_std_dev),
+               Num(r, "damping_robustness_eps", &p->damping_robustness_eps),
+               Num(r, "damping_velocity_gate_length_scale", &p->damping_velocity_gate_length_scale),
+               Num(r, "metric_scalar", &p->metric_scalar),
+               Num(r, "metric_exploder_std_dev", &p->metric_exploder_std_dev),
+               Num(r, "metric_exploder_eps", &p->metric_exploder_eps),
+               Num(r, "metric_modulation_radius", &p->metric_modulation_radius)});
+}
+
+void ReadScenario(const Reader& r, const YAML::Node& node, TaskKind task, ScenarioConfig* s) {
+  const std::string key = "scenario";
+  switch (task) {
+    case TaskKind::kPretrain2Link: {
+      PretrainScenarioOptions& p = s->pretrain;
+      ReadSection(r, node, key,
+                  {Rng(r, "target_speed", &p.target_speed), Num(r, "obstacle_side", &p.obstacle_side),
+                   Rng(r, "obstacle_lead_time", &p.obstacle_lead_time), Rng(r, "obstacle_speed", &p.obstacle_speed),
+                   Num(r, "start_clearance", &p.start_clearance), Num(r, "target_clearance", &p.target_clearance),
+                   Int(r, "max_attempts", &p.max_attempts), Workspace(r, &p.workspace)});
+      break;
+    }
+    case TaskKind::kReachAvoid: {
+      sim::CrossingOptions& c = s->crossing;
+      ReadSection(r, node, key,
+                  {Int(r, "num_obstacles", &c.num_obstacles), Num(r, "obstacle_side", &c.obstacle_side),
+                   Num(r, "obstacle_speed", &c.obstacle_speed), Num(r, "target_speed", &c.target_speed),
+                   Num(r, "min_base_distance", &c.min_base_distance), Num(r, "spawn_margin", &c.spawn_margin),
+                   Workspace(r, &c.workspace)});
+      break;
+    }
+    case TaskKind::kLineCrossing: {
+      sim::LineCrossingOptions& l = s->line_crossing;
+      std::vector<Field> fields = {
+          Int(r, "num_obstacles", &l.num_obstacles), Num(r, "obstacle_side", &l.obstacle_side),
+          Num(r, "spacing", &l.spacing), Num(r, "target_speed", &l.target_speed),
+          Num(r, "max_yaw_deg", &l.max_yaw_deg), Num(r, "min_base_distance", &l.min_base_distance),
+          Num(r, "spawn_margin", &l.spawn_margin), Flag(r, "stop_on_impact", &l.stop_on_impact),
+          Flag(r, "repeat", &l.repeat), Workspace(r, &l.workspace)};
+      fields.push_back({"speeds", [&r, s](const YAML::Node& n, const std::string& k) { s->line_speeds = r.List(n, k); }});
+      ReadSection(r, node, key, fields);
+      break;
+    }
+    case TaskKind::kCluttered: {
+      sim::ClutteredOptions& c = s->cluttered;
+      ReadSection(r, node, key,
+                  {Int(r, "num_obstacles", &c.num_obstacles), Num(r, "obstacle_side", &c.obstacle_side),
+                   Num(r, "min_distance", &c.min_distance), Num(r, "max_distance", &c.max_distance),
+                   Num(r, "target_speed", &c.target_speed), Num(r, "start_clearance", &c.start_clearance),
+                   Num(r, "target_clearance", &c.target_clearance), Int(r, "max_attempts", &c.max_attempts),
+                   Workspace(r, &c.workspace)});
+      break;
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------- validation
+
+// throws "<where>: key '<key>': expected <expected>, got <got>" unless ok.
+class Checker {
+ public:
+  explicit Checker(std::string_view where) : where_(where) {}
+  template <typename T>
+  void operator()(bool ok, std::string_view key, std::string_view expected, const T& got) const {
+    if (!ok) throw InputError(fmt::format("{}: key '{}': expected {}, got {}", where_, key, expected, got));
+  }
+  void Range(const std::array<double, 2>& r, std::string_view key, double lo, double hi) const {
+    (*this)(std::isfinite(r[0]) && std::isfinite(r[1]) && r[0] >= lo && r[0] <= r[1] && r[1] <= hi, key,
+            fmt::format("[min, max] with {} <= min <= max <= {}", lo, hi), fmt::format("[{}, {}]", r[0], r[1]));
+  }
+  const std::string& where() const { return where_; }
+
+ private:
+  std::string where_;
+};
+
+void CheckWorkspace(const Checker& c, const sim::WorkspaceOptions& w, const std::string& key) {
+  c(std::isfinite(w.near) && w.near >= 0.0 && w.near < w.far, key + ".near", "0 <= near < far", w.near);
+  c(std::isfinite(w.far) && w.far <= 1.0, key + ".far", "far <= 1 (a fraction of the reach)", w.far);
+  c(std::isfinite(w.half_width) && w.half_width >= 0.0, key + ".half_width", ">= 0", w.half_width);
+  c(std::isfinite(w.half_height) && w.half_height >= 0.0, key + ".half_height", ">= 0", w.half_height);
+  c(std::isfinite(w.min_height), key + ".min_height", "a finite height", w.min_height);
+  c(w.samples >= 1 && w.samples <= 1000000, key + ".samples", "an integer in [1, 1000000]", w.samples);
+}
+
+int ScenarioObstacleCount(const TaskConfig& c) {
+  switch (c.task) {
+    case TaskKind::kPretrain2Link: return 1;
+    case TaskKind::kReachAvoid: return c.scenario.crossing.num_obstacles;
+    case TaskKind::kLineCrossing: return c.scenario.line_crossing.num_obstacles;
+    case TaskKind::kCluttered: return c.scenario.cluttered.num_obstacles;
+  }
+  return 0;
+}
+
+}  // namespace
+
+std::string_view InterfaceModeName(InterfaceMode mode) {
+  switch (mode) {
+    case InterfaceMode::kPerJointRmp: return "per-joint-rmp";
+    case InterfaceMode::kDirect: return "direct";
+    case InterfaceMode::kPerJointDirect: return "per-joint-direct";
+  }
+  return "?";
+}
+
+std::string_view OptionTerminationName(OptionTermination termination) {
+  return termination == OptionTermination::kLearned ? "learned" : "fixed";
+}
+
+std::string_view TaskKindName(TaskKind kind) {
+  switch (kind) {
+    case TaskKind::kPretrain2Link: return "pretrain-2link";
+    case TaskKind::kReachAvoid: return "reach-avoid";
+    case TaskKind::kLineCrossing: return "line-crossing";
+    case TaskKind::kCluttered: return "cluttered";
+  }
+  return "?";
+}
+
+std::vector<std::string> TaskNames() { return {"pretrain-2link", "reach-avoid", "line-crossing", "cluttered"}; }
+
+TaskKind ParseTaskKind(std::string_view name) {
+  for (TaskKind k : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered}) {
+    if (TaskKindName(k) == name) return k;
+  }
+  throw InputError(fmt::format("unknown task '{}': expected one of pretrain-2link, reach-avoid, line-crossing, "
+                               "cluttered", name));
+}
+
+TaskConfig DefaultTaskConfig(TaskKind task) {
+  TaskConfig c;
+  c.task = task;
+  // the paper's RMPs with the collision RMP switched off beyond the 15 cm warning distance (its sensor horizon)
+  c.basic_layer.params.collision.metric_modulation_radius = 0.15;
+  c.controller.max_substep = 0.01;  // one policy evaluation per 100 Hz control step
+  c.controller.control_rate = c.episode.control_rate;
+  switch (task) {
+    case TaskKind::kPretrain2Link:
+      c.robot = "planar2";
+      c.episode.max_steps = 400;
+      c.observation.max_obstacles = 1;
+      c.randomization.variants = 16;
+      c.planar2.link1_length = {0.3, 0.7};
+      c.planar2.link2_length = {0.3, 0.7};
+      c.randomization.initial_q_spread = 1.5;
+      c.randomization.initial_qd_fraction = 0.2;
+      c.scenario.pretrain.workspace.near = 0.2;
+      c.scenario.pretrain.workspace.far = 0.9;
+      c.scenario.pretrain.workspace.half_width = 0.6;
+      break;
+    case TaskKind::kReachAvoid:
+      c.robot = "panda";
+      c.episode.max_steps = 500;
+      c.observation.max_obstacles = 4;
+      c.randomization.variants = 8;
+      c.randomization.link_scale = {0.85, 1.15};
+      c.scenario.crossing.num_obstacles = 1;
+      c.scenario.crossing.obstacle_speed = 0.3;
+      c.scenario.crossing.target_speed = 0.1;
+      break;
+    case TaskKind::kLineCrossing:
+      c.robot = "panda";
+      c.episode.max_steps = 600;
+      c.observation.max_obstacles = 5;
+      c.scenario.line_crossing.num_obstacles = 5;
+      break;
+    case TaskKind::kCluttered:
+      c.robot = "panda";
+      c.episode.max_steps = 500;
+      c.observation.max_obstacles = 6;
+      c.scenario.cluttered.num_obstacles = 6;
+      break;
+  }
+  return c;
+}
+
+std::filesystem::path TaskConfigDirectory() {
+  return kinematics::ModelsDirectory().parent_path() / "configs" / "tasks";
+}
+
+std::filesystem::path TaskConfigPath(std::string_view name) {
+  return TaskConfigDirectory() / (std::string(name) + ".yaml");
+}
+
+TaskConfig LoadShippedTaskConfig(std::string_view name) {
+  ParseTaskKind(name);  // a clear message for an unknown task before the missing file
+  return LoadTaskConfig(TaskConfigPath(name));
+}
+
+TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw InputError(fmt::format("{}: cannot open task config (missing or unreadable)", file));
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
+  }
+  const Reader r(file);
+  r.CheckKeys(root, "",
+              {"task", "robot", "interface", "episode", "controller", "options", "direct", "observation", "reward",
+               "randomization", "planar2", "scenario", "rmp"});
+  const YAML::Node task_node = root["task"];
+  if (!task_node) r.Fail(root, "task", "missing (expected one of pretrain-2link, reach-avoid, line-crossing, cluttered)");
+  const std::string task_name = r.String(task_node, "task");
+  TaskKind task = TaskKind::kReachAvoid;
+  try {
+    task = ParseTaskKind(task_name);
+  } catch (const InputError& e) {
+    r.Fail(task_node, "task", e.what());
+  }
+  TaskConfig c = DefaultTaskConfig(task);
+  c.source = file;
+  if (const YAML::Node n = root["robot"]) c.robot = r.String(n, "robot");
+  if (const YAML::Node n = root["interface"]) {
+    c.interface = static_cast<InterfaceMode>(r.Choice(n, "interface", {"per-joint-rmp", "direct", "per-joint-direct"}));
+  }
+  if (const YAML::Node n = root["episode"]) {
+    EpisodeConfig& e = c.episode;
+    ReadSection(r, n, "episode",
+                {Int(r, "max_steps", &e.max_steps), Num(r, "control_rate", &e.control_rate),
+                 Num(r, "physics_timestep", &e.physics_timestep),
+                 Flag(r, "terminate_on_collision", &e.terminate_on_collision), Num(r, "discount", &e.discount),
+                 {"scenario_update",
+                  [&r, &e](const YAML::Node& v, const std::string& k) {
+                    e.scenario_update = r.Choice(v, k, {"physics", "control"}) == 0 ? ScenarioUpdate::kPhysicsStep
+                                                                                     : ScenarioUpdate::kControlStep;
+                  }},
+                 Num(r, "success_max_final_error", &e.success_max_final_error, /*allow_inf=*/true)});
+  }
+  c.controller.control_rate = c.episode.control_rate;
+  if (const YAML::Node n = root["controller"]) {
+    sim::ControllerOptions& o = c.controller;
+    ReadSection(r, n, "controller",
+                {Num(r, "max_substep", &o.max_substep),
+                 {"policy_input",
+                  [&r, &o](const YAML::Node& v, const std::string& k) {
+                    o.policy_input = r.Choice(v, k, {"commanded", "measured"}) == 0 ? sim::PolicyInput::kCommanded
+                                                                                    : sim::PolicyInput::kMeasured;
+                  }},
+                 Num(r, "velocity_limit_scale", &o.velocity_limit_scale),
+                 Num(r, "resync_threshold", &o.resync_threshold, /*allow_inf=*/true)});
+  }
+  if (const YAML::Node n = root["options"]) {
+    OptionConfig& o = c.options;
+    ReadSection(r, n, "options",
+                {{"termination",
+                  [&r, &o](const YAML::Node& v, const std::string& k) {
+                    o.termination = r.Choice(v, k, {"learned", "fixed"}) == 0 ? OptionTermination::kLearned
+                                                                              : OptionTermination::kFixed;
+                  }},
+                 Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range)});
+  }
+  if (const YAML::Node n = root["direct"]) {
+    ReadSection(r, n, "direct", {Num(r, "max_speed_fraction", &c.direct.max_speed_fraction)});
+  }
+  if (const YAML::Node n = root["observation"]) {
+    ObservationConfig& o = c.observation;
+    ReadSection(r, n, "observation",
+                {Num(r, "length_scale", &o.length_scale), Num(r, "speed_scale", &o.speed_scale),
+                 Num(r, "warning_distance", &o.warning_distance), Int(r, "max_obstacles", &o.max_obstacles)});
+  }
+  if (const YAML::Node n = root["reward"]) {
+    RewardConfig& w = c.reward;
+    ReadSection(r, n, "reward",
+                {{"joint_reach_weights",
+                  [&r, &w](const YAML::Node& v, const std::string& k) { w.joint_reach_weights = r.List(v, k); }},
+                 Num(r, "joint_reach_tolerance", &w.joint_reach_tolerance),
+                 Num(r, "distance_weight", &w.distance_weight), Num(r, "distance_unit", &w.distance_unit),
+                 Num(r, "time_reward", &w.time_reward), Num(r, "reach_tolerance", &w.reach_tolerance),
+                 Num(r, "reach_release", &w.reach_release), Num(r, "collision_penalty", &w.collision_penalty)});
+  }
+  if (const YAML::Node n = root["randomization"]) {
+    RandomizationConfig& d = c.randomization;
+    ReadSection(r, n, "randomization",
+                {Int(r, "variants", &d.variants), Flag(r, "include_nominal", &d.include_nominal),
+                 {"seed",
+                  [&r, &d](const YAML::Node& v, const std::string& k) {
+                    const int seed = r.Integer(v, k);
+                    if (seed < 0) r.Fail(v, k, fmt::format("expected an integer >= 0, got {}", seed));
+                    d.seed = static_cast<std::uint64_t>(seed);
+                  }},
+                 Rng(r, "link_scale", &d.link_scale), Num(r, "initial_q_spread", &d.initial_q_spread),
+                 Num(r, "initial_qd_fraction", &d.initial_qd_fraction)});
+  }
+  if (const YAML::Node n = root["planar2"]) {
+    Planar2Config& p = c.planar2;
+    ReadSection(r, n, "planar2",
+                {Rng(r, "link1_length", &p.link1_length), Rng(r, "link2_length", &p.link2_length),
+                 Num(r, "link_radius", &p.link_radius), Num(r, "joint_limit", &p.joint_limit),
+                 Num(r, "velocity_limit", &p.velocity_limit)});
+  }
+  if (const YAML::Node n = root["scenario"]) ReadScenario(r, n, task, &c.scenario);
+  if (const YAML::Node n = root["rmp"]) {
+    r.CheckKeys(n, "rmp", {"target_rmp", "collision_rmp", "relative_regularizer"});
+    if (const YAML::Node t = n["target_rmp"]) ReadTargetRmp(r, t, "rmp.target_rmp", &c.basic_layer.params.target);
+    if (const YAML::Node t = n["collision_rmp"]) {
+      ReadCollisionRmp(r, t, "rmp.collision_rmp", &c.basic_layer.params.collision);
+    }
+    if (const YAML::Node t = n["relative_regularizer"]) {
+      c.basic_layer.relative_regularizer = r.Number(t, "rmp.relative_regularizer");
+    }
+  }
+  ValidateTaskConfig(c, file);
+  return c;
+}
+
+void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
+  const Checker check(where);
+  // robot
+  if (c.robot != "planar2") {
+    const std::vector<std::string> names = kinematics::ShippedRobotNames();
+    if (std::find(names.begin(), names.end(), c.robot) == names.end()) {
+      std::string list = "planar2";
+      for (const std::string& n : names) list += ", " + n;
+      check(false, "robot", fmt::format("one of {}", list), fmt::format("'{}'", c.robot));
+    }
+  }
+  check(c.task != TaskKind::kPretrain2Link || c.robot == "planar2", "robot",
+        "'planar2' for task pretrain-2link (the paper's two-link pre-training arm)", fmt::format("'{}'", c.robot));
+
+  // episode and control
+  const EpisodeConfig& e = c.episode;
+  check(e.max_steps >= 1 && e.max_steps <= 10000000, "episode.max_steps", "an integer in [1, 1e7]", e.max_steps);
+  check(std::isfinite(e.physics_timestep) && e.physics_timestep > 0.0 && e.physics_timestep <= 0.1,
+        "episode.physics_timestep", "a timestep in (0, 0.1] s", e.physics_timestep);
+  check(std::isfinite(e.control_rate) && e.control_rate > 0.0, "episode.control_rate", "a rate > 0 Hz",
+        e.control_rate);
+  const double ratio = 1.0 / (e.control_rate * e.physics_timestep);
+  check(std::round(ratio) >= 1.0 && std::abs(ratio - std::round(ratio)) <= 1e-6 * ratio, "episode.control_rate",
+        fmt::format("a control period that is a whole number of physics timesteps ({:g} Hz divided by an integer)",
+                    1.0 / e.physics_timestep),
+        fmt::format("{:g} Hz", e.control_rate));
+  check(std::isfinite(e.discount) && e.discount > 0.0 && e.discount <= 1.0, "episode.discount", "a value in (0, 1]",
+        e.discount);
+  check(!std::isnan(e.success_max_final_error) && e.success_max_final_error > 0.0, "episode.success_max_final_error",
+        "a distance > 0 m (.inf: not required)", e.success_max_final_error);
+  const sim::ControllerOptions& k = c.controller;
+  check(k.control_rate == e.control_rate, "controller.control_rate", "episode.control_rate", k.control_rate);
+  check(std::isfinite(k.max_substep) && k.max_substep > 0.0, "controller.max_substep", "a step > 0 s", k.max_substep);
+  check(std::isfinite(k.velocity_limit_scale) && k.velocity_limit_scale > 0.0, "controller.velocity_limit_scale",
+        "a number > 0", k.velocity_limit_scale);
+  check(!std::isnan(k.resync_threshold) && k.resync_threshold > 0.0, "controller.resync_threshold",
+        "a distance > 0 (.inf: never)", k.resync_threshold);
+
+  // agent interface
+  check(c.options.horizon >= 1 && c.options.horizon <= 100000, "options.horizon", "an integer in [1, 100000]",
+        c.options.horizon);
+  check(std::isfinite(c.options.gain_range) && c.options.gain_range >= 1.0 && c.options.gain_range <= 1e6,
+        "options.gain_range", "a factor in [1, 1e6]", c.options.gain_range);
+  check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
+            c.direct.max_speed_fraction <= 1.0,
+        "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);
+
+  // observation
+  const ObservationConfig& o = c.observation;
+  check(std::isfinite(o.length_scale) && o.length_scale > 0.0, "observation.length_scale", "a length > 0 m",
+        o.length_scale);
+  check(std::isfinite(o.speed_scale) && o.speed_scale > 0.0, "observation.speed_scale", "a speed > 0 m/s",
+        o.speed_scale);
+  check(std::isfinite(o.warning_distance) && o.warning_distance > 0.0 && o.warning_distance <= 1.0,
+        "observation.warning_distance", "a distance in (0, 1] m", o.warning_distance);
+  const int scenario_obstacles = ScenarioObstacleCount(c);
+  check(o.max_obstacles >= scenario_obstacles && o.max_obstacles <= 64, "observation.max_obstacles",
+        fmt::format("an integer in [{} (the scenario's obstacles), 64]", scenario_obstacles), o.max_obstacles);
+
+  // reward
+  const RewardConfig& w = c.reward;
+  check(!w.joint_reach_weights.empty(), "reward.joint_reach_weights", "one weight or one per joint", "an empty list");
+  for (size_t i = 0; i < w.joint_reach_weights.size(); ++i) {
+    check(std::isfinite(w.joint_reach_weights[i]) && w.joint_reach_weights[i] >= 0.0,
+          fmt::format("reward.joint_reach_weights[{}]", i), "a weight >= 0", w.joint_reach_weights[i]);
+  }
+  check(std::isfinite(w.joint_reach_tolerance) && w.joint_reach_tolerance >= 0.0, "reward.joint_reach_tolerance",
+        "a distance >= 0 m", w.joint_reach_tolerance);
+  check(std::isfinite(w.distance_weight) && w.distance_weight >= 0.0, "reward.distance_weight", "a weight >= 0",
+        w.distance_weight);
+  check(std::isfinite(w.distance_unit) && w.distance_unit > 0.0, "reward.distance_unit", "a length > 0 m",
+        w.distance_unit);
+  check(std::isfinite(w.time_reward) && w.time_reward >= 0.0, "reward.time_reward", "a reward >= 0", w.time_reward);
+  check(std::isfinite(w.reach_tolerance) && w.reach_tolerance > 0.0, "reward.reach_tolerance", "a distance > 0 m",
+        w.reach_tolerance);
+  check(std::isfinite(w.reach_release) && w.reach_release > w.reach_tolerance, "reward.reach_release",
+        fmt::format("a distance > reward.reach_tolerance ({} m)", w.reach_tolerance), w.reach_release);
+  check(std::isfinite(w.collision_penalty) && w.collision_penalty >= 0.0, "reward.collision_penalty",
+        "a penalty >= 0", w.collision_penalty);
+
+  // domain randomisation
+  const RandomizationConfig& d = c.randomization;
+  check(d.variants >= 1 && d.variants <= 1024, "randomization.variants", "an integer in [1, 1024]", d.variants);
+  check.Range(d.link_scale, "randomization.link_scale", 0.25, 4.0);
+  check(std::isfinite(d.initial_q_spread) && d.initial_q_spread >= 0.0, "randomization.initial_q_spread",
+        "an angle >= 0 rad", d.initial_q_spread);
+  check(c.task == TaskKind::kPretrain2Link || d.initial_q_spread == 0.0, "randomization.initial_q_spread",
+        "0 outside pre-training (paper III.F: joint positions are randomised for pre-training only)",
+        d.initial_q_spread);
+  check(std::isfinite(d.initial_qd_fraction) && d.initial_qd_fraction >= 0.0 && d.initial_qd_fraction <= 1.0,
+        "randomization.initial_qd_fraction", "a fraction in [0, 1]", d.initial_qd_fraction);
+  const Planar2Config& p = c.planar2;
+  check.Range(p.link1_length, "planar2.link1_length", 0.01, 5.0);
+  check.Range(p.link2_length, "planar2.link2_length", 0.01, 5.0);
+  check(std::isfinite(p.link_radius) && p.link_radius > 0.0, "planar2.link_radius", "a radius > 0 m", p.link_radius);
+  check(std::isfinite(p.joint_limit) && p.joint_limit > 0.0, "planar2.joint_limit", "a limit > 0 rad", p.joint_limit);
+  check(std::isfinite(p.velocity_limit) && p.velocity_limit > 0.0, "planar2.velocity_limit", "a limit > 0 rad/s",
+        p.velocity_limit);
+
+  // scenario
+  switch (c.task) {
+    case TaskKind::kPretrain2Link: {
+      const PretrainScenarioOptions& s = c.scenario.pretrain;
+      check.Range(s.target_speed, "scenario.target_speed", 0.0, 10.0);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check.Range(s.obstacle_lead_time, "scenario.obstacle_lead_time", 0.0, 1000.0);
+      check.Range(s.obstacle_speed, "scenario.obstacle_speed", 0.0, 10.0);
+      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
+      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
+      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kReachAvoid: {
+      const sim::CrossingOptions& s = c.scenario.crossing;
+      check(s.num_obstacles >= 0 && s.num_obstacles <= 4, "scenario.num_obstacles",
+            "an integer in [0, 4] (the paper's up to four cubes)", s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.obstacle_speed) && s.obstacle_speed >= 0.0, "scenario.obstacle_speed", "a speed >= 0",
+            s.obstacle_speed);
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
+            s.min_base_distance);
+      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kLineCrossing: {
+      const sim::LineCrossingOptions& s = c.scenario.line_crossing;
+      check(s.num_obstacles >= 1 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [1, 64]",
+            s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.spacing) && s.spacing > 0.0, "scenario.spacing", "a spacing > 0 m", s.spacing);
+      check(!c.scenario.line_speeds.empty(), "scenario.speeds", "a non-empty list", "an empty one");
+      for (size_t i = 0; i < c.scenario.line_speeds.size(); ++i) {
+        const double v = c.scenario.line_speeds[i];
+        check(std::isfinite(v) && v > 0.0 && v <= 20.0, fmt::format("scenario.speeds[{}]", i),
+              "a speed in (0, 20] m/s", v);
+      }
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.max_yaw_deg) && s.max_yaw_deg >= 0.0 && s.max_yaw_deg <= 90.0, "scenario.max_yaw_deg",
+            "an angle in [0, 90] deg", s.max_yaw_deg);
+      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
+            s.min_base_distance);
+      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kCluttered: {
+      const sim::ClutteredOptions& s = c.scenario.cluttered;
+      check(s.num_obstacles >= 0 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [0, 64]",
+            s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.min_distance) && s.min_distance >= 0.0, "scenario.min_distance", "a distance >= 0 m",
+            s.min_distance);
+      check(std::isfinite(s.max_distance) && s.max_distance >= s.min_distance, "scenario.max_distance",
+            "a distance >= scenario.min_distance", s.max_distance);
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
+      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
+      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+  }
+
+  // basic layer
+  rmp::ValidateTargetRmpParams(c.basic_layer.params.target, fmt::format("{}: rmp.target_rmp", where));
+  rmp::ValidateCollisionRmpParams(c.basic_layer.params.collision, fmt::format("{}: rmp.collision_rmp", where));
+  check(std::isfinite(c.basic_layer.relative_regularizer) && c.basic_layer.relative_regularizer > 0.0,
+        "rmp.relative_regularizer", "a number > 0", c.basic_layer.relative_regularizer);
+}
+
+}  // namespace rmpmarl::rl

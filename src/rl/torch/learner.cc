@@ -1,0 +1,572 @@
+// Networks, the hybrid action distribution, GAE, the PPO losses, normalisers and the PPO/MAPPO learner.
+#include <torch/types.h>
+#include <ATen/CPUGeneratorImpl.h>
+#include <fmt/format.h>
+#include <torch/nn/utils/clip_grad.h>
+#include <torch/serialize.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/torch/networks.h"
+#include "rmpmarl/rl/torch/ppo.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+constexpr double kLogSqrt2Pi = 0.91893853320467274178;  // ½ log 2π
+constexpr double kNormEps = 1e-8;
+
+// orthogonal initialisation drawn from `generator` (Saxe et al.; the QR of a Gaussian matrix, sign-corrected).
+void OrthogonalInit(torch::Tensor& weight, double gain, at::Generator& generator) {
+  const int64_t rows = weight.size(0), cols = weight.size(1);
+  torch::Tensor flat = at::normal(0.0, 1.0, {std::max(rows, cols), std::min(rows, cols)}, generator);
+  auto [q, r] = torch::linalg_qr(flat);
+  q = q * torch::sign(torch::diagonal(r)).unsqueeze(0);
+  if (rows < cols) q = q.t();
+  weight.copy_(q.narrow(0, 0, rows).narrow(1, 0, cols) * gain);
+}
+
+torch::Tensor ZerosLike(const torch::Tensor& batch_source) {
+  return torch::zeros({batch_source.size(0)}, batch_source.options());
+}
+
+at::Generator MakeGenerator(std::uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
+
+// splitmix64: independent seeds for the init and sampling generators.
+std::uint64_t Mix(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------------- networks
+HeadLayout HeadLayout::From(const ActionSpec& spec) {
+  if (spec.num_options < 0 || spec.num_continuous < 0) {
+    throw InputError(fmt::format("action spec: expected non-negative sizes, got {} options and {} continuous",
+                                 spec.num_options, spec.num_continuous));
+  }
+  if (static_cast<int>(spec.low.size()) != spec.num_continuous ||
+      static_cast<int>(spec.high.size()) != spec.num_continuous) {
+    throw InputError(fmt::format("action spec: expected {} low/high bounds, got {}/{}", spec.num_continuous,
+                                 spec.low.size(), spec.high.size()));
+  }
+  HeadLayout layout{spec.num_options, spec.num_continuous, spec.has_termination};
+  if (layout.outputs() == 0) throw InputError("action spec: the action has no part (no option, continuous, termination)");
+  return layout;
+}
+
+MlpImpl::MlpImpl(int in, const std::vector<int>& hidden, int out, Activation activation)
+    : activation_(activation) {
+  int width = in;
+  for (size_t l = 0; l <= hidden.size(); ++l) {
+    const int next = l < hidden.size() ? hidden[l] : out;
+    layers_.push_back(register_module(fmt::format("linear{}", l), torch::nn::Linear(width, next)));
+    width = next;
+  }
+}
+
+torch::Tensor MlpImpl::forward(const torch::Tensor& x) {
+  torch::Tensor h = x;
+  for (size_t l = 0; l < layers_.size(); ++l) {
+    h = layers_[l]->forward(h);
+    if (l + 1 < layers_.size()) h = activation_ == Activation::kRelu ? torch::relu(h) : torch::tanh(h);
+  }
+  return h;
+}
+
+namespace {
+
+// orthogonal weights (gain √2 hidden, `output_gain` output) and zero biases.
+void InitMlp(Mlp& mlp, double output_gain, at::Generator& generator) {
+  torch::NoGradGuard no_grad;
+  const auto& layers = mlp->layers();
+  for (size_t l = 0; l < layers.size(); ++l) {
+    OrthogonalInit(layers[l]->weight, l + 1 < layers.size() ? std::sqrt(2.0) : output_gain, generator);
+    layers[l]->bias.zero_();
+  }
+}
+
+}  // namespace
+
+ActorImpl::ActorImpl(int obs_dim, const HeadLayout& layout, const NetworkOptions& options)
+    : obs_dim_(obs_dim), layout_(layout) {
+  mlp_ = register_module("mlp", Mlp(obs_dim, options.actor_hidden(), layout.outputs(), options.activation()));
+  log_std_ = register_parameter("log_std", torch::full({layout.num_continuous}, options.init_log_std()));
+}
+
+HeadOutputs ActorImpl::forward(const torch::Tensor& obs) {
+  const torch::Tensor out = mlp_->forward(obs);
+  HeadOutputs head;
+  const int K = layout_.num_options, C = layout_.num_continuous;
+  if (K > 0) head.option_logits = out.narrow(1, 0, K);
+  if (C > 0) {
+    head.mean = out.narrow(1, K, C);
+    head.log_std = log_std_;
+  }
+  if (layout_.has_termination) head.termination_logit = out.select(1, K + C);
+  return head;
+}
+
+CriticImpl::CriticImpl(int state_dim, const NetworkOptions& options) {
+  mlp_ = register_module("mlp", Mlp(state_dim, options.critic_hidden(), 1, options.activation()));
+}
+
+torch::Tensor CriticImpl::forward(const torch::Tensor& state) { return mlp_->forward(state).squeeze(1); }
+
+HeadLogProbs LogProbs(const HeadOutputs& head, const HeadLayout& layout, const torch::Tensor& actions) {
+  TORCH_CHECK(actions.dim() == 2 && actions.size(1) == layout.action_size(), "Expected actions of shape [B, ",
+              layout.action_size(), "], but got ", actions.sizes());
+  HeadLogProbs lp;
+  const torch::Tensor zeros = ZerosLike(actions);
+  lp.option = lp.continuous = lp.termination = zeros;
+  if (layout.num_options > 0) {
+    const torch::Tensor index = actions.select(1, 0).to(torch::kLong).unsqueeze(1);
+    lp.option = torch::log_softmax(head.option_logits, 1).gather(1, index).squeeze(1);
+  }
+  if (layout.num_continuous > 0) {
+    const torch::Tensor a = actions.narrow(1, layout.continuous_offset(), layout.num_continuous);
+    const torch::Tensor z = (a - head.mean) * torch::exp(-head.log_std);
+    lp.continuous = (-0.5 * z * z - head.log_std - kLogSqrt2Pi).sum(1);
+  }
+  if (layout.has_termination) {
+    const torch::Tensor b = actions.select(1, layout.termination_offset());
+    const torch::Tensor& l = head.termination_logit;
+    lp.termination = b * torch::log_sigmoid(l) + (1.0 - b) * torch::log_sigmoid(-l);
+  }
+  return lp;
+}
+
+HeadEntropies Entropies(const HeadOutputs& head, const HeadLayout& layout) {
+  const torch::Tensor& any = layout.num_options > 0 ? head.option_logits
+                             : layout.num_continuous > 0 ? head.mean
+                                                         : head.termination_logit.unsqueeze(1);
+  HeadEntropies h;
+  h.option = h.continuous = h.termination = ZerosLike(any);
+  if (layout.num_options > 0) {
+    const torch::Tensor log_p = torch::log_softmax(head.option_logits, 1);
+    h.option = -(log_p.exp() * log_p).sum(1);
+  }
+  if (layout.num_continuous > 0) {
+    h.continuous = (0.5 + kLogSqrt2Pi + head.log_std).sum().expand({any.size(0)});
+  }
+  if (layout.has_termination) {
+    const torch::Tensor& l = head.termination_logit;
+    const torch::Tensor p = torch::sigmoid(l);
+    h.termination = -(p * torch::log_sigmoid(l) + (1.0 - p) * torch::log_sigmoid(-l));
+  }
+  return h;
+}
+
+torch::Tensor JointLogProb(const HeadLogProbs& lp, const torch::Tensor& option_mask,
+                           const torch::Tensor& termination_mask) {
+  return option_mask * lp.option + lp.continuous + termination_mask * lp.termination;
+}
+
+SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, torch::Generator& generator,
+                             bool deterministic) {
+  std::vector<torch::Tensor> parts;
+  if (layout.num_options > 0) {
+    torch::Tensor option = deterministic ? head.option_logits.argmax(1, /*keepdim=*/true)
+                                         : torch::multinomial(torch::softmax(head.option_logits, 1), 1, false,
+                                                              generator);
+    parts.push_back(option.to(torch::kFloat));
+  }
+  if (layout.num_continuous > 0) {
+    parts.push_back(deterministic ? head.mean
+                                  : head.mean + torch::exp(head.log_std) *
+                                                    at::normal(0.0, 1.0, head.mean.sizes(), generator));
+  }
+  if (layout.has_termination) {
+    const torch::Tensor p = torch::sigmoid(head.termination_logit).unsqueeze(1);
+    parts.push_back(deterministic ? (p > 0.5).to(torch::kFloat) : at::bernoulli(p, generator));
+  }
+  SampledActions s;
+  s.actions = torch::cat(parts, 1);
+  s.log_probs = LogProbs(head, layout, s.actions);
+  return s;
+}
+
+PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
+                          float obs_clip, const ActionSpec& spec) {
+  PolicyWeights w;
+  const HeadLayout& layout = actor->layout();
+  w.obs_dim = actor->obs_dim();
+  w.num_options = layout.num_options;
+  w.num_continuous = layout.num_continuous;
+  w.has_termination = layout.has_termination;
+  w.activation = static_cast<int>(actor->mlp()->activation());
+  auto to_layer = [](const torch::nn::Linear& linear) {
+    const torch::Tensor W = linear->weight.detach().contiguous().to(torch::kFloat);
+    const torch::Tensor b = linear->bias.detach().contiguous().to(torch::kFloat);
+    DenseLayer layer;
+    layer.weight = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+        W.data_ptr<float>(), W.size(0), W.size(1));
+    layer.bias = Eigen::Map<const Eigen::VectorXf>(b.data_ptr<float>(), b.size(0));
+    return layer;
+  };
+  const auto& layers = actor->mlp()->layers();
+  for (size_t l = 0; l + 1 < layers.size(); ++l) w.hidden.push_back(to_layer(layers[l]));
+  w.head = to_layer(layers.back());
+  w.obs_mean = obs_mean;
+  w.obs_inv_std = obs_inv_std;
+  w.obs_clip = obs_clip;
+  const torch::Tensor log_std = actor->log_std().detach().contiguous();
+  w.log_std = Eigen::Map<const Eigen::VectorXf>(log_std.data_ptr<float>(), layout.num_continuous);
+  w.low = Eigen::Map<const Eigen::VectorXf>(spec.low.data(), layout.num_continuous);
+  w.high = Eigen::Map<const Eigen::VectorXf>(spec.high.data(), layout.num_continuous);
+  w.Validate();
+  return w;
+}
+
+// ------------------------------------------------------------------------------------------------- PPO maths
+GaeResult ComputeGae(const GaeInputs& in, double gamma, double lambda) {
+  TORCH_CHECK(in.rewards.dim() == 2, "Expected rewards of shape [T, N], but got ", in.rewards.sizes());
+  const int64_t T = in.rewards.size(0), N = in.rewards.size(1);
+  for (const auto* t : {&in.values, &in.terminated, &in.truncated, &in.final_values}) {
+    TORCH_CHECK(t->sizes() == in.rewards.sizes(), "Expected GAE inputs of shape ", in.rewards.sizes(), ", but got ",
+                t->sizes());
+  }
+  TORCH_CHECK(in.last_values.dim() == 1 && in.last_values.size(0) == N, "Expected last_values of shape [", N,
+              "], but got ", in.last_values.sizes());
+  const torch::Tensor r = in.rewards.to(torch::kDouble).contiguous();
+  const torch::Tensor v = in.values.to(torch::kDouble).contiguous();
+  const torch::Tensor term = in.terminated.to(torch::kDouble).contiguous();
+  const torch::Tensor trunc = in.truncated.to(torch::kDouble).contiguous();
+  const torch::Tensor fin = in.final_values.to(torch::kDouble).contiguous();
+  const torch::Tensor last = in.last_values.to(torch::kDouble).contiguous();
+  torch::Tensor adv = torch::zeros({T, N}, torch::kDouble);
+  const double *pr = r.data_ptr<double>(), *pv = v.data_ptr<double>(), *pterm = term.data_ptr<double>(),
+               *ptrunc = trunc.data_ptr<double>(), *pfin = fin.data_ptr<double>(), *plast = last.data_ptr<double>();
+  double* pa = adv.data_ptr<double>();
+  for (int64_t n = 0; n < N; ++n) {
+    double next_adv = 0.0;
+    for (int64_t t = T - 1; t >= 0; --t) {
+      const int64_t i = t * N + n;
+      const bool terminated = pterm[i] > 0.5, truncated = ptrunc[i] > 0.5;
+      double next_value = t == T - 1 ? plast[n] : pv[i + N];
+      if (truncated) next_value = pfin[i];
+      if (terminated) next_value = 0.0;
+      const double delta = pr[i] + gamma * next_value - pv[i];
+      const double carry = (terminated || truncated) ? 0.0 : next_adv;
+      pa[i] = delta + gamma * lambda * carry;
+      next_adv = pa[i];
+    }
+  }
+  GaeResult out;
+  out.advantages = adv.to(torch::kFloat);
+  out.returns = (adv + v).to(torch::kFloat);
+  return out;
+}
+
+torch::Tensor NormalizeAdvantages(const torch::Tensor& advantages, double eps) {
+  return (advantages - advantages.mean()) / (advantages.std() + eps);
+}
+
+torch::Tensor MaskedMean(const torch::Tensor& x, const torch::Tensor& mask) {
+  return (x * mask).sum() / torch::clamp_min(mask.sum(), 1.0);
+}
+
+torch::Tensor ClippedSurrogateLoss(const torch::Tensor& log_prob, const torch::Tensor& old_log_prob,
+                                   const torch::Tensor& advantages, double clip) {
+  const torch::Tensor ratio = torch::exp(log_prob - old_log_prob);
+  const torch::Tensor unclipped = ratio * advantages;
+  const torch::Tensor clipped = torch::clamp(ratio, 1.0 - clip, 1.0 + clip) * advantages;
+  return -torch::min(unclipped, clipped).mean();
+}
+
+torch::Tensor ClippedValueLoss(const torch::Tensor& values, const torch::Tensor& old_values,
+                               const torch::Tensor& returns, double clip) {
+  const torch::Tensor error = (values - returns).pow(2);
+  if (clip <= 0.0) return 0.5 * error.mean();
+  const torch::Tensor clipped = old_values + torch::clamp(values - old_values, -clip, clip);
+  return 0.5 * torch::max(error, (clipped - returns).pow(2)).mean();
+}
+
+RunningMeanStd::RunningMeanStd(int dim)
+    : dim_(dim), mean_(torch::zeros({dim}, torch::kDouble)), var_(torch::ones({dim}, torch::kDouble)) {}
+
+void RunningMeanStd::Update(const torch::Tensor& batch) {
+  const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
+  const double n = static_cast<double>(x.size(0));
+  if (n == 0) return;
+  const torch::Tensor batch_mean = x.mean(0);
+  const torch::Tensor batch_var = x.var(0, /*unbiased=*/false);
+  const torch::Tensor delta = batch_mean - mean_;
+  const double total = count_ + n;
+  mean_ = mean_ + delta * (n / total);
+  var_ = (var_ * count_ + batch_var * n + delta * delta * (count_ * n / total)) / total;
+  count_ = total;
+}
+
+torch::Tensor RunningMeanStd::Normalize(const torch::Tensor& x, double clip) const {
+  const torch::Tensor mean = mean_.to(torch::kFloat), std = torch::sqrt(var_ + kNormEps).to(torch::kFloat);
+  torch::Tensor y = (x.to(torch::kFloat) - mean) / std;
+  if (dim_ == 1 && x.dim() == 1) y = y.reshape({-1});
+  return clip > 0.0 ? torch::clamp(y, -clip, clip) : y;
+}
+
+torch::Tensor RunningMeanStd::Denormalize(const torch::Tensor& x) const {
+  const torch::Tensor mean = mean_.to(torch::kFloat), std = torch::sqrt(var_ + kNormEps).to(torch::kFloat);
+  torch::Tensor y = x.to(torch::kFloat) * std + mean;
+  if (dim_ == 1 && x.dim() == 1) y = y.reshape({-1});
+  return y;
+}
+
+void RunningMeanStd::Save(torch::serialize::OutputArchive& archive, const std::string& key) const {
+  archive.write(key + "/mean", mean_);
+  archive.write(key + "/var", var_);
+  archive.write(key + "/count", torch::tensor({count_}, torch::kDouble));
+}
+
+void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::string& key) {
+  torch::Tensor mean, var, count;
+  archive.read(key + "/mean", mean);
+  archive.read(key + "/var", var);
+  archive.read(key + "/count", count);
+  TORCH_CHECK(mean.numel() == dim_ && var.numel() == dim_, "Expected normaliser ", key, " of size ", dim_,
+              ", but got ", mean.numel());
+  mean_ = mean.to(torch::kDouble).reshape({dim_});
+  var_ = var.to(torch::kDouble).reshape({dim_});
+  count_ = count.item<double>();
+}
+
+LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {
+  const HeadLogProbs lp = LogProbs(in.head, in.layout, in.actions);
+  const torch::Tensor joint = JointLogProb(lp, in.option_mask, in.termination_mask);
+  const torch::Tensor old_joint = JointLogProb(in.old_log_probs, in.option_mask, in.termination_mask);
+  LossTerms terms;
+  terms.policy = ClippedSurrogateLoss(joint, old_joint, in.advantages, options.clip());
+  terms.value = ClippedValueLoss(in.values, in.old_values, in.returns, options.value_clip());
+  const HeadEntropies h = Entropies(in.head, in.layout);
+  const torch::Tensor h_option = MaskedMean(h.option, in.option_mask);
+  const torch::Tensor h_continuous = h.continuous.mean();
+  const torch::Tensor h_termination = MaskedMean(h.termination, in.termination_mask);
+  terms.entropy = options.entropy_option() * h_option + options.entropy_continuous() * h_continuous +
+                  options.entropy_termination() * h_termination;
+  terms.total = terms.policy + options.value_coef() * terms.value - terms.entropy;
+  torch::NoGradGuard no_grad;
+  const torch::Tensor log_ratio = joint - old_joint;
+  const torch::Tensor ratio = torch::exp(log_ratio);
+  terms.entropy_option = h_option.item<double>();
+  terms.entropy_continuous = h_continuous.item<double>();
+  terms.entropy_termination = h_termination.item<double>();
+  terms.approx_kl = ((ratio - 1.0) - log_ratio).mean().item<double>();
+  terms.clip_fraction = ((ratio - 1.0).abs() > options.clip()).to(torch::kFloat).mean().item<double>();
+  return terms;
+}
+
+// ------------------------------------------------------------------------------------------------- learner
+Ppo::Ppo(const EnvSpec& spec, const NetworkOptions& network, const PpoOptions& options, std::uint64_t seed)
+    : spec_(spec),
+      network_(network),
+      options_(options),
+      layout_(HeadLayout::From(spec.action)),
+      obs_norm_(spec.local_obs_dim),
+      state_norm_(spec.global_state_dim),
+      value_norm_(1),
+      generator_(MakeGenerator(Mix(seed ^ 0x5A3D1E))) {
+  if (spec.local_obs_dim < 1 || spec.global_state_dim < 1 || spec.num_agents < 1) {
+    throw InputError(fmt::format("env spec of task {}: expected positive obs/state dims and agents, got {}/{}/{}",
+                                 spec.task, spec.local_obs_dim, spec.global_state_dim, spec.num_agents));
+  }
+  actor_ = Actor(spec.local_obs_dim, layout_, network);
+  critic_ = Critic(spec.global_state_dim, network);
+  at::Generator init = MakeGenerator(Mix(seed));
+  InitMlp(actor_->mlp(), network.actor_output_gain(), init);
+  InitMlp(critic_->mlp(), 1.0, init);
+  std::vector<torch::optim::OptimizerParamGroup> groups;
+  groups.emplace_back(actor_->parameters(), std::make_unique<torch::optim::AdamOptions>(options.lr()));
+  const double critic_lr = options.critic_lr() > 0.0 ? options.critic_lr() : options.lr();
+  groups.emplace_back(critic_->parameters(), std::make_unique<torch::optim::AdamOptions>(critic_lr));
+  optimizer_ = std::make_unique<torch::optim::Adam>(std::move(groups),
+                                                    torch::optim::AdamOptions(options.lr()).eps(options.adam_eps()));
+  for (auto& group : optimizer_->param_groups()) {
+    static_cast<torch::optim::AdamOptions&>(group.options()).eps(options.adam_eps());
+  }
+}
+
+ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_state, bool update_normalizers,
+                   bool deterministic) {
+  torch::NoGradGuard no_grad;
+  ActResult r;
+  if (options_.normalize_observations()) {
+    if (update_normalizers) {
+      obs_norm_.Update(local_obs);
+      state_norm_.Update(global_state);
+    }
+    r.actor_obs = obs_norm_.Normalize(local_obs, options_.obs_clip());
+    r.critic_state = state_norm_.Normalize(global_state, options_.obs_clip());
+  } else {
+    r.actor_obs = local_obs.to(torch::kFloat);
+    r.critic_state = global_state.to(torch::kFloat);
+  }
+  r.sampled = SampleActions(actor_->forward(r.actor_obs), layout_, generator_, deterministic);
+  r.raw_values = critic_->forward(r.critic_state);
+  r.values = options_.normalize_value() ? value_norm_.Denormalize(r.raw_values) : r.raw_values;
+  return r;
+}
+
+torch::Tensor Ppo::Values(const torch::Tensor& global_state) {
+  torch::NoGradGuard no_grad;
+  const torch::Tensor state = options_.normalize_observations() ? state_norm_.Normalize(global_state, options_.obs_clip())
+                                                                : global_state.to(torch::kFloat);
+  const torch::Tensor raw = critic_->forward(state);
+  return options_.normalize_value() ? value_norm_.Denormalize(raw) : raw;
+}
+
+UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
+  const int A = batch.num_agents;
+  const int64_t M = batch.returns.size(0);
+  TORCH_CHECK(batch.actor_obs.size(0) == M * A, "Expected ", M * A, " actor rows, but got ", batch.actor_obs.size(0));
+  auto& groups = optimizer_->param_groups();
+  const double critic_lr = options_.critic_lr() > 0.0 ? options_.critic_lr() : options_.lr();
+  static_cast<torch::optim::AdamOptions&>(groups[0].options()).lr(options_.lr() * lr_scale);
+  static_cast<torch::optim::AdamOptions&>(groups[1].options()).lr(critic_lr * lr_scale);
+
+  UpdateStats stats;
+  torch::Tensor returns_n, old_values_n;
+  {
+    torch::NoGradGuard no_grad;
+    const torch::Tensor old_values = options_.normalize_value() ? value_norm_.Denormalize(batch.old_values)
+                                                                : batch.old_values;
+    const double var_returns = batch.returns.var().item<double>();
+    stats.explained_variance =
+        var_returns > 0.0 ? 1.0 - (batch.returns - old_values).var().item<double>() / var_returns : 0.0;
+    if (options_.normalize_value()) {
+      value_norm_.Update(batch.returns);
+      returns_n = value_norm_.Normalize(batch.returns);
+      old_values_n = value_norm_.Normalize(old_values);
+    } else {
+      returns_n = batch.returns;
+      old_values_n = batch.old_values;
+    }
+  }
+  torch::Tensor advantages = batch.advantages;
+  if (options_.normalize_advantage()) advantages = NormalizeAdvantages(advantages, options_.advantage_eps());
+  const torch::Tensor agent_offsets = torch::arange(A, torch::kLong);
+
+  const int nb = options_.minibatches();
+  int minibatches_run = 0;
+  for (int epoch = 0; epoch < options_.epochs(); ++epoch) {
+    const torch::Tensor perm = torch::randperm(M, generator_, torch::kLong);
+    double epoch_kl = 0.0;
+    for (int b = 0; b < nb; ++b) {
+      const int64_t begin = M * b / nb, end = M * (b + 1) / nb;
+      if (end <= begin) continue;
+      const torch::Tensor idx = perm.slice(0, begin, end);
+      const torch::Tensor rows = (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
+      LossInputs in;
+      in.layout = layout_;
+      in.head = actor_->forward(batch.actor_obs.index_select(0, rows));
+      in.actions = batch.actions.index_select(0, rows);
+      in.old_log_probs = {batch.old_log_probs.option.index_select(0, rows),
+                          batch.old_log_probs.continuous.index_select(0, rows),
+                          batch.old_log_probs.termination.index_select(0, rows)};
+      in.option_mask = batch.option_mask.index_select(0, rows);
+      in.termination_mask = batch.termination_mask.index_select(0, rows);
+      in.advantages = advantages.index_select(0, idx).repeat_interleave(A);
+      in.values = critic_->forward(batch.critic_state.index_select(0, idx));
+      in.old_values = old_values_n.index_select(0, idx);
+      in.returns = returns_n.index_select(0, idx);
+      const LossTerms terms = ComputePpoLoss(in, options_);
+      optimizer_->zero_grad();
+      terms.total.backward();
+      const double max_norm = options_.max_grad_norm() > 0.0 ? options_.max_grad_norm() : 1e30;
+      stats.actor_grad_norm += torch::nn::utils::clip_grad_norm_(actor_->parameters(), max_norm);
+      stats.critic_grad_norm += torch::nn::utils::clip_grad_norm_(critic_->parameters(), max_norm);
+      optimizer_->step();
+      stats.policy_loss += terms.policy.item<double>();
+      stats.value_loss += terms.value.item<double>();
+      stats.entropy_option += terms.entropy_option;
+      stats.entropy_continuous += terms.entropy_continuous;
+      stats.entropy_termination += terms.entropy_termination;
+      stats.approx_kl += terms.approx_kl;
+      stats.clip_fraction += terms.clip_fraction;
+      epoch_kl += terms.approx_kl / nb;
+      ++minibatches_run;
+    }
+    ++stats.epochs;
+    if (options_.target_kl() > 0.0 && epoch_kl > 1.5 * options_.target_kl()) break;
+  }
+  const double n = std::max(minibatches_run, 1);
+  for (double* v : {&stats.policy_loss, &stats.value_loss, &stats.entropy_option, &stats.entropy_continuous,
+                    &stats.entropy_termination, &stats.approx_kl, &stats.clip_fraction, &stats.actor_grad_norm,
+                    &stats.critic_grad_norm}) {
+    *v /= n;
+  }
+  return stats;
+}
+
+void Ppo::InitActorFrom(Ppo& other) {
+  const HeadLayout& a = layout_;
+  const HeadLayout& b = other.layout_;
+  if (spec_.local_obs_dim != other.spec_.local_obs_dim || a.num_options != b.num_options ||
+      a.num_continuous != b.num_continuous || a.has_termination != b.has_termination ||
+      network_.actor_hidden() != other.network_.actor_hidden() ||
+      network_.activation() != other.network_.activation()) {
+    throw InputError(fmt::format(
+        "pre-trained actor does not fit: it has obs {} / options {} / continuous {} / termination {} / {} hidden "
+        "layers, this task's agent needs {} / {} / {} / {} / {}",
+        other.spec_.local_obs_dim, b.num_options, b.num_continuous, b.has_termination,
+        other.network_.actor_hidden().size(), spec_.local_obs_dim, a.num_options, a.num_continuous,
+        a.has_termination, network_.actor_hidden().size()));
+  }
+  torch::NoGradGuard no_grad;
+  const auto src = other.actor_->parameters();
+  auto dst = actor_->parameters();
+  for (size_t i = 0; i < dst.size(); ++i) dst[i].copy_(src[i]);
+  obs_norm_ = other.obs_norm_;
+}
+
+void Ppo::Save(torch::serialize::OutputArchive& archive) const {
+  torch::serialize::OutputArchive actor, critic, optimizer;
+  actor_->save(actor);
+  critic_->save(critic);
+  optimizer_->save(optimizer);
+  archive.write("actor", actor);
+  archive.write("critic", critic);
+  archive.write("optimizer", optimizer);
+  obs_norm_.Save(archive, "obs_norm");
+  state_norm_.Save(archive, "state_norm");
+  value_norm_.Save(archive, "value_norm");
+  archive.write("generator", generator_.get_state());
+}
+
+void Ppo::Load(torch::serialize::InputArchive& archive) {
+  torch::serialize::InputArchive actor, critic, optimizer;
+  archive.read("actor", actor);
+  archive.read("critic", critic);
+  archive.read("optimizer", optimizer);
+  actor_->load(actor);
+  critic_->load(critic);
+  optimizer_->load(optimizer);
+  obs_norm_.Load(archive, "obs_norm");
+  state_norm_.Load(archive, "state_norm");
+  value_norm_.Load(archive, "value_norm");
+  torch::Tensor state;
+  archive.read("generator", state);
+  generator_.set_state(state);
+}
+
+PolicyWeights Ppo::Export() {
+  const int d = spec_.local_obs_dim;
+  Eigen::VectorXf mean = Eigen::VectorXf::Zero(d), inv_std = Eigen::VectorXf::Ones(d);
+  float clip = 0.0f;
+  if (options_.normalize_observations()) {
+    const torch::Tensor m = obs_norm_.mean().to(torch::kFloat).contiguous();
+    const torch::Tensor s = torch::sqrt(obs_norm_.var() + kNormEps).to(torch::kFloat).contiguous();
+    for (int i = 0; i < d; ++i) {
+      mean[i] = m.data_ptr<float>()[i];
+      inv_std[i] = 1.0f / s.data_ptr<float>()[i];
+    }
+    clip = static_cast<float>(options_.obs_clip());
+  }
+  return ExportActor(actor_, mean, inv_std, clip, spec_.action);
+}
+
+}  // namespace rmpmarl::rl
