@@ -315,9 +315,11 @@ TaskConfig DefaultTaskConfig(TaskKind task) {
       c.planar2.link2_length = {0.3, 0.7};
       c.randomization.initial_q_spread = 1.5;
       c.randomization.initial_qd_fraction = 0.2;
-      c.scenario.pretrain.workspace.near = 0.2;
-      c.scenario.pretrain.workspace.far = 0.9;
-      c.scenario.pretrain.workspace.half_width = 0.6;
+      // reachable for every link-length draw: |l1 − l2| ≤ 0.4 R keeps the inner hole below near·R, and
+      // far² + half_width² < 1 keeps the box corners inside the reach R
+      c.scenario.pretrain.workspace.near = 0.45;
+      c.scenario.pretrain.workspace.far = 0.8;
+      c.scenario.pretrain.workspace.half_width = 0.55;
       break;
     case TaskKind::kReachAvoid:
       c.robot = "panda";

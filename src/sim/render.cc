@@ -9,6 +9,7 @@
 #include <zlib.h>
 
 #include <cstdlib>
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 
@@ -79,6 +80,54 @@ EGLContext MakeContext(EGLDisplay display, std::string* why_not) {
   return EGL_NO_CONTEXT;
 }
 
+// colours and lighting of the renderer's private model copy (the shared physics model is never touched): obstacles in
+// the paper's red, green, yellow, blue (then repeating), a red target, a light robot, a brighter headlight.
+void StyleModel(mjModel* m) {
+  static const float kPalette[4][3] = {{0.85f, 0.2f, 0.2f}, {0.2f, 0.7f, 0.3f}, {0.95f, 0.8f, 0.2f}, {0.2f, 0.4f, 0.9f}};
+  int obstacle = 0;
+  for (int g = 0; g < m->ngeom; ++g) {
+    const char* name = mj_id2name(m, mjOBJ_GEOM, g);
+    const std::string geom_name = name != nullptr ? name : "";
+    float* rgba = m->geom_rgba + 4 * g;
+    if (geom_name.rfind("scene/obstacle", 0) == 0) {
+      const float* c = kPalette[obstacle++ % 4];
+      rgba[0] = c[0], rgba[1] = c[1], rgba[2] = c[2], rgba[3] = 1.0f;
+    } else if (geom_name.rfind("scene/target", 0) == 0) {
+      rgba[0] = 1.0f, rgba[1] = 0.1f, rgba[2] = 0.1f, rgba[3] = 0.8f;
+      m->geom_size[3 * g] = std::max<mjtNum>(m->geom_size[3 * g], 0.025);
+    } else if (geom_name.find("/capsule") != std::string::npos) {  // robot capsules (MjcfNames::CapsuleGeom)
+      rgba[0] = 0.92f, rgba[1] = 0.92f, rgba[2] = 0.95f, rgba[3] = 1.0f;
+    }
+  }
+  m->vis.headlight.ambient[0] = m->vis.headlight.ambient[1] = m->vis.headlight.ambient[2] = 0.35f;
+  m->vis.headlight.diffuse[0] = m->vis.headlight.diffuse[1] = m->vis.headlight.diffuse[2] = 0.65f;
+  m->vis.headlight.specular[0] = m->vis.headlight.specular[1] = m->vis.headlight.specular[2] = 0.2f;
+}
+
+// a ground plane at z = 0 drawn into the scene (visual only: it is not part of the physics model).
+void AddGround(mjvScene* scene) {
+  if (scene->ngeom >= scene->maxgeom) return;
+  const mjtNum size[3] = {3.0, 3.0, 0.1};
+  const mjtNum pos[3] = {0.0, 0.0, -0.001};
+  const mjtNum mat[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  const float rgba[4] = {0.55f, 0.57f, 0.6f, 1.0f};
+  mjv_initGeom(&scene->geoms[scene->ngeom++], mjGEOM_PLANE, size, pos, mat, rgba);
+}
+
+// replaces the black background with a vertical grey-blue gradient.
+void PaintBackground(std::vector<std::uint8_t>* rgb, int width, int height) {
+  for (int y = 0; y < height; ++y) {
+    const double t = static_cast<double>(y) / height;
+    const std::uint8_t r = static_cast<std::uint8_t>(200 - 60 * t), g = static_cast<std::uint8_t>(210 - 60 * t),
+                       b = static_cast<std::uint8_t>(225 - 50 * t);
+    std::uint8_t* row = rgb->data() + static_cast<size_t>(y) * width * 3;
+    for (int x = 0; x < width; ++x) {
+      std::uint8_t* p = row + 3 * x;
+      if (p[0] == 0 && p[1] == 0 && p[2] == 0) p[0] = r, p[1] = g, p[2] = b;
+    }
+  }
+}
+
 }  // namespace
 
 std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* model, const RenderOptions& options,
@@ -111,6 +160,7 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   impl.model = mj_copyModel(nullptr, model);
   impl.model->vis.global.offwidth = options.width;
   impl.model->vis.global.offheight = options.height;
+  StyleModel(impl.model);
   mjv_defaultScene(&impl.scene);
   mjv_defaultCamera(&impl.camera);
   mjv_defaultOption(&impl.option);
@@ -155,6 +205,7 @@ void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rg
   const mjrRect viewport{0, 0, options_.width, options_.height};
   // mjv_updateScene takes a non-const mjData (it may write warnings); the state itself is not modified.
   mjv_updateScene(impl.model, const_cast<mjData*>(data), &impl.option, nullptr, &impl.camera, mjCAT_ALL, &impl.scene);
+  if (options_.draw_ground) AddGround(&impl.scene);
   mjr_render(viewport, &impl.scene, &impl.context_mj);
   mjr_readPixels(flipped_.data(), nullptr, viewport, &impl.context_mj);
   rgb->resize(flipped_.size());
@@ -162,6 +213,7 @@ void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rg
   for (int y = 0; y < options_.height; ++y) {  // OpenGL reads bottom row first
     std::memcpy(rgb->data() + y * row, flipped_.data() + (options_.height - 1 - y) * row, row);
   }
+  PaintBackground(rgb, options_.width, options_.height);
 }
 
 bool FfmpegAvailable() { return std::system("command -v ffmpeg >/dev/null 2>&1") == 0; }

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <new>
 
+#include "alloc_counter.h"
 #include "rmpmarl/sim/world.h"
 #include "sim_test_util.h"
 
@@ -22,6 +23,8 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+long rmpmarl::sim::testing::AllocationCount() { return g_allocations.load(); }
 
 namespace rmpmarl::sim {
 namespace {

@@ -51,6 +51,8 @@ class TaskContext {
   /// validates `config` (InputError), loads the robot and builds config.randomization.variants WorldModels.
   /// `scenario` (optional) replaces the task's scenario for every variant.
   explicit TaskContext(TaskConfig config, ScenarioMaker scenario = {});
+  TaskContext(const TaskContext&) = delete;
+  TaskContext& operator=(const TaskContext&) = delete;
 
   const TaskConfig& config() const { return config_; }
   const EnvSpec& spec() const { return spec_; }
@@ -68,6 +70,7 @@ class TaskContext {
  private:
   TaskConfig config_;
   ScenarioMaker scenario_maker_;
+  std::function<std::unique_ptr<sim::Scenario>(const kinematics::Robot&, int setting)> make_scenario_;
   EnvSpec spec_;
   int nq_ = 0;
   int num_obstacles_ = 0;

@@ -22,6 +22,7 @@ struct RenderOptions {
   double azimuth = 140.0;                                      ///< [deg]
   double elevation = -22.0;                                    ///< [deg]
   bool show_warning_contacts = false;                          ///< draw contact points (including sensing-only ones)
+  bool draw_ground = true;                                     ///< a visual-only ground plane at z = 0
 };
 
 /// An EGL context + MuJoCo render context for one model. Not thread-safe; use from the thread that created it.

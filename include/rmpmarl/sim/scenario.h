@@ -156,7 +156,7 @@ class Scenario {
 /// (reachable by construction, away from singularities and self-collision), optionally with one obstacle in the
 /// middle of the straight segment from the start end-effector position to the target.
 struct StaticReachOptions {
-  Eigen::VectorXd q_start;            ///< empty: ReadyConfiguration(robot)
+  Eigen::VectorXd q_start{};            ///< empty: ReadyConfiguration(robot)
   double joint_spread = 1.0;          ///< q_goal,i = q_start,i + U(−spread, spread) [rad or m] ...
   double limit_margin = 0.2;          ///< ... clamped this far inside the joint limits
   double min_distance = 0.25;         ///< ‖p_WT − p_WE(q_start)‖ ≥ this [m]
@@ -167,7 +167,7 @@ struct StaticReachOptions {
   ObstacleSpec obstacle = ObstacleSpec::Sphere(0.04);  ///< its shape and size (the pose is drawn)
   double obstacle_clearance = 0.05;   ///< the obstacle is this far from the arm at q_start and q_goal [m]
   int max_attempts = 20000;           ///< draws before giving up (InputError)
-  WorkspaceOptions workspace;
+  WorkspaceOptions workspace{};
 };
 
 /// `static-reach` (and `static-obstacle` with obstacle_on_path).
@@ -186,9 +186,9 @@ class StaticReachScenario final : public Scenario {
 
 /// Options of a fully specified static set-up (tests): fixed start, target and obstacles; no randomness.
 struct StaticSceneOptions {
-  Eigen::VectorXd q_start;                  ///< empty: ReadyConfiguration(robot)
+  Eigen::VectorXd q_start{};                  ///< empty: ReadyConfiguration(robot)
   Eigen::Vector3d p_WT = Eigen::Vector3d(0.4, 0.0, 0.4);
-  std::vector<ObstacleSpec> obstacles;      ///< with their poses X_WO
+  std::vector<ObstacleSpec> obstacles{};    ///< with their poses X_WO
 };
 
 /// `static`: the set-up of StaticSceneOptions (not in the registry: it needs explicit data).
@@ -210,8 +210,8 @@ struct CrossingOptions {
   double target_speed = 0.1;        ///< [m/s], random direction, reflected in the workspace box
   double min_base_distance = 0.3;   ///< every path passes at least this far from the base z axis (horizontally) [m]
   double spawn_margin = 0.3;        ///< paths start and end this far outside the horizontal reach [m]
-  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
-  WorkspaceOptions workspace;
+  Eigen::VectorXd q_start{};          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace{};
 };
 
 /// `crossing`.
@@ -242,9 +242,9 @@ struct LineCrossingOptions {
   bool stop_on_impact = true;
   bool repeat = true;               ///< the line crosses again and again (false: once)
   /// the line passes through this point (e.g. the start end-effector position); unset: a random workspace point
-  std::optional<Eigen::Vector3d> through;
-  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
-  WorkspaceOptions workspace;
+  std::optional<Eigen::Vector3d> through{};
+  Eigen::VectorXd q_start{};          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace{};
 };
 
 /// `line-crossing`.
@@ -269,8 +269,8 @@ struct ClutteredOptions {
   double start_clearance = 0.05;    ///< obstacles are this far from the arm at q_start [m]
   double target_clearance = 0.05;   ///< and their surface this far from the target's start [m]
   int max_attempts = 20000;
-  Eigen::VectorXd q_start;          ///< empty: ReadyConfiguration(robot)
-  WorkspaceOptions workspace;
+  Eigen::VectorXd q_start{};          ///< empty: ReadyConfiguration(robot)
+  WorkspaceOptions workspace{};
 };
 
 /// `cluttered`.
@@ -286,9 +286,9 @@ class ClutteredScenario final : public Scenario {
 
 /// Generic overrides a command line can apply to any registered scenario (unset: the scenario's default).
 struct ScenarioOverrides {
-  std::optional<double> obstacle_speed;  ///< [m/s] (crossing, line-crossing)
-  std::optional<double> target_speed;    ///< [m/s] (crossing, line-crossing, cluttered)
-  std::optional<int> num_obstacles;      ///< (crossing, line-crossing, cluttered)
+  std::optional<double> obstacle_speed{};  ///< [m/s] (crossing, line-crossing)
+  std::optional<double> target_speed{};    ///< [m/s] (crossing, line-crossing, cluttered)
+  std::optional<int> num_obstacles{};      ///< (crossing, line-crossing, cluttered)
 };
 
 /// Makes a scenario for a robot.

@@ -19,7 +19,7 @@ constexpr double kLogSqrt2Pi = 0.91893853320467274178;  // ½ log 2π
 constexpr double kNormEps = 1e-8;
 
 // orthogonal initialisation drawn from `generator` (Saxe et al.; the QR of a Gaussian matrix, sign-corrected).
-void OrthogonalInit(torch::Tensor& weight, double gain, at::Generator& generator) {
+void OrthogonalInit(const torch::Tensor& weight, double gain, at::Generator& generator) {
   const int64_t rows = weight.size(0), cols = weight.size(1);
   torch::Tensor flat = at::normal(0.0, 1.0, {std::max(rows, cols), std::min(rows, cols)}, generator);
   auto [q, r] = torch::linalg_qr(flat);

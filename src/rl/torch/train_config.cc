@@ -188,18 +188,18 @@ void Validate(const TrainConfig& c, const std::string& where) {
   if (c.total_updates < 1) fail("total_updates", fmt::format("expected >= 1, got {}", c.total_updates));
   if (c.checkpoint_every < 1) fail("checkpoint_every", fmt::format("expected >= 1, got {}", c.checkpoint_every));
   const PpoOptions& p = c.ppo;
-  if (p.rollout_steps < 1) fail("ppo.rollout_steps", fmt::format("expected >= 1, got {}", p.rollout_steps));
-  if (p.epochs < 1) fail("ppo.epochs", fmt::format("expected >= 1, got {}", p.epochs));
-  if (p.minibatches < 1 || p.minibatches > p.rollout_steps * c.num_envs) {
+  if (p.rollout_steps() < 1) fail("ppo.rollout_steps", fmt::format("expected >= 1, got {}", p.rollout_steps()));
+  if (p.epochs() < 1) fail("ppo.epochs", fmt::format("expected >= 1, got {}", p.epochs()));
+  if (p.minibatches() < 1 || p.minibatches() > p.rollout_steps() * c.num_envs) {
     fail("ppo.minibatches", fmt::format("expected 1..{} (rollout_steps × num_envs), got {}",
-                                        p.rollout_steps * c.num_envs, p.minibatches));
+                                        p.rollout_steps() * c.num_envs, p.minibatches()));
   }
-  if (!(p.gamma > 0.0 && p.gamma <= 1.0)) fail("ppo.gamma", fmt::format("expected in (0, 1], got {}", p.gamma));
-  if (!(p.gae_lambda >= 0.0 && p.gae_lambda <= 1.0)) {
-    fail("ppo.gae_lambda", fmt::format("expected in [0, 1], got {}", p.gae_lambda));
+  if (!(p.gamma() > 0.0 && p.gamma() <= 1.0)) fail("ppo.gamma", fmt::format("expected in (0, 1], got {}", p.gamma()));
+  if (!(p.gae_lambda() >= 0.0 && p.gae_lambda() <= 1.0)) {
+    fail("ppo.gae_lambda", fmt::format("expected in [0, 1], got {}", p.gae_lambda()));
   }
-  if (!(p.clip > 0.0)) fail("ppo.clip", fmt::format("expected > 0, got {}", p.clip));
-  if (!(p.lr > 0.0)) fail("ppo.lr", fmt::format("expected > 0, got {}", p.lr));
+  if (!(p.clip() > 0.0)) fail("ppo.clip", fmt::format("expected > 0, got {}", p.clip()));
+  if (!(p.lr() > 0.0)) fail("ppo.lr", fmt::format("expected > 0, got {}", p.lr()));
   for (const auto& [key, hidden] : {std::pair{"network.actor_hidden", c.network.actor_hidden()},
                                     std::pair{"network.critic_hidden", c.network.critic_hidden()}}) {
     for (int h : hidden) {

@@ -1,0 +1,705 @@
+// The training loop (rollouts over a VecEnv, PPO/MAPPO updates), checkpoints, resume, evaluation and export.
+#include "rmpmarl/rl/torch/trainer.h"
+
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <torch/serialize.h>
+#include <torch/types.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/rl/torch/ppo.h"
+#include "rmpmarl/rl/torch/tensorboard.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+constexpr char kCheckpointMagic[8] = {'R', 'M', 'P', 'M', 'C', 'K', 'P', 'T'};
+constexpr std::uint32_t kCheckpointVersion = 1;
+constexpr std::size_t kCheckpointHeader = 8 + 4 + 8 + 4;  // magic, version, payload size, crc32c
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// keys that may differ between a checkpoint's config and the resuming config.
+bool IsRunLocalKey(const std::string& key) {
+  return key == "name" || key == "output_dir" || key == "env_threads" || key == "torch_threads" ||
+         key.rfind("logging.", 0) == 0;
+}
+
+std::string SpecFingerprint(const EnvSpec& s) {
+  return fmt::format("task={} agents={} local_obs={} global_state={} options={} continuous={} termination={} "
+                     "reward_terms={}", s.task, s.num_agents, s.local_obs_dim, s.global_state_dim,
+                     s.action.num_options, s.action.num_continuous, s.action.has_termination, s.reward_terms.size());
+}
+
+// ---- the checkpoint container: header + torch archive bytes
+void WriteFileAtomically(const std::string& path, const std::string& bytes) {
+  const std::filesystem::path p(path);
+  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+  const std::string tmp = fmt::format("{}.tmp.{}", path, getpid());
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw InputError(fmt::format("checkpoint {}: cannot create {}: {}", path, tmp, std::strerror(errno)));
+  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fflush(f) == 0 &&
+                  fsync(fileno(f)) == 0;
+  std::fclose(f);
+  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw InputError(fmt::format("checkpoint {}: cannot write it ({})", path, std::strerror(errno)));
+  }
+}
+
+std::string ReadFile(const std::string& path, const char* what) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{} {}: cannot open it", what, path));
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string WrapPayload(const std::string& payload) {
+  std::string out(kCheckpointMagic, 8);
+  const std::uint32_t version = kCheckpointVersion;
+  const std::uint64_t size = payload.size();
+  const std::uint32_t crc = Crc32c(payload.data(), payload.size());
+  out.append(reinterpret_cast<const char*>(&version), 4);
+  out.append(reinterpret_cast<const char*>(&size), 8);
+  out.append(reinterpret_cast<const char*>(&crc), 4);
+  return out + payload;
+}
+
+// reads a checkpoint file, checks its header and checksum, and opens its archive.
+torch::serialize::InputArchive OpenCheckpoint(const std::string& path) {
+  const std::string bytes = ReadFile(path, "checkpoint");
+  if (bytes.size() < kCheckpointHeader || std::memcmp(bytes.data(), kCheckpointMagic, 8) != 0) {
+    throw InputError(fmt::format("checkpoint {}: not an rmpmarl checkpoint (expected magic \"RMPMCKPT\")", path));
+  }
+  std::uint32_t version, crc;
+  std::uint64_t size;
+  std::memcpy(&version, bytes.data() + 8, 4);
+  std::memcpy(&size, bytes.data() + 12, 8);
+  std::memcpy(&crc, bytes.data() + 20, 4);
+  if (version != kCheckpointVersion) {
+    throw InputError(fmt::format("checkpoint {}: format version {} is not supported (expected {})", path, version,
+                                 kCheckpointVersion));
+  }
+  if (size != bytes.size() - kCheckpointHeader) {
+    throw InputError(fmt::format("checkpoint {} is corrupt: expected a {}-byte payload, got {} bytes (truncated?)",
+                                 path, size, bytes.size() - kCheckpointHeader));
+  }
+  const std::uint32_t computed = Crc32c(bytes.data() + kCheckpointHeader, size);
+  if (computed != crc) {
+    throw InputError(fmt::format("checkpoint {} is corrupt: checksum mismatch (stored crc32c {:08x}, computed {:08x})",
+                                 path, crc, computed));
+  }
+  torch::serialize::InputArchive archive;
+  try {
+    std::istringstream stream(bytes.substr(kCheckpointHeader));
+    archive.load_from(stream);
+  } catch (const c10::Error& e) {
+    throw InputError(fmt::format("checkpoint {}: cannot read its archive: {}", path, e.what_without_backtrace()));
+  }
+  return archive;
+}
+
+std::string ReadString(torch::serialize::InputArchive& archive, const std::string& key) {
+  c10::IValue v;
+  archive.read(key, v);
+  return v.toStringRef();
+}
+
+std::int64_t ReadInt(torch::serialize::InputArchive& archive, const std::string& key) {
+  c10::IValue v;
+  archive.read(key, v);
+  return v.toInt();
+}
+
+// the env layout stored in a checkpoint (enough to rebuild the networks).
+EnvSpec ReadSpec(torch::serialize::InputArchive& archive) {
+  EnvSpec s;
+  s.task = ReadString(archive, "spec/task");
+  s.num_agents = static_cast<int>(ReadInt(archive, "spec/num_agents"));
+  s.local_obs_dim = static_cast<int>(ReadInt(archive, "spec/local_obs_dim"));
+  s.global_state_dim = static_cast<int>(ReadInt(archive, "spec/global_state_dim"));
+  s.action.num_options = static_cast<int>(ReadInt(archive, "spec/num_options"));
+  s.action.num_continuous = static_cast<int>(ReadInt(archive, "spec/num_continuous"));
+  s.action.has_termination = ReadInt(archive, "spec/has_termination") != 0;
+  const int terms = static_cast<int>(ReadInt(archive, "spec/reward_terms"));
+  s.reward_terms.assign(terms, "");
+  torch::Tensor low, high;
+  archive.read("spec/low", low);
+  archive.read("spec/high", high);
+  s.action.low.assign(low.data_ptr<float>(), low.data_ptr<float>() + low.numel());
+  s.action.high.assign(high.data_ptr<float>(), high.data_ptr<float>() + high.numel());
+  return s;
+}
+
+void WriteSpec(torch::serialize::OutputArchive& archive, const EnvSpec& s) {
+  archive.write("spec/task", c10::IValue(s.task));
+  archive.write("spec/num_agents", c10::IValue(static_cast<std::int64_t>(s.num_agents)));
+  archive.write("spec/local_obs_dim", c10::IValue(static_cast<std::int64_t>(s.local_obs_dim)));
+  archive.write("spec/global_state_dim", c10::IValue(static_cast<std::int64_t>(s.global_state_dim)));
+  archive.write("spec/num_options", c10::IValue(static_cast<std::int64_t>(s.action.num_options)));
+  archive.write("spec/num_continuous", c10::IValue(static_cast<std::int64_t>(s.action.num_continuous)));
+  archive.write("spec/has_termination", c10::IValue(static_cast<std::int64_t>(s.action.has_termination)));
+  archive.write("spec/reward_terms", c10::IValue(static_cast<std::int64_t>(s.reward_terms.size())));
+  archive.write("spec/low", torch::tensor(s.action.low, torch::kFloat));
+  archive.write("spec/high", torch::tensor(s.action.high, torch::kFloat));
+}
+
+// a learner restored from a checkpoint, with the config and env layout it was trained with.
+struct LoadedCheckpoint {
+  TrainConfig config;
+  EnvSpec spec;
+  std::unique_ptr<Ppo> ppo;
+};
+
+LoadedCheckpoint LoadLearner(const std::string& path) {
+  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  LoadedCheckpoint c;
+  try {
+    c.config = ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
+    c.spec = ReadSpec(archive);
+    c.ppo = std::make_unique<Ppo>(c.spec, c.config.network, c.config.ppo, c.config.seed);
+    c.ppo->Load(archive);
+  } catch (const c10::Error& e) {
+    throw InputError(fmt::format("checkpoint {}: cannot restore the learner: {}", path, e.what_without_backtrace()));
+  }
+  return c;
+}
+
+// running aggregate of finished episodes.
+struct EpisodeStats {
+  int episodes = 0, successes = 0, collisions = 0, collision_free = 0, clearance_count = 0;
+  double return_sum = 0.0, track_sum = 0.0, track_sq = 0.0, final_track_sum = 0.0, clearance_sum = 0.0;
+  double length_sum = 0.0;
+  void Add(const EpisodeMetrics& m) {
+    ++episodes;
+    successes += m.success ? 1 : 0;
+    collisions += m.collisions;
+    collision_free += m.collisions == 0 ? 1 : 0;
+    return_sum += m.episode_return;
+    track_sum += m.mean_tracking_error_mm;
+    track_sq += m.mean_tracking_error_mm * m.mean_tracking_error_mm;
+    final_track_sum += m.final_tracking_error_mm;
+    length_sum += m.length;
+    if (std::isfinite(m.min_clearance_m)) {
+      clearance_sum += m.min_clearance_m;
+      ++clearance_count;
+    }
+  }
+  double Mean(double sum) const { return episodes > 0 ? sum / episodes : kNaN; }
+};
+
+std::string FormatDuration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--:--";
+  const long s = std::lround(seconds);
+  return s >= 3600 ? fmt::format("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+                   : fmt::format("{:02}:{:02}", s / 60, s % 60);
+}
+
+std::string Num(double v, const char* spec = "{:.3g}") {
+  return std::isfinite(v) ? fmt::format(fmt::runtime(spec), v) : std::string("-");
+}
+
+}  // namespace
+
+void SetTorchThreads(int threads) {
+  torch::set_num_threads(std::max(threads, 1));
+  using SetThreads = void (*)(int);
+  if (auto fn = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) {
+    fn(std::max(threads, 1));
+  }
+}
+
+// ------------------------------------------------------------------------------------------------- Trainer
+struct Trainer::Impl {
+  TrainConfig config;
+  EnvFactory factory;
+  EnvSpec spec;
+  std::unique_ptr<VecEnv> env;
+  std::unique_ptr<Ppo> ppo;
+  int update = 0;
+  std::int64_t env_steps = 0;
+  int envs_reset_at = -1;                 // update at which the current envs were seeded and reset
+  std::vector<std::uint8_t> episode_start;  // N: the env's current observation is an episode's first
+
+  // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
+  void ResetEnvs(int u) {
+    const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs;
+    env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
+    env->Reset();
+    episode_start.assign(config.num_envs, 1);
+    envs_reset_at = u;
+  }
+
+  UpdateSummary RunUpdate();
+};
+
+Trainer::Trainer(const TrainConfig& config, EnvFactory factory) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.config = config;
+  m.factory = std::move(factory);
+  SetTorchThreads(config.torch_threads);
+  m.env = std::make_unique<VecEnv>(m.factory, VecEnvOptions{config.num_envs, config.seed, config.env_threads});
+  m.spec = m.env->spec();
+  if (config.algorithm == "ppo" && m.spec.num_agents != 1) {
+    throw InputError(fmt::format("algorithm \"ppo\" is single-agent, but task {} has {} agents (use \"mappo\", or a "
+                                 "single-agent interface of the task)", m.spec.task, m.spec.num_agents));
+  }
+  m.ppo = std::make_unique<Ppo>(m.spec, config.network, config.ppo, config.seed);
+  if (!config.init_actor_from.empty()) {
+    LoadedCheckpoint pre = LoadLearner(config.init_actor_from);
+    try {
+      m.ppo->InitActorFrom(*pre.ppo);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("init_actor_from {}: {}", config.init_actor_from, e.what()));
+    }
+  }
+}
+
+Trainer::~Trainer() = default;
+
+bool Trainer::finished() const { return impl_->update >= impl_->config.total_updates; }
+int Trainer::update() const { return impl_->update; }
+std::int64_t Trainer::env_steps() const { return impl_->env_steps; }
+const TrainConfig& Trainer::config() const { return impl_->config; }
+const EnvSpec& Trainer::spec() const { return impl_->spec; }
+
+UpdateSummary Trainer::RunUpdate() { return impl_->RunUpdate(); }
+
+UpdateSummary Trainer::Impl::RunUpdate() {
+  const auto start = std::chrono::steady_clock::now();
+  if (update % config.checkpoint_every == 0 && envs_reset_at != update) ResetEnvs(update);
+  if (envs_reset_at < 0) ResetEnvs(update);
+  const int T = config.ppo.rollout_steps(), N = config.num_envs, A = spec.num_agents;
+  const int d = spec.local_obs_dim, S = spec.global_state_dim, as = spec.action.size();
+  const auto f = torch::kFloat;
+  torch::Tensor obs = torch::empty({T, N * A, d}, f), state = torch::empty({T, N, S}, f);
+  torch::Tensor actions = torch::empty({T, N * A, as}, f);
+  torch::Tensor lp_option = torch::empty({T, N * A}, f), lp_cont = torch::empty({T, N * A}, f),
+                lp_term = torch::empty({T, N * A}, f);
+  torch::Tensor option_mask = torch::empty({T, N * A}, f), term_mask = torch::empty({T, N * A}, f);
+  torch::Tensor raw_values = torch::empty({T, N}, f), values = torch::empty({T, N}, f);
+  torch::Tensor rewards = torch::empty({T, N}, f), terminated = torch::zeros({T, N}, f),
+                truncated = torch::zeros({T, N}, f), final_values = torch::zeros({T, N}, f);
+  EpisodeStats episodes;
+
+  for (int t = 0; t < T; ++t) {
+    const Batch& b = env->batch();
+    const torch::Tensor local = torch::from_blob(const_cast<float*>(b.local_obs.data()), {N * A, d}, f);
+    const torch::Tensor global = torch::from_blob(const_cast<float*>(b.global_state.data()), {N, S}, f);
+    const ActResult r = ppo->Act(local, global, /*update_normalizers=*/true, /*deterministic=*/false);
+    obs[t].copy_(r.actor_obs);
+    state[t].copy_(r.critic_state);
+    actions[t].copy_(r.sampled.actions);
+    lp_option[t].copy_(r.sampled.log_probs.option);
+    lp_cont[t].copy_(r.sampled.log_probs.continuous);
+    lp_term[t].copy_(r.sampled.log_probs.termination);
+    raw_values[t].copy_(r.raw_values);
+    values[t].copy_(r.values);
+    float* tm = term_mask[t].data_ptr<float>();
+    for (int k = 0; k < N; ++k) {
+      for (int a = 0; a < A; ++a) tm[k * A + a] = episode_start[k] ? 0.0f : 1.0f;
+    }
+    const torch::Tensor step_actions = actions[t].contiguous();
+    env->Step(step_actions.data_ptr<float>());
+    const Batch& after = env->batch();
+    std::memcpy(option_mask[t].data_ptr<float>(), after.option_started.data(), sizeof(float) * N * A);
+    std::memcpy(rewards[t].data_ptr<float>(), after.reward.data(), sizeof(float) * N);
+    float* term = terminated[t].data_ptr<float>();
+    float* trunc = truncated[t].data_ptr<float>();
+    bool any_truncated = false;
+    for (int k = 0; k < N; ++k) {
+      term[k] = after.terminated[k] ? 1.0f : 0.0f;
+      trunc[k] = (!after.terminated[k] && after.truncated[k]) ? 1.0f : 0.0f;
+      any_truncated |= trunc[k] > 0.0f;
+      episode_start[k] = after.terminated[k] || after.truncated[k];
+      if (episode_start[k]) episodes.Add(after.metrics[k]);
+    }
+    if (any_truncated) {
+      const torch::Tensor fin =
+          torch::from_blob(const_cast<float*>(after.final_global_state.data()), {N, S}, f);
+      final_values[t].copy_(ppo->Values(fin));
+    }
+  }
+  const Batch& last = env->batch();
+  const torch::Tensor last_state = torch::from_blob(const_cast<float*>(last.global_state.data()), {N, S}, f);
+  const torch::Tensor last_values = ppo->Values(last_state);
+  const GaeResult gae = ComputeGae({rewards, values, terminated, truncated, final_values, last_values},
+                                   config.ppo.gamma(), config.ppo.gae_lambda());
+
+  RolloutBatch batch;
+  batch.num_agents = A;
+  batch.actor_obs = obs.reshape({T * N * A, d});
+  batch.critic_state = state.reshape({T * N, S});
+  batch.actions = actions.reshape({T * N * A, as});
+  batch.old_log_probs = {lp_option.reshape({-1}), lp_cont.reshape({-1}), lp_term.reshape({-1})};
+  batch.option_mask = option_mask.reshape({-1});
+  batch.termination_mask = term_mask.reshape({-1});
+  batch.old_values = raw_values.reshape({-1});
+  batch.returns = gae.returns.reshape({-1});
+  batch.advantages = gae.advantages.reshape({-1});
+  double lr_scale = 1.0;
+  if (config.ppo.lr_schedule() == LrSchedule::kLinear) {
+    lr_scale = 1.0 - (1.0 - config.ppo.lr_final_fraction()) * update / config.total_updates;
+  }
+  const UpdateStats learn = ppo->Update(batch, lr_scale);
+  ++update;
+  env_steps += static_cast<std::int64_t>(T) * N;
+
+  UpdateSummary s;
+  s.update = update;
+  s.env_steps = env_steps;
+  s.episodes = episodes.episodes;
+  s.mean_return = episodes.Mean(episodes.return_sum);
+  s.success_rate = episodes.Mean(episodes.successes);
+  s.tracking_error_mm = episodes.Mean(episodes.track_sum);
+  s.final_tracking_error_mm = episodes.Mean(episodes.final_track_sum);
+  s.min_clearance_m = episodes.clearance_count > 0 ? episodes.clearance_sum / episodes.clearance_count : kNaN;
+  s.collisions_per_episode = episodes.Mean(episodes.collisions);
+  s.episode_length = episodes.Mean(episodes.length_sum);
+  s.policy_loss = learn.policy_loss;
+  s.value_loss = learn.value_loss;
+  s.entropy_option = learn.entropy_option;
+  s.entropy_continuous = learn.entropy_continuous;
+  s.entropy_termination = learn.entropy_termination;
+  s.approx_kl = learn.approx_kl;
+  s.clip_fraction = learn.clip_fraction;
+  s.explained_variance = learn.explained_variance;
+  s.actor_grad_norm = learn.actor_grad_norm;
+  s.critic_grad_norm = learn.critic_grad_norm;
+  s.lr = config.ppo.lr() * lr_scale;
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  s.fps = static_cast<double>(T) * N / std::max(s.seconds, 1e-9);
+  return s;
+}
+
+void Trainer::SaveCheckpoint(const std::string& path) const {
+  const Impl& m = *impl_;
+  torch::serialize::OutputArchive archive;
+  archive.write("meta/format", c10::IValue(std::string("rmpmarl-checkpoint")));
+  archive.write("meta/config", c10::IValue(ToYaml(m.config)));
+  archive.write("meta/fingerprint", c10::IValue(SpecFingerprint(m.spec)));
+  archive.write("meta/update", c10::IValue(static_cast<std::int64_t>(m.update)));
+  archive.write("meta/env_steps", c10::IValue(m.env_steps));
+  WriteSpec(archive, m.spec);
+  m.ppo->Save(archive);
+  std::ostringstream payload;
+  archive.save_to(payload);
+  WriteFileAtomically(path, WrapPayload(payload.str()));
+}
+
+void Trainer::Resume(const std::string& path) {
+  Impl& m = *impl_;
+  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  try {
+    const std::string fingerprint = ReadString(archive, "meta/fingerprint");
+    if (fingerprint != SpecFingerprint(m.spec)) {
+      throw InputError(fmt::format("checkpoint {} does not match this task's env layout:\n  checkpoint: {}\n  env:        "
+                                   "{}", path, fingerprint, SpecFingerprint(m.spec)));
+    }
+    const TrainConfig stored = ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
+    const auto a = FlattenTrainConfig(stored), b = FlattenTrainConfig(m.config);
+    std::string differences;
+    for (size_t i = 0; i < a.size(); ++i) {
+      if (IsRunLocalKey(a[i].first) || a[i].second == b[i].second) continue;
+      differences += fmt::format("\n  {}: {} in the checkpoint, {} now", a[i].first, a[i].second, b[i].second);
+    }
+    if (!differences.empty()) {
+      throw InputError(fmt::format("checkpoint {} was written by a run with a different configuration (resuming "
+                                   "would not continue it):{}", path, differences));
+    }
+    if (stored.torch_threads != m.config.torch_threads) {
+      fmt::print(stderr, "rmpmarl: warning: torch_threads {} differs from the checkpoint's {}; results may differ in "
+                         "the last bits\n", m.config.torch_threads, stored.torch_threads);
+    }
+    m.ppo->Load(archive);
+    m.update = static_cast<int>(ReadInt(archive, "meta/update"));
+    m.env_steps = ReadInt(archive, "meta/env_steps");
+  } catch (const c10::Error& e) {
+    throw InputError(fmt::format("checkpoint {}: cannot restore the training state: {}", path,
+                                 e.what_without_backtrace()));
+  }
+  m.envs_reset_at = -1;  // the next update seeds and resets the envs for its segment
+}
+
+void Trainer::ExportPolicy(const std::string& path) const { SavePolicyFile(impl_->ppo->Export(), path); }
+
+std::vector<double> Trainer::StateVector() const {
+  Ppo& ppo = *impl_->ppo;
+  std::vector<double> out;
+  auto append = [&](const torch::Tensor& t) {
+    const torch::Tensor d = t.detach().to(torch::kDouble).contiguous().reshape({-1});
+    out.insert(out.end(), d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
+  };
+  std::vector<torch::Tensor> params = ppo.actor()->parameters();
+  for (const torch::Tensor& p : ppo.critic()->parameters()) params.push_back(p);
+  auto& state = ppo.optimizer().state();
+  for (const torch::Tensor& p : params) {
+    append(p);
+    auto it = state.find(c10::guts::to_string(p.unsafeGetTensorImpl()));
+    if (it == state.end()) continue;
+    const auto& adam = static_cast<const torch::optim::AdamParamState&>(*it->second);
+    append(adam.exp_avg());
+    append(adam.exp_avg_sq());
+    out.push_back(static_cast<double>(adam.step()));
+  }
+  for (RunningMeanStd* n : {&ppo.obs_norm(), &ppo.state_norm(), &ppo.value_norm()}) {
+    append(n->mean());
+    append(n->var());
+    out.push_back(n->count());
+  }
+  append(ppo.generator().get_state());
+  out.push_back(impl_->update);
+  out.push_back(static_cast<double>(impl_->env_steps));
+  return out;
+}
+
+TrainConfig ReadCheckpointConfig(const std::string& path) {
+  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  try {
+    return ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
+  } catch (const c10::Error& e) {
+    throw InputError(fmt::format("checkpoint {}: no readable config: {}", path, e.what_without_backtrace()));
+  }
+}
+
+// ------------------------------------------------------------------------------------------------- RunTraining
+namespace {
+
+const char* kCsvHeader =
+    "update,env_steps,episodes,mean_return,success_rate,tracking_error_mm,final_tracking_error_mm,min_clearance_m,"
+    "collisions_per_episode,episode_length,policy_loss,value_loss,entropy_option,entropy_continuous,"
+    "entropy_termination,approx_kl,clip_fraction,explained_variance,actor_grad_norm,critic_grad_norm,lr,fps,seconds";
+
+std::vector<std::pair<std::string, double>> Columns(const UpdateSummary& s) {
+  return {{"episodes", s.episodes},
+          {"mean_return", s.mean_return},
+          {"success_rate", s.success_rate},
+          {"tracking_error_mm", s.tracking_error_mm},
+          {"final_tracking_error_mm", s.final_tracking_error_mm},
+          {"min_clearance_m", s.min_clearance_m},
+          {"collisions_per_episode", s.collisions_per_episode},
+          {"episode_length", s.episode_length},
+          {"policy_loss", s.policy_loss},
+          {"value_loss", s.value_loss},
+          {"entropy_option", s.entropy_option},
+          {"entropy_continuous", s.entropy_continuous},
+          {"entropy_termination", s.entropy_termination},
+          {"approx_kl", s.approx_kl},
+          {"clip_fraction", s.clip_fraction},
+          {"explained_variance", s.explained_variance},
+          {"actor_grad_norm", s.actor_grad_norm},
+          {"critic_grad_norm", s.critic_grad_norm},
+          {"lr", s.lr},
+          {"fps", s.fps},
+          {"seconds", s.seconds}};
+}
+
+// keeps the CSV rows of updates <= `update` (a resumed run rewrites what came after its checkpoint).
+void TruncateCsv(const std::string& path, int update) {
+  std::ifstream in(path);
+  if (!in) return;
+  std::string line, kept;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (header || std::atoi(line.c_str()) <= update) kept += line + "\n";
+    header = false;
+  }
+  in.close();
+  std::ofstream(path, std::ios::trunc) << kept;
+}
+
+}  // namespace
+
+UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, const RunOptions& options) {
+  namespace fs = std::filesystem;
+  const bool files = !config.output_dir.empty();
+  const std::string out = config.output_dir;
+  const std::string checkpoint = out + "/checkpoint.ckpt";
+  if (options.resume && !files) throw InputError("--resume needs output_dir in the training config");
+  if (options.resume && !fs::exists(checkpoint)) {
+    throw InputError(fmt::format("--resume: no checkpoint at {} (train without --resume to start)", checkpoint));
+  }
+  Trainer trainer(config, factory);
+  if (options.resume) trainer.Resume(checkpoint);
+  UpdateSummary last;
+  if (trainer.finished()) {
+    if (config.progress) {
+      fmt::print("{}: training already complete ({} of {} updates)\n", config.name, trainer.update(),
+                 config.total_updates);
+    }
+    return last;
+  }
+  std::ofstream csv;
+  std::unique_ptr<TensorBoardWriter> tb;
+  if (files) {
+    fs::create_directories(out);
+    std::ofstream(out + "/config.yaml", std::ios::trunc) << ToYaml(config);
+    if (config.write_csv) {
+      const std::string path = out + "/metrics.csv";
+      if (options.resume && fs::exists(path)) {
+        TruncateCsv(path, trainer.update());
+        csv.open(path, std::ios::app);
+      } else {
+        csv.open(path, std::ios::trunc);
+        csv << kCsvHeader << "\n";
+      }
+      if (!csv) throw InputError(fmt::format("cannot write {}", path));
+    }
+    if (config.write_tensorboard) tb = std::make_unique<TensorBoardWriter>(out + "/tb");
+  }
+  const bool tty = isatty(fileno(stderr));
+  const int first = trainer.update();
+  const auto start = std::chrono::steady_clock::now();
+  if (config.progress) {
+    fmt::print("{}: task {} ({} agents, obs {}, state {}), {} envs × {} steps per update, updates {}..{}\n",
+               config.name, trainer.spec().task, trainer.spec().num_agents, trainer.spec().local_obs_dim,
+               trainer.spec().global_state_dim, config.num_envs, config.ppo.rollout_steps(), first + 1,
+               config.total_updates);
+    std::fflush(stdout);
+  }
+  while (!trainer.finished()) {
+    last = trainer.RunUpdate();
+    const int u = last.update;
+    if (csv.is_open()) {
+      csv << u << "," << last.env_steps;
+      for (const auto& [name, value] : Columns(last)) csv << "," << fmt::format("{}", value);
+      csv << "\n";
+      csv.flush();
+    }
+    if (tb) {
+      std::vector<std::pair<std::string, float>> scalars;
+      for (const auto& [name, value] : Columns(last)) {
+        if (std::isfinite(value)) scalars.emplace_back("train/" + name, static_cast<float>(value));
+      }
+      tb->Write(last.env_steps, scalars);
+    }
+    if (files && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
+    if (options.on_update) options.on_update(last);
+    if (config.progress) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double eta = elapsed / (u - first) * (config.total_updates - u);
+      if (tty) fmt::print(stderr, "\r\033[K");
+      fmt::print("[{:>{}}/{}] return {} | success {} | track {} mm | entropy opt {} cont {} term {} | kl {} | "
+                 "{:.0f} fps\n", u, std::to_string(config.total_updates).size(), config.total_updates,
+                 Num(last.mean_return), Num(100.0 * last.success_rate, "{:.1f}%"), Num(last.tracking_error_mm, "{:.1f}"),
+                 Num(last.entropy_option, "{:.2f}"), Num(last.entropy_continuous, "{:.2f}"),
+                 Num(last.entropy_termination, "{:.2f}"), Num(last.approx_kl, "{:.4f}"), last.fps);
+      std::fflush(stdout);
+      if (tty) {
+        const int width = 30, done = width * u / config.total_updates;
+        fmt::print(stderr, "[{}{}] {}/{} updates  elapsed {}  ETA {}", std::string(done, '#'),
+                   std::string(width - done, '.'), u, config.total_updates, FormatDuration(elapsed),
+                   FormatDuration(eta));
+        std::fflush(stderr);
+      }
+    }
+  }
+  if (config.progress && tty) fmt::print(stderr, "\r\033[K");
+  if (files) {
+    trainer.SaveCheckpoint(out + "/final.ckpt");
+    trainer.ExportPolicy(out + "/policy.rmpp");
+    if (config.progress) {
+      fmt::print("{}: wrote {}/checkpoint.ckpt, final.ckpt, policy.rmpp{}{}\n", config.name, out,
+                 config.write_csv ? ", metrics.csv" : "", tb ? ", tb/" : "");
+    }
+  }
+  return last;
+}
+
+// ------------------------------------------------------------------------------------------------- Evaluate
+EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options) {
+  if (options.episodes < 1) throw InputError(fmt::format("episodes: expected >= 1, got {}", options.episodes));
+  const std::string head = ReadFile(policy_path, "policy").substr(0, 8);
+  const bool is_checkpoint = head == std::string(kCheckpointMagic, 8);
+  const int N = std::max(1, std::min(options.num_envs, options.episodes));
+  VecEnv env(factory, VecEnvOptions{N, options.seed, options.env_threads});
+  const EnvSpec& spec = env.spec();
+  const int A = spec.num_agents, d = spec.local_obs_dim, S = spec.global_state_dim, as = spec.action.size();
+
+  std::function<void(const Batch&, float*)> act;
+  LoadedCheckpoint loaded;
+  std::unique_ptr<PolicyRuntime> runtime;
+  if (is_checkpoint) {
+    loaded = LoadLearner(policy_path);
+    if (SpecFingerprint(loaded.spec) != SpecFingerprint(spec) &&
+        (loaded.spec.local_obs_dim != d || loaded.spec.action.size() != as)) {
+      throw InputError(fmt::format("policy {} does not fit this task: trained on {}, the env is {}", policy_path,
+                                   SpecFingerprint(loaded.spec), SpecFingerprint(spec)));
+    }
+    SetTorchThreads(loaded.config.torch_threads);
+    Ppo* ppo = loaded.ppo.get();
+    const bool deterministic = !options.stochastic;
+    act = [=](const Batch& b, float* actions) {
+      const torch::Tensor local = torch::from_blob(const_cast<float*>(b.local_obs.data()), {N * A, d}, torch::kFloat);
+      torch::Tensor global = torch::from_blob(const_cast<float*>(b.global_state.data()), {N, S}, torch::kFloat);
+      if (ppo->spec().global_state_dim != S) global = torch::zeros({N, ppo->spec().global_state_dim});
+      const ActResult r = ppo->Act(local, global, false, deterministic);
+      const torch::Tensor a = r.sampled.actions.contiguous();
+      std::memcpy(actions, a.data_ptr<float>(), sizeof(float) * N * A * as);
+    };
+  } else {
+    if (options.stochastic) throw InputError("stochastic evaluation needs a checkpoint (.ckpt), not a policy file");
+    const PolicyWeights weights = LoadPolicyFile(policy_path);
+    if (weights.obs_dim != d || weights.action_size() != as) {
+      throw InputError(fmt::format("policy {} does not fit task {}: it takes obs {} and gives {} action floats, the "
+                                   "env has obs {} and actions of {}", policy_path, spec.task, weights.obs_dim,
+                                   weights.action_size(), d, as));
+    }
+    runtime = std::make_unique<PolicyRuntime>(weights, A);
+    PolicyRuntime* rt = runtime.get();
+    act = [=](const Batch& b, float* actions) {
+      for (int k = 0; k < N; ++k) rt->Act(b.local_obs.data() + static_cast<size_t>(k) * A * d, A, actions + k * A * as);
+    };
+  }
+
+  // env k runs quota[k] episodes: the first `episodes` episodes in (env, episode) order.
+  std::vector<int> quota(N, options.episodes / N), done(N, 0);
+  for (int k = 0; k < options.episodes % N; ++k) ++quota[k];
+  std::vector<float> actions(static_cast<size_t>(N) * A * as);
+  EpisodeStats stats;
+  std::vector<double> tracking;
+  env.Reset();
+  const long max_steps = std::max(spec.max_episode_steps, 1000) * static_cast<long>(quota[0] + 1) * 4;
+  for (long step = 0; stats.episodes < options.episodes; ++step) {
+    if (step > max_steps) {
+      throw InputError(fmt::format("evaluation: episodes did not end within {} steps per env", max_steps));
+    }
+    act(env.batch(), actions.data());
+    env.Step(actions.data());
+    const Batch& b = env.batch();
+    for (int k = 0; k < N; ++k) {
+      if (!(b.terminated[k] || b.truncated[k]) || done[k] >= quota[k]) continue;
+      ++done[k];
+      stats.Add(b.metrics[k]);
+      tracking.push_back(b.metrics[k].mean_tracking_error_mm);
+    }
+  }
+  EvalResult r;
+  r.episodes = stats.episodes;
+  r.success_rate = static_cast<double>(stats.successes) / stats.episodes;
+  r.tracking_error_mean_mm = stats.track_sum / stats.episodes;
+  double var = 0.0;
+  for (double t : tracking) var += (t - r.tracking_error_mean_mm) * (t - r.tracking_error_mean_mm);
+  r.tracking_error_std_mm = std::sqrt(var / stats.episodes);
+  r.final_tracking_error_mean_mm = stats.final_track_sum / stats.episodes;
+  r.min_clearance_mean_m = stats.clearance_count > 0 ? stats.clearance_sum / stats.clearance_count : kNaN;
+  r.collisions_per_episode = static_cast<double>(stats.collisions) / stats.episodes;
+  r.collision_free_rate = static_cast<double>(stats.collision_free) / stats.episodes;
+  r.mean_return = stats.return_sum / stats.episodes;
+  r.mean_length = stats.length_sum / stats.episodes;
+  return r;
+}
+
+}  // namespace rmpmarl::rl
