@@ -13,6 +13,11 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterCheckRobot(app);
   rmpmarl::apps::RegisterRobots(app);
   rmpmarl::apps::RegisterDemo(app);
+#ifdef RMPMARL_HAS_TORCH
+  rmpmarl::apps::RegisterTrain(app);
+  rmpmarl::apps::RegisterEval(app);
+  rmpmarl::apps::RegisterExportPolicy(app);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -115,6 +115,7 @@ TaskContext::TaskContext(TaskConfig config, ScenarioMaker scenario)
   sim::WorldOptions world_options;
   world_options.timestep = config_.episode.physics_timestep;
   world_options.warning_margin = config_.observation.warning_distance;
+  world_options.integrator = config_.episode.integrator;
   const RandomizationConfig& d = config_.randomization;
   std::mt19937_64 rng(d.seed);
   const bool planar2 = config_.robot == "planar2";

@@ -305,6 +305,8 @@ TaskConfig DefaultTaskConfig(TaskKind task) {
   c.basic_layer.params.collision.metric_modulation_radius = 0.15;
   c.controller.max_substep = 0.01;  // one policy evaluation per 100 Hz control step
   c.controller.control_rate = c.episode.control_rate;
+  // slow targets and obstacles move once per env step (≤ 3 mm); the fast line of line-crossing every physics step
+  c.episode.scenario_update = task == TaskKind::kLineCrossing ? ScenarioUpdate::kPhysicsStep : ScenarioUpdate::kControlStep;
   switch (task) {
     case TaskKind::kPretrain2Link:
       c.robot = "planar2";
@@ -394,6 +396,11 @@ TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
     ReadSection(r, n, "episode",
                 {Int(r, "max_steps", &e.max_steps), Num(r, "control_rate", &e.control_rate),
                  Num(r, "physics_timestep", &e.physics_timestep),
+                 {"integrator",
+                  [&r, &e](const YAML::Node& v, const std::string& k) {
+                    e.integrator = r.Choice(v, k, {"euler", "implicit"}) == 0 ? sim::Integrator::kEuler
+                                                                              : sim::Integrator::kImplicit;
+                  }},
                  Flag(r, "terminate_on_collision", &e.terminate_on_collision), Num(r, "discount", &e.discount),
                  {"scenario_update",
                   [&r, &e](const YAML::Node& v, const std::string& k) {
@@ -534,9 +541,6 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         o.speed_scale);
   check(std::isfinite(o.warning_distance) && o.warning_distance > 0.0 && o.warning_distance <= 1.0,
         "observation.warning_distance", "a distance in (0, 1] m", o.warning_distance);
-  const int scenario_obstacles = ScenarioObstacleCount(c);
-  check(o.max_obstacles >= scenario_obstacles && o.max_obstacles <= 64, "observation.max_obstacles",
-        fmt::format("an integer in [{} (the scenario's obstacles), 64]", scenario_obstacles), o.max_obstacles);
 
   // reward
   const RewardConfig& w = c.reward;
@@ -651,6 +655,10 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
       break;
     }
   }
+
+  const int scenario_obstacles = ScenarioObstacleCount(c);
+  check(o.max_obstacles >= scenario_obstacles && o.max_obstacles <= 64, "observation.max_obstacles",
+        fmt::format("an integer in [{} (the scenario's obstacles), 64]", scenario_obstacles), o.max_obstacles);
 
   // basic layer
   rmp::ValidateTargetRmpParams(c.basic_layer.params.target, fmt::format("{}: rmp.target_rmp", where));

@@ -250,7 +250,7 @@ void Scenario::Advance(double dt, const ContactReport& contacts, World& world) {
     ObstacleState& o = obstacles_[pair.other_index];
     if (o.stop_on_impact && !o.stopped) {
       o.stopped = true;
-      o.stop_time = time_;
+      o.stop_time = world.time();
     }
   }
   time_ += dt;
@@ -347,7 +347,9 @@ double Scenario::RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Ve
   const rmp::Obstacle o = spec.shape == ObstacleShape::kSphere ? rmp::Obstacle::MakeSphere(p_WO, spec.radius)
                                                                 : rmp::Obstacle::MakeBox(X_WO, spec.half_size);
   double d = kInf;
-  for (const auto& c : robot_.capsules) d = std::min(d, rmp::CapsuleObstacleDistance(WorldCapsule(c, data), o).distance);
+  for (const auto& c : robot_.capsules) {
+    d = std::min(d, rmp::CapsuleObstacleDistance(WorldCapsule(c, data), o).distance);
+  }
   return d;
 }
 
@@ -519,7 +521,9 @@ void CrossingScenario::OnPathEnd(int j, std::mt19937_64& rng) {
 namespace {
 double LineDuration(const Workspace& w, const LineCrossingOptions& o) {
   const double path = 2.0 * (w.horizontal_reach + o.spawn_margin);
-  const double pass = (path + std::max(0, o.num_obstacles - 1) * o.spacing) / std::max(o.speed, 1e-3);
+  const bool along = o.arrangement == LineArrangement::kAlongMotion;
+  const double train = along ? std::max(0, o.num_obstacles - 1) * o.spacing : 0.0;
+  const double pass = (path + train) / std::max(o.speed, 1e-3);
   return std::clamp(pass, 5.0, 60.0);
 }
 }  // namespace
@@ -561,14 +565,23 @@ void LineCrossingScenario::Draw(std::mt19937_64& rng) {
     if (BaseDistance(P, d) < options_.min_base_distance) continue;
     const HorizontalPath path = CutToSpawnDisc(P, d, std::max(r_spawn, P.head<2>().norm() + options_.spawn_margin));
     const int n = num_obstacles();
+    const bool along = options_.arrangement == LineArrangement::kAlongMotion;
+    const Eigen::Vector3d across(-d.y(), d.x(), 0.0);
     for (int j = 0; j < n; ++j) {
       ObstacleState& o = obstacles_[j];
-      o.p_start = path.p_start;
       o.direction = d;
       o.path_length = path.length;
       o.speed = options_.speed;
-      o.s = -j * options_.spacing;  // one behind the other, the first at the start of the path
-      o.wrap = options_.repeat ? std::max(n * options_.spacing, path.length + options_.spacing) : 0.0;
+      if (along) {
+        o.p_start = path.p_start;
+        o.s = -j * options_.spacing;  // one behind the other, the first at the start of the path
+        o.wrap = options_.repeat ? std::max(n * options_.spacing, path.length + options_.spacing) : 0.0;
+      } else {
+        // side by side, centred on the line; the shifted starts lie even further from the base axis
+        o.p_start = path.p_start + (j - 0.5 * (n - 1)) * options_.spacing * across;
+        o.s = 0.0;
+        o.wrap = options_.repeat ? path.length + options_.spacing : 0.0;
+      }
       o.stop_on_impact = options_.stop_on_impact;
     }
     return;

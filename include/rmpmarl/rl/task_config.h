@@ -56,6 +56,9 @@ struct EpisodeConfig {
   int max_steps = 500;                  ///< truncation horizon [env steps], ≥ 1
   double control_rate = 100.0;          ///< env steps per simulated second [Hz]; period = whole physics timesteps
   double physics_timestep = 0.002;      ///< MuJoCo timestep [s]
+  /// MuJoCo integrator. Euler (joint damping implicit) tracks the servos like `implicit` (same 0.3 rad step response
+  /// to 1e-4 rad on every shipped arm) at half the cost per physics step (docs/environments.md, "Cost").
+  sim::Integrator integrator = sim::Integrator::kEuler;
   bool terminate_on_collision = false;  ///< end the episode at the first collision event
   double discount = 0.99;               ///< γ, in (0, 1]
   ScenarioUpdate scenario_update = ScenarioUpdate::kPhysicsStep;

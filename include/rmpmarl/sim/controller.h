@@ -4,8 +4,8 @@
 /// position servos.
 ///
 /// Integration: semi-implicit Euler on the controller's own commanded state (q_cmd, q̇_cmd), in substeps h ≤
-/// `max_substep`:  q̇_cmd ← clamp(q̇_cmd + h q̈, ±v_max);  q_cmd ← clamp(q_cmd + h q̇_cmd, limits) (velocity zeroed at a
-/// limit). The commanded state, not the measured one, is integrated because the MuJoCo position servo has no velocity
+/// `max_substep`: q̇_cmd ← clamp(q̇_cmd + h q̈, ±v_max); q_cmd ← clamp(q_cmd + h q̇_cmd, limits) (velocity zeroed at
+/// a limit). The commanded state, not the measured one, is integrated because the MuJoCo position servo has no velocity
 /// feed-forward: a command q + h q̇ built from the measured state would brake the joint (docs/control.md).
 #include <Eigen/Core>
 #include <memory>
@@ -83,7 +83,7 @@ struct ControllerOptions {
   bool velocity_feedforward = true;
   /// [rad or m] when max_i |q_cmd,i − q_i| exceeds this at the start of a control step (the arm was pushed, or blocked
   /// by a collision), the commanded state restarts from the measured one. +inf: never. Must exceed the servo's
-  /// tracking lag (≈ 2ζ/ω_n · |q̇| = 0.05 rad at 1 rad/s).
+  /// tracking lag (without feed-forward ≈ 2ζ/ω_n · |q̇| = 0.05 rad at 1 rad/s).
   double resync_threshold = 0.25;
 };
 

@@ -76,7 +76,7 @@ struct ObstacleState {
   double wrap = 0.0;         ///< at s > path_length: s −= wrap (> 0), or the scenario re-draws the path (0)
   bool stop_on_impact = false;
   bool stopped = false;      ///< hit the robot and stopped (stop_on_impact)
-  double stop_time = -1.0;   ///< scenario time of the impact [s], −1 before
+  double stop_time = -1.0;   ///< World::time() of the state in which the impact was seen [s], −1 before
   int paths = 1;             ///< paths travelled so far (1 + re-draws/wraps)
 
   Eigen::Vector3d p_WO() const { return p_start + s * direction; }
@@ -162,7 +162,7 @@ struct StaticReachOptions {
   double min_distance = 0.25;         ///< ‖p_WT − p_WE(q_start)‖ ≥ this [m]
   double min_singular_value = 0.1;    ///< smallest singular value of the end-effector position Jacobian at q_goal
   double min_self_clearance = 0.02;   ///< [m] between checked link pairs at q_goal
-  double min_height = 0.05;           ///< capsules of links moved by ≥ 2 dofs above z = this at q_goal [m] (spatial arms)
+  double min_height = 0.05;           ///< capsules of links moved by ≥ 2 dofs above this z at q_goal [m] (3-D arms)
   bool obstacle_on_path = false;      ///< one obstacle at the midpoint of the segment p_WE(q_start) → p_WT
   ObstacleSpec obstacle = ObstacleSpec::Sphere(0.04);  ///< its shape and size (the pose is drawn)
   double obstacle_clearance = 0.05;   ///< the obstacle is this far from the arm at q_start and q_goal [m]
@@ -228,12 +228,19 @@ class CrossingScenario final : public Scenario {
   CrossingOptions options_;
 };
 
-/// Options of `line-crossing` (paper section IV-C, Table 4, Fig. 7): a line of cubes, one behind the other, crossing
-/// the workspace sideways at `speed`, repeatedly; an obstacle that hits the robot stops at the point of impact.
+/// How the obstacles of a line-crossing are lined up.
+enum class LineArrangement {
+  kAlongMotion,   ///< one behind the other on the line of motion (a train; the paper's Fig. 7)
+  kAcrossMotion,  ///< side by side, horizontally across the line of motion (a rake sweeping the workspace)
+};
+
+/// Options of `line-crossing` (paper section IV-C, Table 4, Fig. 7): a line of cubes crossing the workspace sideways
+/// at `speed`, repeatedly; an obstacle that hits the robot stops at the point of impact.
 struct LineCrossingOptions {
   int num_obstacles = 5;
   double obstacle_side = 0.08;      ///< cube side [m]
-  double spacing = 0.25;            ///< centre-to-centre distance along the line [m]
+  LineArrangement arrangement = LineArrangement::kAlongMotion;
+  double spacing = 0.25;            ///< centre-to-centre distance between neighbours [m]
   double speed = 0.6;               ///< [m/s]; the paper sweeps 0.2, 0.6, 1.2, 1.8, 2.8
   double target_speed = 0.1;        ///< [m/s]
   double max_yaw_deg = 30.0;        ///< the line runs sideways (±Workspace::lateral()) turned by U(±max_yaw) about z
@@ -241,7 +248,8 @@ struct LineCrossingOptions {
   double spawn_margin = 0.3;        ///< the line starts and ends this far outside the horizontal reach [m]
   bool stop_on_impact = true;
   bool repeat = true;               ///< the line crosses again and again (false: once)
-  /// the line passes through this point (e.g. the start end-effector position); unset: a random workspace point
+  /// the centre line of motion passes through this point (e.g. the start end-effector position); unset: a random
+  /// workspace point
   std::optional<Eigen::Vector3d> through{};
   Eigen::VectorXd q_start{};          ///< empty: ReadyConfiguration(robot)
   WorkspaceOptions workspace{};

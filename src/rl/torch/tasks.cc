@@ -2,11 +2,18 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/task_config.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
@@ -92,7 +99,7 @@ void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const Ste
         invalid = true;
         break;
       }
-      if (option_[a] < 0 || act[2] >= 0.5f) {
+      if (option_[a] < 0) {  // idle: the action's option starts
         option_[a] = chosen;
         out.option_started[a] = 1.0f;
       }
@@ -100,6 +107,7 @@ void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const Ste
       const double to_goal = g_[a] - x_[a];
       const double dir = to_goal >= 0.0 ? 1.0 : -1.0;
       dx = option_[a] == 0 ? std::clamp(to_goal, -speed, speed) : option_[a] == 1 ? 0.0 : -dir * speed;
+      if (act[2] >= 0.5f) option_[a] = -1;  // the flag ends the option after this step
     } else {
       dx = options_.step * std::clamp<double>(act[0], -1.0, 1.0);
     }
@@ -173,15 +181,87 @@ ToyReachOptions ToyOptions(const TaskSelection& task) {
   return o;
 }
 
+// overrides `base` with the keys of `over`, recursively for maps.
+void Merge(YAML::Node base, const YAML::Node& over) {
+  for (const auto& kv : over) {
+    const std::string key = kv.first.as<std::string>();
+    if (kv.second.IsMap() && base[key] && base[key].IsMap()) {
+      Merge(base[key], kv.second);
+    } else {
+      base[key] = kv.second;
+    }
+  }
+}
+
+// the manipulator task config: the task file (shipped or task.config), the overrides merged in, the interface.
+TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
+  const std::filesystem::path path = task.config.empty() ? TaskConfigPath(task.name) : std::filesystem::path(task.config);
+  TaskConfig config;
+  if (task.overrides_yaml.empty()) {
+    config = LoadTaskConfig(path);
+  } else {
+    // the task loader reads files: write the merged YAML to a temporary file named after the task
+    YAML::Node base;
+    try {
+      base = YAML::LoadFile(path.string());
+    } catch (const YAML::Exception& e) {
+      throw InputError(fmt::format("task config {}: cannot read it: {}", path.string(), e.what()));
+    }
+    const YAML::Node over = YAML::Load(task.overrides_yaml);
+    if (!over.IsMap()) throw InputError(fmt::format("task {}: overrides: expected a map", task.name));
+    Merge(base, over);
+    static std::atomic<int> counter{0};
+    const std::filesystem::path merged = std::filesystem::temp_directory_path() /
+                                         fmt::format("rmpmarl-{}-with-overrides-{}-{}.yaml", task.name, getpid(),
+                                                     counter++);
+    std::ofstream(merged) << YAML::Dump(base) << "\n";
+    try {
+      config = LoadTaskConfig(merged);
+    } catch (const InputError& e) {
+      std::filesystem::remove(merged);
+      throw InputError(fmt::format("task {} ({} with the training config's task.overrides): {}", task.name,
+                                   path.string(), e.what()));
+    }
+    std::filesystem::remove(merged);
+  }
+  if (TaskKindName(config.task) != task.name) {
+    throw InputError(fmt::format("task config {} is for task {}, not {}", path.string(), TaskKindName(config.task),
+                                 task.name));
+  }
+  if (!task.interface.empty()) {
+    bool found = false;
+    for (InterfaceMode mode : {InterfaceMode::kPerJointRmp, InterfaceMode::kDirect, InterfaceMode::kPerJointDirect}) {
+      if (InterfaceModeName(mode) == task.interface) {
+        config.interface = mode;
+        found = true;
+      }
+    }
+    if (!found) {
+      throw InputError(fmt::format("task {}: interface: expected per-joint-rmp, direct or per-joint-direct, got "
+                                   "\"{}\"", task.name, task.interface));
+    }
+  }
+  return config;
+}
+
 }  // namespace
 
-std::vector<std::string> KnownTasks() { return {"toy-reach"}; }
+std::vector<std::string> KnownTasks() {
+  std::vector<std::string> names = TaskNames();
+  names.push_back("toy-reach");
+  return names;
+}
 
 EnvFactory MakeTaskFactory(const TaskSelection& task) {
   if (task.name == "toy-reach") {
     const ToyReachOptions options = ToyOptions(task);
     ToyReachEnv probe(options);  // validates the options now, not in a worker thread
     return [options](int) { return std::make_unique<ToyReachEnv>(options); };
+  }
+  const std::vector<std::string> manipulator = TaskNames();
+  if (std::find(manipulator.begin(), manipulator.end(), task.name) != manipulator.end()) {
+    // the context (robot variants, one WorldModel each) is built once and shared by every env of every segment
+    return MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(task)));
   }
   std::string known;
   for (const std::string& name : KnownTasks()) known += (known.empty() ? "" : ", ") + name;

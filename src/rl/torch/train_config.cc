@@ -110,6 +110,7 @@ const std::vector<Key>& Keys() {
     k.push_back(FieldKey("logging.csv", &TrainConfig::write_csv, boolean));
     k.push_back(FieldKey("logging.tensorboard", &TrainConfig::write_tensorboard, boolean));
     k.push_back(FieldKey("logging.progress", &TrainConfig::progress, boolean));
+    k.push_back(FieldKey("logging.window", &TrainConfig::stats_window, integer));
     k.push_back(OptionKey<N, std::vector<int>>("network.actor_hidden", &TrainConfig::network, &N::actor_hidden,
                                                &N::actor_hidden, ints));
     k.push_back(OptionKey<N, std::vector<int>>("network.critic_hidden", &TrainConfig::network, &N::critic_hidden,
@@ -186,6 +187,7 @@ void Validate(const TrainConfig& c, const std::string& where) {
   if (c.env_threads < 1) fail("env_threads", fmt::format("expected >= 1, got {}", c.env_threads));
   if (c.torch_threads < 1) fail("torch_threads", fmt::format("expected >= 1, got {}", c.torch_threads));
   if (c.total_updates < 1) fail("total_updates", fmt::format("expected >= 1, got {}", c.total_updates));
+  if (c.stats_window < 1) fail("logging.window", fmt::format("expected >= 1, got {}", c.stats_window));
   if (c.checkpoint_every < 1) fail("checkpoint_every", fmt::format("expected >= 1, got {}", c.checkpoint_every));
   const PpoOptions& p = c.ppo;
   if (p.rollout_steps() < 1) fail("ppo.rollout_steps", fmt::format("expected >= 1, got {}", p.rollout_steps()));

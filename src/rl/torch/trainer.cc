@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -230,15 +231,14 @@ struct Trainer::Impl {
   std::unique_ptr<Ppo> ppo;
   int update = 0;
   std::int64_t env_steps = 0;
-  int envs_reset_at = -1;                 // update at which the current envs were seeded and reset
-  std::vector<std::uint8_t> episode_start;  // N: the env's current observation is an episode's first
+  int envs_reset_at = -1;  // update at which the current envs were seeded and reset
+  std::deque<EpisodeMetrics> recent;  // the last stats_window finished episodes (checkpointed)
 
   // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
   void ResetEnvs(int u) {
     const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs;
     env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
     env->Reset();
-    episode_start.assign(config.num_envs, 1);
     envs_reset_at = u;
   }
 
@@ -288,11 +288,13 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   torch::Tensor actions = torch::empty({T, N * A, as}, f);
   torch::Tensor lp_option = torch::empty({T, N * A}, f), lp_cont = torch::empty({T, N * A}, f),
                 lp_term = torch::empty({T, N * A}, f);
-  torch::Tensor option_mask = torch::empty({T, N * A}, f), term_mask = torch::empty({T, N * A}, f);
+  // the option's log-prob counts where the option choice took effect; the termination flag is a decision at every
+  // step (it ends the running option after the step), so its mask is all ones
+  torch::Tensor option_mask = torch::empty({T, N * A}, f), term_mask = torch::ones({T, N * A}, f);
   torch::Tensor raw_values = torch::empty({T, N}, f), values = torch::empty({T, N}, f);
   torch::Tensor rewards = torch::empty({T, N}, f), terminated = torch::zeros({T, N}, f),
                 truncated = torch::zeros({T, N}, f), final_values = torch::zeros({T, N}, f);
-  EpisodeStats episodes;
+  int finished = 0;
 
   for (int t = 0; t < T; ++t) {
     const Batch& b = env->batch();
@@ -307,10 +309,6 @@ UpdateSummary Trainer::Impl::RunUpdate() {
     lp_term[t].copy_(r.sampled.log_probs.termination);
     raw_values[t].copy_(r.raw_values);
     values[t].copy_(r.values);
-    float* tm = term_mask[t].data_ptr<float>();
-    for (int k = 0; k < N; ++k) {
-      for (int a = 0; a < A; ++a) tm[k * A + a] = episode_start[k] ? 0.0f : 1.0f;
-    }
     const torch::Tensor step_actions = actions[t].contiguous();
     env->Step(step_actions.data_ptr<float>());
     const Batch& after = env->batch();
@@ -323,8 +321,11 @@ UpdateSummary Trainer::Impl::RunUpdate() {
       term[k] = after.terminated[k] ? 1.0f : 0.0f;
       trunc[k] = (!after.terminated[k] && after.truncated[k]) ? 1.0f : 0.0f;
       any_truncated |= trunc[k] > 0.0f;
-      episode_start[k] = after.terminated[k] || after.truncated[k];
-      if (episode_start[k]) episodes.Add(after.metrics[k]);
+      if (after.terminated[k] || after.truncated[k]) {
+        ++finished;
+        recent.push_back(after.metrics[k]);
+        if (static_cast<int>(recent.size()) > config.stats_window) recent.pop_front();
+      }
     }
     if (any_truncated) {
       const torch::Tensor fin =
@@ -335,6 +336,7 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   const Batch& last = env->batch();
   const torch::Tensor last_state = torch::from_blob(const_cast<float*>(last.global_state.data()), {N, S}, f);
   const torch::Tensor last_values = ppo->Values(last_state);
+  const auto rollout_end = std::chrono::steady_clock::now();
   const GaeResult gae = ComputeGae({rewards, values, terminated, truncated, final_values, last_values},
                                    config.ppo.gamma(), config.ppo.gae_lambda());
 
@@ -357,10 +359,13 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   ++update;
   env_steps += static_cast<std::int64_t>(T) * N;
 
+  EpisodeStats episodes;
+  for (const EpisodeMetrics& m : recent) episodes.Add(m);
   UpdateSummary s;
   s.update = update;
   s.env_steps = env_steps;
-  s.episodes = episodes.episodes;
+  s.episodes = finished;
+  s.window_episodes = episodes.episodes;
   s.mean_return = episodes.Mean(episodes.return_sum);
   s.success_rate = episodes.Mean(episodes.successes);
   s.tracking_error_mm = episodes.Mean(episodes.track_sum);
@@ -379,7 +384,10 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   s.actor_grad_norm = learn.actor_grad_norm;
   s.critic_grad_norm = learn.critic_grad_norm;
   s.lr = config.ppo.lr() * lr_scale;
-  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto end = std::chrono::steady_clock::now();
+  s.seconds = std::chrono::duration<double>(end - start).count();
+  s.rollout_seconds = std::chrono::duration<double>(rollout_end - start).count();
+  s.learn_seconds = std::chrono::duration<double>(end - rollout_end).count();
   s.fps = static_cast<double>(T) * N / std::max(s.seconds, 1e-9);
   return s;
 }
@@ -393,6 +401,14 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
   archive.write("meta/update", c10::IValue(static_cast<std::int64_t>(m.update)));
   archive.write("meta/env_steps", c10::IValue(m.env_steps));
   WriteSpec(archive, m.spec);
+  torch::Tensor recent = torch::zeros({static_cast<int64_t>(m.recent.size()), 8}, torch::kDouble);
+  for (size_t i = 0; i < m.recent.size(); ++i) {
+    const EpisodeMetrics& e = m.recent[i];
+    const double row[8] = {double(e.success), double(e.invalid), double(e.collisions), e.mean_tracking_error_mm,
+                           e.final_tracking_error_mm, e.min_clearance_m, double(e.length), e.episode_return};
+    for (int j = 0; j < 8; ++j) recent[i][j] = row[j];
+  }
+  archive.write("meta/recent_episodes", recent);
   m.ppo->Save(archive);
   std::ostringstream payload;
   archive.save_to(payload);
@@ -424,6 +440,23 @@ void Trainer::Resume(const std::string& path) {
                          "the last bits\n", m.config.torch_threads, stored.torch_threads);
     }
     m.ppo->Load(archive);
+    torch::Tensor recent;
+    archive.read("meta/recent_episodes", recent);
+    m.recent.clear();
+    const torch::Tensor r = recent.contiguous();
+    for (int64_t i = 0; i < r.size(0); ++i) {
+      const double* row = r.data_ptr<double>() + i * 8;
+      EpisodeMetrics e;
+      e.success = row[0] != 0.0;
+      e.invalid = row[1] != 0.0;
+      e.collisions = static_cast<int>(row[2]);
+      e.mean_tracking_error_mm = row[3];
+      e.final_tracking_error_mm = row[4];
+      e.min_clearance_m = row[5];
+      e.length = static_cast<int>(row[6]);
+      e.episode_return = row[7];
+      m.recent.push_back(e);
+    }
     m.update = static_cast<int>(ReadInt(archive, "meta/update"));
     m.env_steps = ReadInt(archive, "meta/env_steps");
   } catch (const c10::Error& e) {
@@ -474,16 +507,22 @@ TrainConfig ReadCheckpointConfig(const std::string& path) {
   }
 }
 
+void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path) {
+  LoadedCheckpoint loaded = LoadLearner(checkpoint_path);
+  SavePolicyFile(loaded.ppo->Export(), policy_path);
+}
+
 // ------------------------------------------------------------------------------------------------- RunTraining
 namespace {
 
 const char* kCsvHeader =
-    "update,env_steps,episodes,mean_return,success_rate,tracking_error_mm,final_tracking_error_mm,min_clearance_m,"
+    "update,env_steps,episodes,window_episodes,mean_return,success_rate,tracking_error_mm,final_tracking_error_mm,min_clearance_m,"
     "collisions_per_episode,episode_length,policy_loss,value_loss,entropy_option,entropy_continuous,"
-    "entropy_termination,approx_kl,clip_fraction,explained_variance,actor_grad_norm,critic_grad_norm,lr,fps,seconds";
+    "entropy_termination,approx_kl,clip_fraction,explained_variance,actor_grad_norm,critic_grad_norm,lr,rollout_seconds,learn_seconds,fps,seconds";
 
 std::vector<std::pair<std::string, double>> Columns(const UpdateSummary& s) {
   return {{"episodes", s.episodes},
+          {"window_episodes", s.window_episodes},
           {"mean_return", s.mean_return},
           {"success_rate", s.success_rate},
           {"tracking_error_mm", s.tracking_error_mm},
@@ -502,6 +541,8 @@ std::vector<std::pair<std::string, double>> Columns(const UpdateSummary& s) {
           {"actor_grad_norm", s.actor_grad_norm},
           {"critic_grad_norm", s.critic_grad_norm},
           {"lr", s.lr},
+          {"rollout_seconds", s.rollout_seconds},
+          {"learn_seconds", s.learn_seconds},
           {"fps", s.fps},
           {"seconds", s.seconds}};
 }
@@ -592,10 +633,11 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
       const double eta = elapsed / (u - first) * (config.total_updates - u);
       if (tty) fmt::print(stderr, "\r\033[K");
       fmt::print("[{:>{}}/{}] return {} | success {} | track {} mm | entropy opt {} cont {} term {} | kl {} | "
-                 "{:.0f} fps\n", u, std::to_string(config.total_updates).size(), config.total_updates,
+                 "{:.0f} fps ({:.0f}% learning)\n", u, std::to_string(config.total_updates).size(), config.total_updates,
                  Num(last.mean_return), Num(100.0 * last.success_rate, "{:.1f}%"), Num(last.tracking_error_mm, "{:.1f}"),
                  Num(last.entropy_option, "{:.2f}"), Num(last.entropy_continuous, "{:.2f}"),
-                 Num(last.entropy_termination, "{:.2f}"), Num(last.approx_kl, "{:.4f}"), last.fps);
+                 Num(last.entropy_termination, "{:.2f}"), Num(last.approx_kl, "{:.4f}"), last.fps,
+                 100.0 * last.learn_seconds / std::max(last.seconds, 1e-9));
       std::fflush(stdout);
       if (tty) {
         const int width = 30, done = width * u / config.total_updates;

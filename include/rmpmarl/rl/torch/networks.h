@@ -108,8 +108,10 @@ HeadLogProbs LogProbs(const HeadOutputs& head, const HeadLayout& layout, const t
 /// entropies of the head's distributions.
 HeadEntropies Entropies(const HeadOutputs& head, const HeadLayout& layout);
 /// joint log π(a|o) = option_mask·log p(option) + log p(continuous) + termination_mask·log p(terminate).
-/// The option's log-prob counts only where the option choice took effect (StepOutput::option_started); the
-/// termination's only where an option was running before the step (not at an episode's first step).
+/// The trainer passes option_mask = StepOutput::option_started (the option index of an action is read only when
+/// the agent was idle, so elsewhere it is not part of the action taken) and termination_mask = 1 (the flag of step
+/// t ends the running option after step t, a decision at every step; where an env ignores it, e.g. when the option
+/// ended by its own condition, counting it adds variance but no bias).
 torch::Tensor JointLogProb(const HeadLogProbs& log_probs, const torch::Tensor& option_mask,
                            const torch::Tensor& termination_mask);
 

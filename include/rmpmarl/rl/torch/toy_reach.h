@@ -1,9 +1,11 @@
 #pragma once
 /// "toy-reach": a tiny multi-agent task for developing and testing the learners (and for running the CLI before
 /// the manipulator tasks exist). Agent a moves a point x_a on a line towards its own target g_a.
-///   - interface "options": the hybrid action [option, speed, terminate] with options {toward, hold, away}:
-///     a running option moves x by ±step·clamp(speed, 0, 1) toward/away from g (never past it); a new option starts
-///     when none runs (episode start) or terminate >= 0.5. Local observation [x, g − x, one-hot running option].
+///   - interface "options": the hybrid action [option, speed, terminate] with options {toward, hold, away}, timed
+///     like the manipulator env's option machine: when the agent is idle (episode start, or its option ended) the
+///     action's option starts (option_started = 1); the running option moves x by ±step·clamp(speed, 0, 1)
+///     toward/away from g (never past it); terminate >= 0.5 ends it after the step. Local observation
+///     [x, g − x, one-hot running option (zeros when idle)].
 ///   - interface "direct": one continuous velocity v ∈ [−1, 1], x += step·v. Local observation [x, g − x].
 /// Global state [x_1..x_A, g_1..g_A]. Reward −Σ_a |g_a − x_a| / A per step; leaving |x| <= 1.5 terminates with −1.
 /// Success: every |g_a − x_a| < tolerance at the end. Tracking error reported in mm (1 unit = 1 m).

@@ -44,6 +44,7 @@ struct TrainConfig {
   bool write_csv = true;
   bool write_tensorboard = true;
   bool progress = true;             ///< progress bar and one line per update on stderr/stdout
+  int stats_window = 100;           ///< episode metrics are averaged over this many recent episodes
   NetworkOptions network;
   PpoOptions ppo;
 };
@@ -61,11 +62,13 @@ std::string ToYaml(const TrainConfig& config);
 EnvFactory MakeTaskFactory(const TaskSelection& task);
 std::vector<std::string> KnownTasks();
 
-/// One update's numbers (episode metrics over the episodes that ended during its rollout; NaN when none did).
+/// One update's numbers. Episode metrics are over the last `logging.window` episodes that ended (across updates;
+/// NaN before the first).
 struct UpdateSummary {
   int update = 0;               ///< updates done so far
   std::int64_t env_steps = 0;   ///< env steps so far (all envs)
-  int episodes = 0;
+  int episodes = 0;             ///< episodes that ended during this update's rollout
+  int window_episodes = 0;      ///< episodes the metrics below are over
   double mean_return = 0.0, success_rate = 0.0, tracking_error_mm = 0.0, final_tracking_error_mm = 0.0;
   double min_clearance_m = 0.0, collisions_per_episode = 0.0, episode_length = 0.0;
   double policy_loss = 0.0, value_loss = 0.0;
@@ -75,6 +78,8 @@ struct UpdateSummary {
   double lr = 0.0;
   double fps = 0.0;             ///< env steps per second of this update (rollout + learning)
   double seconds = 0.0;         ///< wall clock of this update
+  double rollout_seconds = 0.0; ///< of which collecting the rollout (env steps + acting)
+  double learn_seconds = 0.0;   ///< of which GAE and the PPO epochs
 };
 
 /// The PPO/MAPPO training loop for one config.
@@ -147,6 +152,9 @@ struct EvalResult {
 /// runs `options.episodes` episodes (env k runs its share, so short failing episodes are not over-counted) with
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
 EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options);
+
+/// writes the actor of a checkpoint as a policy file for the torch-free runtime (policy_runtime.h).
+void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path);
 
 /// chooses libtorch's intra-op threads and OpenBLAS's threads (when OpenBLAS is the loaded BLAS).
 void SetTorchThreads(int threads);

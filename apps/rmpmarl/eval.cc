@@ -1,0 +1,92 @@
+// `rmpmarl eval POLICY [--task NAME] [--episodes N]`: success rate, tracking error, clearance and collisions of a
+// checkpoint (.ckpt, libtorch) or an exported policy (.rmpp, the torch-free runtime);
+// `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor of a checkpoint as a runtime policy file.
+#include "commands.h"
+
+#ifdef RMPMARL_HAS_TORCH
+#include <fmt/core.h>
+
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/torch/trainer.h"
+
+namespace rmpmarl::apps {
+
+void RegisterEval(CLI::App& app) {
+  struct Args {
+    std::string policy;
+    std::string task, task_config, interface, overrides;
+    int episodes = 100;
+    int envs = 8;
+    int env_threads = 1;
+    std::uint64_t seed = 1000003;
+    bool stochastic = false;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("eval", "Evaluate a trained policy: success rate, tracking error mean ± std, "
+                                         "clearance, collisions");
+  cmd->add_option("policy", args->policy, "checkpoint (.ckpt) or exported policy (.rmpp)")->required();
+  cmd->add_option("--task", args->task, "task name (default: the checkpoint's task; required for .rmpp)");
+  cmd->add_option("--task-config", args->task_config, "task YAML (default: the checkpoint's, else the shipped one)");
+  cmd->add_option("--interface", args->interface, "interface mode (default: the checkpoint's)");
+  cmd->add_option("--overrides", args->overrides, "YAML map of task overrides, e.g. '{episode: {max_steps: 200}}'");
+  cmd->add_option("--episodes", args->episodes, "episodes to run (default 100)");
+  cmd->add_option("--envs", args->envs, "parallel envs (default 8)");
+  cmd->add_option("--env-threads", args->env_threads, "env worker threads (default 1)");
+  cmd->add_option("--seed", args->seed, "seed of the evaluation envs");
+  cmd->add_flag("--stochastic", args->stochastic, "sample actions (default: deterministic modes)");
+  cmd->callback([args] {
+    rl::TaskSelection task;
+    const bool is_checkpoint = args->policy.size() >= 5 && args->policy.substr(args->policy.size() - 5) == ".ckpt";
+    if (is_checkpoint) task = rl::ReadCheckpointConfig(args->policy).task;
+    if (!args->task.empty()) {
+      if (args->task != task.name) task = rl::TaskSelection{};
+      task.name = args->task;
+    }
+    if (!args->task_config.empty()) task.config = args->task_config;
+    if (!args->interface.empty()) task.interface = args->interface;
+    if (!args->overrides.empty()) task.overrides_yaml = args->overrides;
+    if (task.name.empty()) throw InputError("eval: --task is required for a policy file (.rmpp)");
+    const rl::EvalResult r = rl::Evaluate(args->policy, rl::MakeTaskFactory(task),
+                                          {.episodes = args->episodes, .num_envs = args->envs,
+                                           .env_threads = args->env_threads, .seed = args->seed,
+                                           .stochastic = args->stochastic});
+    fmt::print("eval {} on {}{} ({} episodes, {} actions)\n", args->policy, task.name,
+               task.interface.empty() ? "" : " / " + task.interface, r.episodes,
+               args->stochastic ? "sampled" : "deterministic");
+    fmt::print("  success rate      {:.1f} %\n", 100.0 * r.success_rate);
+    fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
+               r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
+    if (std::isfinite(r.min_clearance_mean_m)) {
+      fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",
+                 r.min_clearance_mean_m);
+    } else {
+      fmt::print("  clearance         - (no obstacle within the warning distance)\n");
+    }
+    fmt::print("  collisions        {:.2f} per episode, {:.1f} % of episodes collision-free\n", r.collisions_per_episode,
+               100.0 * r.collision_free_rate);
+    fmt::print("  return            {:.2f} (mean episode length {:.1f} steps)\n", r.mean_return, r.mean_length);
+  });
+}
+
+void RegisterExportPolicy(CLI::App& app) {
+  struct Args {
+    std::string checkpoint, output;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("export-policy", "Write the actor of a checkpoint as a policy file for the "
+                                                  "torch-free runtime (docs/learning.md)");
+  cmd->add_option("checkpoint", args->checkpoint, "checkpoint (.ckpt)")->required();
+  cmd->add_option("output", args->output, "policy file to write (.rmpp)")->required();
+  cmd->callback([args] {
+    rl::ExportCheckpointPolicy(args->checkpoint, args->output);
+    fmt::print("wrote {}\n", args->output);
+  });
+}
+
+}  // namespace rmpmarl::apps
+#endif  // RMPMARL_HAS_TORCH

@@ -1,0 +1,108 @@
+// Env steps per second of the manipulator environment (reach-avoid, Panda, 4 crossing cubes), single env on one
+// core, beside a bare mj_step on the same compiled model. Run:
+//   build/bench/env_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+// Variants (benchmark arguments): interface mode, when the scenario moves obstacles/target (every physics step or
+// once per env step), and physics steps per env step (5 = the tasks' 100 Hz control at 2 ms; 1 = 500 Hz control).
+#include <benchmark/benchmark.h>
+#include <mujoco/mujoco.h>
+
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "rmpmarl/rl/manipulator_env.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+TaskConfig BenchConfig(InterfaceMode mode, ScenarioUpdate update, int physics_steps) {
+  TaskConfig c = LoadShippedTaskConfig("reach-avoid");
+  c.robot = "panda";
+  c.interface = mode;
+  c.scenario.crossing.num_obstacles = 4;
+  c.episode.scenario_update = update;
+  c.episode.control_rate = 1.0 / (physics_steps * c.episode.physics_timestep);
+  c.controller.control_rate = c.episode.control_rate;
+  c.controller.max_substep = 1.0 / c.episode.control_rate;
+  return c;
+}
+
+// one env, random actions drawn before timing, auto-reset at episode ends (resets are included in the time).
+void BM_EnvStep(benchmark::State& state) {
+  const auto mode = static_cast<InterfaceMode>(state.range(0));
+  const auto update = static_cast<ScenarioUpdate>(state.range(1));
+  const int physics_steps = static_cast<int>(state.range(2));
+  auto context = MakeTaskContext(BenchConfig(mode, update, physics_steps));
+  ManipulatorEnv env(context);
+  const EnvSpec& spec = env.spec();
+  std::vector<float> obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim), global(spec.global_state_dim),
+      terms(spec.reward_terms.size()), started(spec.num_agents);
+  float reward = 0.0f;
+  std::uint8_t terminated = 0, truncated = 0;
+  EpisodeMetrics metrics;
+  const StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated, started.data(),
+                       &metrics};
+  std::mt19937_64 rng(7);
+  // draw the actions up front: 4096 random joint actions, cycled
+  const int action_size = spec.num_agents * spec.action.size();
+  std::vector<float> actions(4096 * static_cast<size_t>(action_size));
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), flag(0.0f, 1.0f);
+  for (size_t k = 0; k < actions.size(); ++k) actions[k] = u(rng);
+  if (spec.action.num_options > 0) {
+    for (size_t k = 0; k < actions.size(); k += spec.action.size()) {
+      actions[k] = static_cast<float>(std::uniform_int_distribution<int>(0, 2)(rng));
+      if (spec.action.has_termination) actions[k + spec.action.termination_offset()] = flag(rng) < 0.1f ? 1.0f : 0.0f;
+    }
+  }
+  for (int r = 0; r < 3 * context->num_variants(); ++r) env.Reset(rng, out);  // make every variant's scenario
+  env.Reset(rng, out);
+  long k = 0, warnings = 0;
+  for (auto _ : state) {
+    env.Step(actions.data() + (k++ % 4096) * action_size, rng, out);
+    warnings += static_cast<long>(env.world().mj_data()->ncon);
+    if (terminated || truncated) env.Reset(rng, out);
+  }
+  state.counters["env_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                     benchmark::Counter::kIsRate);
+  state.counters["contacts"] = benchmark::Counter(static_cast<double>(warnings) / state.iterations());
+}
+BENCHMARK(BM_EnvStep)
+    ->ArgNames({"mode", "update", "physics"})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 5})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 1})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 5})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 1})
+    ->Unit(benchmark::kMicrosecond);
+
+// bare mj_step (physics only: no servo targets change, no scenario, no observation) on the env's compiled model,
+// from a state of a reset episode (obstacles placed, arm at its start posture).
+void BM_BareMjStep(benchmark::State& state) {
+  auto context = MakeTaskContext(BenchConfig(InterfaceMode::kPerJointRmp, ScenarioUpdate::kPhysicsStep, 5));
+  ManipulatorEnv env(context);
+  const EnvSpec& spec = env.spec();
+  std::vector<float> obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim), global(spec.global_state_dim),
+      terms(spec.reward_terms.size()), started(spec.num_agents);
+  float reward = 0.0f;
+  std::uint8_t terminated = 0, truncated = 0;
+  EpisodeMetrics metrics;
+  const StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated, started.data(),
+                       &metrics};
+  std::mt19937_64 rng(7);
+  env.Reset(rng, out);
+  const mjModel* m = env.world().mj_model();
+  mjData* d = mj_makeData(m);
+  mj_copyData(d, m, env.world().mj_data());
+  long k = 0;
+  for (auto _ : state) {
+    mj_step(m, d);
+    if (++k % 1000 == 0) mj_copyData(d, m, env.world().mj_data());  // stay near the start posture
+  }
+  state.counters["mj_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["contacts"] = benchmark::Counter(d->ncon);
+  mj_deleteData(d);
+}
+BENCHMARK(BM_BareMjStep)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace rmpmarl::rl

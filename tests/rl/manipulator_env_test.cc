@@ -1,0 +1,581 @@
+// The manipulator environment: layouts, observation features and rewards against hand-computed values, options,
+// domain randomisation and the variant pool, determinism, invalid input.
+#include "rmpmarl/rl/manipulator_env.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "rl_test_util.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/rl/pretrain_scenario.h"
+#include "rmpmarl/rl/vec_env.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+using testing::Buffers;
+using testing::IndexOf;
+using testing::RandomActions;
+using testing::SmallConfig;
+
+// ---------------------------------------------------------------------------------------------- layouts
+
+TEST(ManipulatorEnvTest, PerJointSpecIsIdenticalAtEveryJointOfEveryArm) {
+  std::vector<std::string> names;
+  for (const auto& [robot, nq] : std::vector<std::pair<std::string, int>>{{"planar2", 2}, {"panda", 7}, {"ur5e", 6}}) {
+    SCOPED_TRACE(robot);
+    TaskConfig c = SmallConfig(TaskKind::kReachAvoid, robot, 1);
+    auto context = MakeTaskContext(c);
+    const EnvSpec& s = context->spec();
+    EXPECT_EQ(s.num_agents, nq);
+    EXPECT_EQ(s.local_obs_dim, LocalObs::kRmpSize);
+    EXPECT_EQ(s.local_obs_names.size(), static_cast<size_t>(s.local_obs_dim));
+    if (names.empty()) names = s.local_obs_names;
+    EXPECT_EQ(s.local_obs_names, names);  // same size and meaning on every arm
+    EXPECT_EQ(s.action.size(), 6);        // option + 4 scales + terminate
+    EXPECT_EQ(s.action.num_options, 3);
+    EXPECT_TRUE(s.action.has_termination);
+    EXPECT_EQ(s.global_state_dim, 2 * nq + 16 + 2 * nq + 4 * nq + 16 * 4 + 2);
+    EXPECT_EQ(s.global_state_names.size(), static_cast<size_t>(s.global_state_dim));
+    EXPECT_EQ(s.reward_terms, (std::vector<std::string>{"joint_reach", "distance", "time", "collision"}));
+    EXPECT_DOUBLE_EQ(s.control_dt, 0.01);
+    EXPECT_DOUBLE_EQ(s.discount, 0.99);
+
+    // every joint's row is filled with the same features: unit axes, finite values, the joint index ramp
+    ManipulatorEnv env(context);
+    Buffers b(s);
+    std::mt19937_64 rng(3);
+    env.Reset(rng, b.out());
+    for (int i = 0; i < nq; ++i) {
+      const Eigen::Vector3d axis(b.obs(s, i, LocalObs::kAxis), b.obs(s, i, LocalObs::kAxis + 1),
+                                 b.obs(s, i, LocalObs::kAxis + 2));
+      EXPECT_NEAR(axis.norm(), 1.0, 1e-6);
+      EXPECT_NEAR(b.obs(s, i, LocalObs::kJointIndex), static_cast<float>(i) / (nq - 1), 1e-6);
+      for (int k = 0; k < s.local_obs_dim; ++k) EXPECT_TRUE(std::isfinite(b.obs(s, i, k)));
+    }
+
+    // the other two interfaces
+    c.interface = InterfaceMode::kPerJointDirect;
+    const EnvSpec& d = MakeTaskContext(c)->spec();
+    EXPECT_EQ(d.num_agents, nq);
+    EXPECT_EQ(d.local_obs_dim, LocalObs::kBaseSize);
+    EXPECT_EQ(d.action.size(), 1);
+    EXPECT_EQ(d.action.num_options, 0);
+    c.interface = InterfaceMode::kDirect;
+    const EnvSpec& g = MakeTaskContext(c)->spec();
+    EXPECT_EQ(g.num_agents, 1);
+    EXPECT_EQ(g.action.size(), nq);
+    EXPECT_EQ(g.local_obs_dim, g.global_state_dim);
+  }
+  // the fixed-horizon option interface has no termination flag
+  TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 1);
+  c.options.termination = OptionTermination::kFixed;
+  EXPECT_EQ(MakeTaskContext(c)->spec().action.size(), 5);
+}
+
+// ------------------------------------------------------------------------- features at a constructed state
+
+// the planar two-link arm (l1 = l2 = 0.5, capsule radius 0.04) at q with a sphere near link 2 and a static target.
+struct Planar2Setup {
+  double l1 = 0.5, l2 = 0.5, radius = 0.04;
+  Eigen::Vector2d q0{0.3, 0.6};
+  Eigen::Vector3d p_WT{0.4, 0.5, 0.0};
+  double sphere_radius = 0.05;
+  Eigen::Vector3d centre;  // 0.15 m from the middle of link 2, perpendicular to it: clearance 0.06 m
+
+  Planar2Setup() {
+    const double t2 = q0[0] + q0[1];
+    const Eigen::Vector3d p1(l1 * std::cos(q0[0]), l1 * std::sin(q0[0]), 0.0);
+    const Eigen::Vector3d u2(std::cos(t2), std::sin(t2), 0.0), n2(-std::sin(t2), std::cos(t2), 0.0);
+    centre = p1 + 0.5 * l2 * u2 + 0.15 * n2;
+  }
+
+  std::shared_ptr<const TaskContext> Context(InterfaceMode mode) const {
+    TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 1);
+    c.interface = mode;
+    c.planar2.link1_length = {l1, l1};
+    c.planar2.link2_length = {l2, l2};
+    c.planar2.link_radius = radius;
+    c.randomization.initial_q_spread = 0.0;
+    c.randomization.initial_qd_fraction = 0.0;
+    sim::StaticSceneOptions scene;
+    scene.q_start = Eigen::Vector2d(q0);
+    scene.p_WT = p_WT;
+    scene.obstacles = {sim::ObstacleSpec::Sphere(sphere_radius, centre)};
+    return MakeTaskContext(c, [scene](const kinematics::Robot& robot) {
+      return std::make_unique<sim::StaticScenario>(robot, scene);
+    });
+  }
+};
+
+// planar rotation of a world vector into a frame turned by angle a about z.
+Eigen::Vector3d InFrame(double a, const Eigen::Vector3d& v) {
+  return {std::cos(a) * v.x() + std::sin(a) * v.y(), -std::sin(a) * v.x() + std::cos(a) * v.y(), v.z()};
+}
+
+Eigen::Vector3d Feature3(const Buffers& b, const EnvSpec& s, int agent, int k) {
+  return {b.obs(s, agent, k), b.obs(s, agent, k + 1), b.obs(s, agent, k + 2)};
+}
+
+// the features of both joints at state (q, q̇), computed by hand from the planar arm's geometry.
+void ExpectPlanarFeatures(const Planar2Setup& p, const Buffers& b, const EnvSpec& s, const Eigen::Vector2d& q,
+                          const Eigen::Vector2d& qd) {
+  const double l = 0.5, warning = 0.15, a1 = q[0], a2 = q[0] + q[1], w1 = qd[0], w2 = qd[0] + qd[1];
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d p1(p.l1 * std::cos(a1), p.l1 * std::sin(a1), 0.0);
+  const Eigen::Vector3d pE = p1 + Eigen::Vector3d(p.l2 * std::cos(a2), p.l2 * std::sin(a2), 0.0);
+  const Eigen::Vector3d v1 = w1 * z.cross(p1);
+  const Eigen::Vector3d vE = v1 + w2 * z.cross(pE - p1);
+  // nearest point of link 2's axis to the sphere centre, and the witness pair
+  const Eigen::Vector3d u = (pE - p1).normalized();
+  const double t = std::clamp((p.centre - p1).dot(u), 0.0, p.l2);
+  const Eigen::Vector3d axis_point = p1 + t * u;
+  const Eigen::Vector3d n = (axis_point - p.centre).normalized();  // from the sphere to the arm
+  const double distance = (axis_point - p.centre).norm() - p.radius - p.sphere_radius;
+  const Eigen::Vector3d w_robot = axis_point - p.radius * n;
+  const Eigen::Vector3d v_witness = v1 + w2 * z.cross(w_robot - p1);
+  const double angles[2] = {a1, a2};
+  const Eigen::Vector3d origins[2] = {Eigen::Vector3d::Zero(), p1};
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE(i);
+    const double a = angles[i];
+    const Eigen::Vector3d& o = origins[i];
+    const double tol = 2e-6;
+    EXPECT_TRUE(Feature3(b, s, i, LocalObs::kEeToTarget).isApprox(InFrame(a, (pE - p.p_WT) / l), tol));
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kLogDistance), std::log1p((pE - p.p_WT).norm() / 0.001) / std::log(1001.0), tol);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kEeVelocity) - InFrame(a, vE)).norm(), 1e-5);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kLever) - InFrame(a, (pE - o) / l)).norm(), tol);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kAxis) - Eigen::Vector3d::UnitZ()).norm(), tol);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kEeJacobian) - InFrame(a, z.cross(pE - o) / l)).norm(), tol);
+    // both joints move link 2, whose capsule is 0.06 m from the sphere (link 1's is beyond the warning distance)
+    EXPECT_EQ(b.obs(s, i, LocalObs::kWarningFlag), 1.0f);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kWarningDirection) - InFrame(a, -n)).norm(), 1e-5);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kWarningDistance), distance / warning, 1e-5);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kClosingSpeed), -n.dot(v_witness), 1e-5);
+    EXPECT_LT((Feature3(b, s, i, LocalObs::kWitnessLever) - InFrame(a, (w_robot - o) / l)).norm(), 1e-5);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kDistanceGradient), n.dot(z.cross(w_robot - o)) / l, 1e-5);
+    EXPECT_EQ(b.obs(s, i, LocalObs::kWarningIsSelf), 0.0f);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointPosition), q[i] / 3.0, tol);  // limits ±3 rad
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointSin), std::sin(q[i]), tol);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointCos), std::cos(q[i]), tol);
+    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointVelocity), qd[i] / 3.0, 1e-5);  // v_max 3 rad/s
+    EXPECT_EQ(b.obs(s, i, LocalObs::kJointIndex), static_cast<float>(i));
+  }
+  // the sphere–link-2 witness distance in the global state too
+  const GlobalStateLayout g(InterfaceMode::kPerJointRmp, 2, 1);
+  (void)g;
+}
+
+TEST(ManipulatorEnvTest, ObservationMatchesHandComputedPlanarFeatures) {
+  const Planar2Setup p;
+  auto context = p.Context(InterfaceMode::kPerJointDirect);
+  ManipulatorEnv env(context);
+  const EnvSpec& s = env.spec();
+  Buffers b(s);
+  std::mt19937_64 rng(1);
+  env.Reset(rng, b.out());
+  ASSERT_NEAR(env.world().q()[0], p.q0[0], 1e-12);
+  ExpectPlanarFeatures(p, b, s, p.q0, Eigen::Vector2d::Zero());
+  EXPECT_NEAR(b.obs(s, 0, LocalObs::kWarningDistance), 0.06 / 0.15, 1e-6);
+  EXPECT_NEAR(b.obs(s, 1, LocalObs::kWitnessLever), 0.25 / 0.5, 1e-6);      // middle of link 2 ...
+  EXPECT_NEAR(b.obs(s, 1, LocalObs::kWitnessLever + 1), 0.04 / 0.5, 1e-6);  // ... on the capsule's surface
+  EXPECT_NEAR(b.obs(s, 1, LocalObs::kDistanceGradient), -0.25 / 0.5, 1e-6);
+
+  // global state at the reset
+  const std::vector<std::string>& gn = s.global_state_names;
+  const auto G = [&](const std::string& name) { return b.global_state[IndexOf(gn, name)]; };
+  EXPECT_NEAR(G("q0"), 0.1, 1e-6);
+  EXPECT_NEAR(G("q1"), 0.2, 1e-6);
+  EXPECT_NEAR(G("target_x"), 0.8, 1e-6);
+  EXPECT_NEAR(G("target_y"), 1.0, 1e-6);
+  EXPECT_EQ(G("obstacle0_present"), 1.0f);
+  EXPECT_NEAR(G("obstacle0_x"), p.centre.x() / 0.5, 1e-6);
+  EXPECT_NEAR(G("obstacle0_half_x"), 0.1, 1e-6);
+  EXPECT_NEAR(G("warning_distance1"), 0.4, 1e-6);
+  EXPECT_EQ(G("progress"), 0.0f);
+  EXPECT_NEAR(G("robot_reach"), 2.0, 0.02);  // reach 1 m (sampled) / ℓ
+
+  // one step of a known action: the features follow the new state and velocity
+  const float actions[2] = {1.0f, -0.5f};
+  env.Step(actions, rng, b.out());
+  const Eigen::Vector2d q(env.world().q()[0], env.world().q()[1]), qd(env.world().qd()[0], env.world().qd()[1]);
+  EXPECT_GT(qd.norm(), 0.1);
+  ExpectPlanarFeatures(p, b, s, q, qd);
+  EXPECT_NEAR(env.last_step().dq_command[0], 0.03, 1e-12);  // 1 × v_max 3 rad/s × 10 ms
+  EXPECT_NEAR(env.last_step().dq_command[1], -0.015, 1e-12);
+  EXPECT_NEAR(G("progress"), 1.0 / 400.0, 1e-7);
+}
+
+// ---------------------------------------------------------------------------------------------- rewards
+
+TEST(ManipulatorEnvTest, RewardTermsFollowTheirDefinitions) {
+  TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "panda", 2);
+  c.reward.joint_reach_weights = {1, 2, 3, 4, 5, 6, 7};
+  auto context = MakeTaskContext(c);
+  ManipulatorEnv env(context);
+  const EnvSpec& s = env.spec();
+  Buffers b(s);
+  std::mt19937_64 rng(5), arng(6);
+  env.Reset(rng, b.out());
+  const int e = IndexOf(s.global_state_names, "ee_to_target_x");
+  const auto distance = [&] {
+    return 0.5 * Eigen::Vector3d(b.global_state[e], b.global_state[e + 1], b.global_state[e + 2]).norm();
+  };
+  std::vector<float> actions(s.num_agents * s.action.size());
+  int reached_terms = 0;
+  for (int step = 0; step < 300; ++step) {
+    const double before = distance();
+    RandomActions(s, arng, actions.data());
+    env.Step(actions.data(), rng, b.out());
+    const StepInfo& info = env.last_step();
+    const double after = distance();
+    // R_d: one point per 0.1 cm closer (from the global state, float precision)
+    EXPECT_NEAR(b.reward_terms[1], (before - after) / 0.001, 2e-3);
+    EXPECT_NEAR(b.reward_terms[1], (info.distance_before - info.distance_after) / 0.001, 1e-4);
+    double reach = 0.0;
+    for (int i = 0; i < 7; ++i) {
+      EXPECT_TRUE(info.joint_reach[i] == 0.0 || info.joint_reach[i] == 1.0);
+      reach += (i + 1) * info.joint_reach[i];
+    }
+    reached_terms += reach > 0.0;
+    EXPECT_NEAR(b.reward_terms[0], reach, 1e-6);
+    EXPECT_TRUE(b.reward_terms[2] == 0.0f || b.reward_terms[2] == 25.0f);
+    EXPECT_EQ(b.reward_terms[3], -75.0f * info.collision_events);
+    EXPECT_NEAR(b.reward, b.reward_terms[0] + b.reward_terms[1] + b.reward_terms[2] + b.reward_terms[3], 1e-4);
+    if (b.terminated || b.truncated) env.Reset(rng, b.out());
+  }
+  EXPECT_GT(reached_terms, 10);  // random motion does earn joint rewards sometimes
+}
+
+TEST(ManipulatorEnvTest, CollisionCostsSeventyFivePerEvent) {
+  Planar2Setup p;
+  p.centre = Eigen::Vector3d(0.0, 0.75, 0.0);  // in link 2's sweep when joint 1 turns the arm up
+  p.q0 = Eigen::Vector2d(0.8, 0.0);
+  p.sphere_radius = 0.1;
+  auto context = p.Context(InterfaceMode::kDirect);
+  ManipulatorEnv env(context);
+  const EnvSpec& s = env.spec();
+  Buffers b(s);
+  std::mt19937_64 rng(1);
+  env.Reset(rng, b.out());
+  const float push[2] = {1.0f, 0.0f};  // joint 1 at full speed towards the sphere
+  int events = 0, steps = 0;
+  while (!b.terminated && !b.truncated && steps < 400) {
+    env.Step(push, rng, b.out());
+    ++steps;
+    events += env.last_step().collision_events;
+    EXPECT_EQ(b.reward_terms[3], -75.0f * env.last_step().collision_events);
+    if (events > 0) break;
+  }
+  ASSERT_EQ(events, 1);
+  EXPECT_EQ(b.reward_terms[3], -75.0f);
+  EXPECT_EQ(env.metrics().collisions, 1);
+  EXPECT_LT(env.metrics().min_clearance_m, 0.0);
+  // keep pushing: the pair stays in contact (no new event) until the episode ends, which is not a success
+  while (!b.terminated && !b.truncated) env.Step(push, rng, b.out());
+  EXPECT_TRUE(b.truncated);
+  EXPECT_FALSE(b.metrics.success);
+  EXPECT_FALSE(b.metrics.invalid);
+  EXPECT_GE(b.metrics.collisions, 1);
+  EXPECT_EQ(b.metrics.length, 400);
+}
+
+TEST(ManipulatorEnvTest, TerminateOnCollisionEndsTheEpisode) {
+  Planar2Setup p;
+  p.centre = Eigen::Vector3d(0.0, 0.75, 0.0);
+  p.q0 = Eigen::Vector2d(0.8, 0.0);
+  p.sphere_radius = 0.1;
+  TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 1);
+  c.interface = InterfaceMode::kDirect;
+  c.episode.terminate_on_collision = true;
+  c.planar2.link1_length = c.planar2.link2_length = {0.5, 0.5};
+  sim::StaticSceneOptions scene;
+  scene.q_start = Eigen::Vector2d(p.q0);
+  scene.obstacles = {sim::ObstacleSpec::Sphere(p.sphere_radius, p.centre)};
+  ManipulatorEnv env(MakeTaskContext(c, [scene](const kinematics::Robot& r) {
+    return std::make_unique<sim::StaticScenario>(r, scene);
+  }));
+  Buffers b(env.spec());
+  std::mt19937_64 rng(1);
+  env.Reset(rng, b.out());
+  const float push[2] = {1.0f, 0.0f};
+  int steps = 0;
+  while (!b.terminated && !b.truncated) {
+    env.Step(push, rng, b.out());
+    ++steps;
+  }
+  EXPECT_TRUE(b.terminated);
+  EXPECT_LT(steps, 400);
+  EXPECT_EQ(b.metrics.collisions, 1);
+  EXPECT_FALSE(b.metrics.success);
+  EXPECT_FALSE(b.metrics.invalid);
+}
+
+// ---------------------------------------------------------------------------------------------- options
+
+// option_started of agent 0 over `steps` steps of the target option, with agent 0's termination flag from `flags`.
+std::vector<int> StartedPattern(OptionTermination termination, int horizon, const std::vector<int>& flags) {
+  TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 1);
+  c.options.termination = termination;
+  c.options.horizon = horizon;
+  ManipulatorEnv env(MakeTaskContext(c));
+  const EnvSpec& s = env.spec();
+  Buffers b(s);
+  std::mt19937_64 rng(2);
+  env.Reset(rng, b.out());
+  std::vector<int> started;
+  std::vector<float> actions(s.num_agents * s.action.size(), 0.0f);  // option 0 = target, scales 1
+  for (size_t t = 0; t < flags.size(); ++t) {
+    if (s.action.has_termination) actions[s.action.termination_offset()] = static_cast<float>(flags[t]);
+    env.Step(actions.data(), rng, b.out());
+    started.push_back(static_cast<int>(b.option_started[0]));
+    // the observation shows the running option (zeros once it ended)
+    const bool running = !env.option_machine(0).idle();
+    EXPECT_EQ(b.obs(s, 0, LocalObs::kOption), running ? 1.0f : 0.0f);
+    EXPECT_EQ(b.option_started[1], started.size() == 1 || (termination == OptionTermination::kFixed &&
+                                                            (started.size() - 1) % horizon == 0)
+                                       ? 1.0f
+                                       : 0.0f);
+  }
+  return started;
+}
+
+TEST(ManipulatorEnvTest, OptionsPersistForAFixedHorizon) {
+  EXPECT_EQ(StartedPattern(OptionTermination::kFixed, 4, std::vector<int>(10, 1)),
+            (std::vector<int>{1, 0, 0, 0, 1, 0, 0, 0, 1, 0}));
+}
+
+TEST(ManipulatorEnvTest, OptionsPersistUntilTheLearnedTerminationFires) {
+  EXPECT_EQ(StartedPattern(OptionTermination::kLearned, 4, {0, 0, 0, 0, 0, 0, 1, 0, 1, 1, 0}),
+            (std::vector<int>{1, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1}));
+}
+
+// ------------------------------------------------------------------------------- domain randomisation
+
+TEST(ManipulatorEnvTest, LinkLengthVariantsRespectTheirRanges) {
+  TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  c.randomization.variants = 8;
+  auto planar = MakeTaskContext(c);
+  std::set<double> lengths;
+  for (int k = 0; k < planar->num_variants(); ++k) {
+    const RobotVariant& v = planar->variant(k);
+    for (double len : v.planar2_lengths) {
+      EXPECT_GE(len, 0.3);
+      EXPECT_LE(len, 0.7);
+      lengths.insert(len);
+    }
+    // the compiled robot has those lengths: the end effector at q = 0 is at l1 + l2 along x
+    const kinematics::Robot& robot = v.world_model->robot();
+    kinematics::Data data(robot.model);
+    kinematics::CalcForwardKinematics(robot.model, Eigen::Vector2d::Zero(), &data);
+    const Eigen::Vector3d p = kinematics::CalcPointPosition(data, robot.end_effector.link,
+                                                            robot.end_effector.X_LE.translation());
+    EXPECT_NEAR(p.x(), v.planar2_lengths[0] + v.planar2_lengths[1], 1e-12);
+  }
+  EXPECT_NEAR(planar->variant(0).planar2_lengths[0], 0.5, 1e-12);  // the nominal variant
+  EXPECT_GE(lengths.size(), 14u);
+
+  TaskConfig u = SmallConfig(TaskKind::kReachAvoid, "ur5e", 5);
+  u.randomization.link_scale = {0.8, 1.2};
+  auto arm = MakeTaskContext(u);
+  const kinematics::Robot nominal = kinematics::LoadShippedRobot("ur5e");
+  for (int k = 0; k < arm->num_variants(); ++k) {
+    const double s = arm->variant(k).link_scale;
+    EXPECT_GE(s, 0.8);
+    EXPECT_LE(s, 1.2);
+    const kinematics::Robot& r = arm->variant(k).world_model->robot();
+    for (int j = 0; j < nominal.model.num_links(); ++j) {
+      EXPECT_LT((r.model.link(j).X_PJ.translation() - s * nominal.model.link(j).X_PJ.translation()).norm(), 1e-12);
+    }
+    for (size_t j = 0; j < nominal.capsules.size(); ++j) {
+      EXPECT_NEAR(r.capsules[j].radius, s * nominal.capsules[j].radius, 1e-12);
+      EXPECT_LT((r.capsules[j].p_LB - s * nominal.capsules[j].p_LB).norm(), 1e-12);
+    }
+    EXPECT_LT((r.end_effector.X_LE.translation() - s * nominal.end_effector.X_LE.translation()).norm(), 1e-12);
+  }
+  EXPECT_EQ(arm->variant(0).link_scale, 1.0);
+}
+
+TEST(ManipulatorEnvTest, ResetsReuseTheVariantPool) {
+  TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  c.randomization.variants = 4;
+  const long before_context = WorldModelsBuilt();
+  auto context = MakeTaskContext(c);
+  EXPECT_EQ(WorldModelsBuilt() - before_context, 4);  // K models, once
+  const long before = WorldModelsBuilt();
+  VecEnv envs(MakeManipulatorEnvFactory(context), {.num_envs = 3, .seed = 11, .num_threads = 1});
+  std::vector<std::unique_ptr<ManipulatorEnv>> direct;
+  for (int k = 0; k < 2; ++k) direct.push_back(std::make_unique<ManipulatorEnv>(context));
+  std::set<const sim::WorldModel*> used;
+  std::mt19937_64 rng(4);
+  Buffers b(context->spec());
+  for (int r = 0; r < 40; ++r) {
+    envs.Reset();
+    for (auto& env : direct) {
+      env->Reset(rng, b.out());
+      used.insert(env->world().shared_model().get());
+      EXPECT_EQ(env->world().shared_model(), context->variant(env->variant()).world_model);  // the pool's model
+    }
+  }
+  EXPECT_EQ(WorldModelsBuilt(), before);  // envs and resets built none
+  EXPECT_EQ(used.size(), 4u);             // every variant was drawn
+  EXPECT_GE(context->variant(0).world_model.use_count(), 2);
+}
+
+TEST(ManipulatorEnvTest, PretrainResetsRandomiseWithinTheirRanges) {
+  const TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  auto context = MakeTaskContext(c);
+  ManipulatorEnv env(context);
+  Buffers b(env.spec());
+  std::mt19937_64 rng(9);
+  std::set<double> q0s, speeds;
+  for (int r = 0; r < 30; ++r) {
+    env.Reset(rng, b.out());
+    const Eigen::VectorXd& q = env.world().q();
+    const Eigen::VectorXd& qd = env.world().qd();
+    for (int i = 0; i < 2; ++i) {
+      EXPECT_LE(std::abs(q[i]), 1.5 + 1e-12);  // ready posture 0 ± initial_q_spread
+      EXPECT_LE(std::abs(qd[i]), 0.2 * 3.0 + 1e-12);
+    }
+    q0s.insert(q[0]);
+    const sim::TargetState& t = env.scenario().target();
+    const double v = t.v_WT.norm();
+    EXPECT_GE(v, 0.05 - 1e-12);
+    EXPECT_LE(v, 0.25 + 1e-12);
+    EXPECT_NEAR(t.v_WT.z(), 0.0, 1e-12);  // in the arm's plane
+    speeds.insert(v);
+    EXPECT_TRUE(t.bounds.contains(t.p_WT));
+    // the cube sits on the target's reflected path, 1–3 s ahead
+    const Eigen::Vector3d cube = env.scenario().obstacles()[0].p_WO();
+    double nearest = 1e9;
+    for (double time = 1.0; time <= 3.0; time += 1e-3) {
+      nearest = std::min(nearest, (ReflectedPosition(t.p_WT, t.v_WT, time, t.bounds) - cube).norm());
+    }
+    EXPECT_LT(nearest, 1e-3);
+  }
+  EXPECT_EQ(q0s.size(), 30u);
+  EXPECT_EQ(speeds.size(), 30u);
+}
+
+TEST(ManipulatorEnvTest, LineCrossingDrawsItsSpeedPerEpisode) {
+  auto context = MakeTaskContext(SmallConfig(TaskKind::kLineCrossing, "panda", 1));
+  EXPECT_EQ(context->num_scenario_settings(), 5);
+  ManipulatorEnv env(context);
+  Buffers b(env.spec());
+  std::mt19937_64 rng(2);
+  std::set<double> speeds;
+  for (int r = 0; r < 25; ++r) {
+    env.Reset(rng, b.out());
+    const double v = env.scenario().obstacles()[0].speed;
+    EXPECT_EQ(v, context->config().scenario.line_speeds[env.scenario_setting()]);
+    speeds.insert(v);
+  }
+  EXPECT_EQ(speeds, (std::set<double>{0.2, 0.6, 1.2, 1.8, 2.8}));
+}
+
+// --------------------------------------------------------------------------------------------- determinism
+
+TEST(ManipulatorEnvTest, SameSeedSameTrajectory) {
+  for (TaskKind task : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid}) {
+    TaskConfig c = SmallConfig(task, "", 3);
+    c.episode.max_steps = 60;
+    auto context = MakeTaskContext(c);
+    ManipulatorEnv a(context), b(context);
+    const EnvSpec& s = a.spec();
+    Buffers ba(s), bb(s);
+    std::mt19937_64 ra(42), rb(42), actions_rng(7);
+    a.Reset(ra, ba.out());
+    b.Reset(rb, bb.out());
+    std::vector<float> actions(s.num_agents * s.action.size());
+    for (int step = 0; step < 200; ++step) {
+      RandomActions(s, actions_rng, actions.data());
+      a.Step(actions.data(), ra, ba.out());
+      b.Step(actions.data(), rb, bb.out());
+      ASSERT_EQ(ba.local_obs, bb.local_obs) << step;
+      ASSERT_EQ(ba.global_state, bb.global_state) << step;
+      ASSERT_EQ(ba.reward_terms, bb.reward_terms) << step;
+      ASSERT_EQ(ba.terminated, bb.terminated);
+      ASSERT_EQ(ba.truncated, bb.truncated);
+      if (ba.terminated || ba.truncated) {
+        a.Reset(ra, ba.out());
+        b.Reset(rb, bb.out());
+        ASSERT_EQ(ba.local_obs, bb.local_obs);
+      }
+    }
+  }
+}
+
+TEST(ManipulatorEnvTest, VecEnvResultsDoNotDependOnTheThreadCount) {
+  TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "ur5e", 3);
+  c.episode.max_steps = 40;
+  auto context = MakeTaskContext(c);
+  VecEnv one(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 1});
+  VecEnv two(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 2});
+  one.Reset();
+  two.Reset();
+  const EnvSpec& s = one.spec();
+  std::vector<float> actions(4 * s.num_agents * s.action.size());
+  std::mt19937_64 rng(8);
+  for (int step = 0; step < 100; ++step) {
+    for (int k = 0; k < 4; ++k) RandomActions(s, rng, actions.data() + k * s.num_agents * s.action.size());
+    one.Step(actions.data());
+    two.Step(actions.data());
+    ASSERT_TRUE(one.batch().local_obs == two.batch().local_obs) << step;
+    ASSERT_TRUE(one.batch().reward == two.batch().reward) << step;
+  }
+}
+
+// --------------------------------------------------------------------------------------------- bad input
+
+TEST(ManipulatorEnvTest, InvalidActionsEndTheEpisodeWithoutNaN) {
+  auto context = MakeTaskContext(SmallConfig(TaskKind::kReachAvoid, "panda", 1));
+  ManipulatorEnv env(context);
+  const EnvSpec& s = env.spec();
+  const int n = s.num_agents * s.action.size();
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  struct Case {
+    const char* what;
+    int index;
+    float value;
+  };
+  const Case cases[] = {{"NaN scale", 3, nan}, {"Inf scale", 8, inf},        {"NaN option", 6, nan},
+                        {"option 1.5", 0, 1.5f}, {"option 3", 12, 3.0f},     {"option -1", 18, -1.0f},
+                        {"NaN flag", 5, nan},    {"-Inf flag", 11, -inf}};
+  std::mt19937_64 rng(1);
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    Buffers b(s);
+    env.Reset(rng, b.out());
+    std::vector<float> actions(n, 0.0f);
+    env.Step(actions.data(), rng, b.out());  // a valid step first
+    ASSERT_FALSE(b.terminated);
+    actions[c.index] = c.value;
+    env.Step(actions.data(), rng, b.out());
+    EXPECT_TRUE(b.terminated);
+    EXPECT_FALSE(b.truncated);
+    EXPECT_TRUE(b.metrics.invalid);
+    EXPECT_FALSE(b.metrics.success);
+    EXPECT_EQ(b.reward, 0.0f);
+    for (float v : b.local_obs) EXPECT_TRUE(std::isfinite(v));
+    for (float v : b.global_state) EXPECT_TRUE(std::isfinite(v));
+    for (float v : b.reward_terms) EXPECT_TRUE(std::isfinite(v));
+  }
+  // a wrongly sized action (checked form) and a step without a reset
+  Buffers b(s);
+  env.Reset(rng, b.out());
+  std::vector<float> actions(n + 1, 0.0f);
+  env.Step(std::span<const float>(actions.data(), n + 1), rng, b.out());
+  EXPECT_TRUE(b.terminated && b.metrics.invalid);
+  env.Step(std::span<const float>(actions.data(), n), rng, b.out());  // the episode already ended
+  EXPECT_TRUE(b.terminated && b.metrics.invalid);
+  // a reset recovers
+  env.Reset(rng, b.out());
+  env.Step(std::span<const float>(actions.data(), n), rng, b.out());
+  EXPECT_FALSE(b.terminated);
+  EXPECT_FALSE(env.last_step().invalid);
+}
+
+}  // namespace
+}  // namespace rmpmarl::rl

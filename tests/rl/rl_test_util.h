@@ -1,0 +1,71 @@
+#pragma once
+// Buffers for driving one Env directly, random actions, and small task configs the rl tests share.
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "rmpmarl/rl/env.h"
+#include "rmpmarl/rl/manipulator_env.h"
+
+namespace rmpmarl::rl::testing {
+
+// owned output buffers of one env (what a VecEnv row would hold).
+struct Buffers {
+  explicit Buffers(const EnvSpec& spec)
+      : local_obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim, -7.0f),
+        global_state(spec.global_state_dim, -7.0f),
+        reward_terms(spec.reward_terms.size(), -7.0f),
+        option_started(spec.num_agents, -7.0f) {}
+
+  StepOutput out() {
+    StepOutput o;
+    o.local_obs = local_obs.data();
+    o.global_state = global_state.data();
+    o.reward_terms = reward_terms.data();
+    o.reward = &reward;
+    o.terminated = &terminated;
+    o.truncated = &truncated;
+    o.option_started = option_started.data();
+    o.metrics = &metrics;
+    return o;
+  }
+  // obs feature `k` of agent `a`.
+  float obs(const EnvSpec& spec, int a, int k) const { return local_obs[static_cast<size_t>(a) * spec.local_obs_dim + k]; }
+
+  std::vector<float> local_obs, global_state, reward_terms, option_started;
+  float reward = -7.0f;
+  std::uint8_t terminated = 7, truncated = 7;
+  EpisodeMetrics metrics;
+};
+
+// index of a feature name in a name list (-1 when absent).
+inline int IndexOf(const std::vector<std::string>& names, const std::string& name) {
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+// uniformly random actions for every agent: option indices, continuous values a bit beyond [low, high] (the env
+// clips), termination flags.
+inline void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions) {
+  const ActionSpec& a = spec.action;
+  std::uniform_real_distribution<float> u(-1.2f, 1.2f), flag(0.0f, 1.0f);
+  for (int agent = 0; agent < spec.num_agents; ++agent) {
+    float* row = actions + static_cast<size_t>(agent) * a.size();
+    if (a.num_options > 0) row[0] = static_cast<float>(std::uniform_int_distribution<int>(0, a.num_options - 1)(rng));
+    for (int k = 0; k < a.num_continuous; ++k) row[a.continuous_offset() + k] = u(rng);
+    if (a.has_termination) row[a.termination_offset()] = flag(rng) < 0.2f ? 1.0f : 0.0f;
+  }
+}
+
+// a task config with fewer variants (faster contexts) for tests.
+inline TaskConfig SmallConfig(TaskKind task, const std::string& robot = "", int variants = 2) {
+  TaskConfig c = DefaultTaskConfig(task);
+  if (!robot.empty()) c.robot = robot;
+  c.randomization.variants = variants;
+  return c;
+}
+
+}  // namespace rmpmarl::rl::testing
