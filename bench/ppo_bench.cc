@@ -49,12 +49,13 @@ RolloutBatch MakeBatch(Ppo& ppo, int M) {
   return b;
 }
 
-// one PPO gradient step on a minibatch of 4096 actor rows (epochs 1, minibatches 1).
+// one PPO gradient step on a minibatch of 4096 actor rows (epochs 1, minibatches 1); bf16: autocast matmuls.
 void BM_PpoUpdateBatch4096(benchmark::State& state) {
   SetTorchThreads(static_cast<int>(state.range(0)));
   const int agents = static_cast<int>(state.range(1));
   const int M = 4096 / agents;
-  Ppo ppo(PerJointRmpSpec(agents), NetworkOptions{}, PpoOptions{}.epochs(1).minibatches(1), 1);
+  Ppo ppo(PerJointRmpSpec(agents), NetworkOptions{},
+          PpoOptions{}.epochs(1).minibatches(1).bf16_autocast(state.range(2) != 0), 1);
   const RolloutBatch batch = MakeBatch(ppo, M);
   for (auto _ : state) {
     const UpdateStats stats = ppo.Update(batch, 1.0);
@@ -65,8 +66,8 @@ void BM_PpoUpdateBatch4096(benchmark::State& state) {
   SetTorchThreads(1);
 }
 BENCHMARK(BM_PpoUpdateBatch4096)
-    ->ArgsProduct({{1, 2}, {1, 7}})
-    ->ArgNames({"threads", "agents"})
+    ->ArgsProduct({{1, 2}, {1, 7}, {0, 1}})
+    ->ArgNames({"threads", "agents", "bf16"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

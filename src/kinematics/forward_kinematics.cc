@@ -84,19 +84,18 @@ Eigen::Vector3d CalcPointPosition(const Data& data, int link, const Eigen::Vecto
   return data.X_WL[link] * p_LP;
 }
 
+Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, int dof, const Eigen::Vector3d& p_WP) {
+  const int joint_link = model.dof_link(dof);
+  const Eigen::Vector3d axis = data.axis_W.col(dof);
+  if (!IsRotational(model.link(joint_link).joint_type)) return axis;
+  return axis.cross(p_WP - data.X_WL[joint_link].translation());
+}
+
 void CalcPointJacobianAtWorldPoint(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_WP,
                                    Eigen::Ref<Eigen::Matrix3Xd> J_WP) {
   RMPMARL_DASSERT(J_WP.cols() == model.nq(), "J_WP has the wrong number of columns");
   J_WP.setZero();
-  for (int i : model.link_dofs(link)) {
-    const int joint_link = model.dof_link(i);
-    const Eigen::Vector3d axis = data.axis_W.col(i);
-    if (IsRotational(model.link(joint_link).joint_type)) {
-      J_WP.col(i) = axis.cross(p_WP - data.X_WL[joint_link].translation());
-    } else {
-      J_WP.col(i) = axis;
-    }
-  }
+  for (int i : model.link_dofs(link)) J_WP.col(i) = CalcPointJacobianColumn(model, data, i, p_WP);
 }
 
 void CalcPointJacobian(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_LP,
@@ -104,17 +103,24 @@ void CalcPointJacobian(const Model& model, const Data& data, int link, const Eig
   CalcPointJacobianAtWorldPoint(model, data, link, data.X_WL[link] * p_LP, J_WP);
 }
 
-Eigen::Vector3d CalcPointVelocity(const Data& data, int link, const Eigen::Vector3d& p_LP) {
+Eigen::Vector3d CalcPointVelocityAtWorldPoint(const Data& data, int link, const Eigen::Vector3d& p_WP) {
   RMPMARL_DASSERT(data.has_velocities, "CalcVelocityKinematics must run first");
-  const Eigen::Vector3d r = data.X_WL[link].linear() * p_LP;
-  return data.v_WLo.col(link) + data.w_WL.col(link).cross(r);
+  return data.v_WLo.col(link) + data.w_WL.col(link).cross(p_WP - data.X_WL[link].translation());
+}
+
+Eigen::Vector3d CalcPointJdotQdotAtWorldPoint(const Data& data, int link, const Eigen::Vector3d& p_WP) {
+  RMPMARL_DASSERT(data.has_velocities, "CalcVelocityKinematics must run first");
+  const Eigen::Vector3d r = p_WP - data.X_WL[link].translation();
+  const Eigen::Vector3d w = data.w_WL.col(link);
+  return data.a_bias_WLo.col(link) + data.alpha_bias_WL.col(link).cross(r) + w.cross(w.cross(r));
+}
+
+Eigen::Vector3d CalcPointVelocity(const Data& data, int link, const Eigen::Vector3d& p_LP) {
+  return CalcPointVelocityAtWorldPoint(data, link, data.X_WL[link] * p_LP);
 }
 
 Eigen::Vector3d CalcPointJdotQdot(const Data& data, int link, const Eigen::Vector3d& p_LP) {
-  RMPMARL_DASSERT(data.has_velocities, "CalcVelocityKinematics must run first");
-  const Eigen::Vector3d r = data.X_WL[link].linear() * p_LP;
-  const Eigen::Vector3d w = data.w_WL.col(link);
-  return data.a_bias_WLo.col(link) + data.alpha_bias_WL.col(link).cross(r) + w.cross(w.cross(r));
+  return CalcPointJdotQdotAtWorldPoint(data, link, data.X_WL[link] * p_LP);
 }
 
 void CheckJointVector(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& v, std::string_view what) {

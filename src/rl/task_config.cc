@@ -208,6 +208,10 @@ void ReadScenario(const Reader& r, const YAML::Node& node, TaskKind task, Scenar
           Num(r, "spawn_margin", &l.spawn_margin), Flag(r, "stop_on_impact", &l.stop_on_impact),
           Flag(r, "repeat", &l.repeat), Workspace(r, &l.workspace)};
       fields.push_back({"speeds", [&r, s](const YAML::Node& n, const std::string& k) { s->line_speeds = r.List(n, k); }});
+      fields.push_back({"arrangement", [&r, &l](const YAML::Node& n, const std::string& k) {
+                          l.arrangement = r.Choice(n, k, {"along", "across"}) == 0 ? sim::LineArrangement::kAlongMotion
+                                                                                   : sim::LineArrangement::kAcrossMotion;
+                        }});
       ReadSection(r, node, key, fields);
       break;
     }
@@ -362,16 +366,66 @@ TaskConfig LoadShippedTaskConfig(std::string_view name) {
   return LoadTaskConfig(TaskConfigPath(name));
 }
 
-TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
-  const std::string file = path.string();
-  YAML::Node root;
+namespace {
+
+// merges `over` into `base` (maps recursively, everything else replaced).
+void MergeYaml(YAML::Node base, const YAML::Node& over) {
+  for (const auto& kv : over) {
+    const std::string key = kv.first.as<std::string>();
+    if (kv.second.IsMap() && base[key] && base[key].IsMap()) {
+      MergeYaml(base[key], kv.second);
+    } else {
+      base[key] = kv.second;
+    }
+  }
+}
+
+YAML::Node LoadYamlFile(const std::string& file) {
   try {
-    root = YAML::LoadFile(file);
+    return YAML::LoadFile(file);
   } catch (const YAML::BadFile&) {
     throw InputError(fmt::format("{}: cannot open task config (missing or unreadable)", file));
   } catch (const YAML::Exception& e) {
     throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
   }
+}
+
+YAML::Node LoadYamlText(const std::string& text, const std::string& source) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}: malformed YAML: {}", source, e.mark.line + 1, e.msg));
+  }
+}
+
+TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file);
+
+}  // namespace
+
+TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
+  return ParseTaskNode(LoadYamlFile(path.string()), path.string());
+}
+
+TaskConfig LoadTaskConfig(const std::filesystem::path& path, const std::string& overrides_yaml) {
+  YAML::Node root = LoadYamlFile(path.string());
+  const std::string source = path.string() + " + overrides";
+  const YAML::Node over = LoadYamlText(overrides_yaml, source);
+  if (!over.IsNull()) {
+    if (!over.IsMap() || !root.IsMap()) {
+      throw InputError(fmt::format("{}: expected the file and the overrides to be mappings", source));
+    }
+    MergeYaml(root, over);
+  }
+  return ParseTaskNode(root, source);
+}
+
+TaskConfig ParseTaskConfig(const std::string& yaml_text, const std::string& source) {
+  return ParseTaskNode(LoadYamlText(yaml_text, source), source);
+}
+
+namespace {
+
+TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   const Reader r(file);
   r.CheckKeys(root, "",
               {"task", "robot", "interface", "episode", "controller", "options", "direct", "observation", "reward",
@@ -485,6 +539,8 @@ TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
   ValidateTaskConfig(c, file);
   return c;
 }
+
+}  // namespace
 
 void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   const Checker check(where);

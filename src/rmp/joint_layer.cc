@@ -12,9 +12,9 @@
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rmp {
-using internal::MaterialPointJdotQdot;
-using internal::MaterialPointVelocity;
-using internal::PointJacobianColumn;
+using kinematics::CalcPointJdotQdotAtWorldPoint;
+using kinematics::CalcPointVelocityAtWorldPoint;
+using kinematics::CalcPointJacobianColumn;
 
 JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinematics::Data& kin, int dof,
                                     const Scene& scene, const BasicRmpParams& params,
@@ -29,12 +29,12 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
   if (weights.use_target && scene.has_target && model.DofMovesLink(dof, robot.end_effector.link)) {
     const int link = robot.end_effector.link;
     const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
-    const Eigen::Vector3d v_rel = MaterialPointVelocity(kin, link, p_WE) - scene.v_WT;
+    const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
     const Eigen::Vector3d f = M * (weights.target_accel_scale * rmp.a);
-    const Eigen::Vector3d j = PointJacobianColumn(model, kin, dof, p_WE);
-    const Eigen::Vector3d jdqd = MaterialPointJdotQdot(kin, link, p_WE);
+    const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, p_WE);
+    const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     force += j.dot(f - M * jdqd);
     metric += j.dot(M * j);
   }
@@ -57,12 +57,12 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
         result.min_distance = std::min(result.min_distance, res.distance);
         if (res.distance > r) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-        const double xd = n.dot(MaterialPointVelocity(kin, lc.link, res.p_W1) - obstacle.v_WO);
+        const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
         const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
         const double m = weights.collision_metric_scale * rmp.m;
         const double f = m * weights.collision_accel_scale * rmp.a;
-        const double j = n.dot(PointJacobianColumn(model, kin, dof, res.p_W1));
-        const double jdqd = n.dot(MaterialPointJdotQdot(kin, lc.link, res.p_W1));
+        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
+        const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
         force += j * (f - m * jdqd);
         metric += j * m * j;
         ++result.collision_terms;
@@ -96,15 +96,15 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   if (scene.has_target) {
     const int link = robot.end_effector.link;
     const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
-    const Eigen::Vector3d v_rel = MaterialPointVelocity(kin, link, p_WE) - scene.v_WT;
+    const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
-    const Eigen::Vector3d jdqd = MaterialPointJdotQdot(kin, link, p_WE);
+    const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     for (int dof : model.link_dofs(link)) {
       const JointLayerWeights& w = weights[dof];
       if (!w.use_target) continue;
       const Eigen::Matrix3d M = w.target_metric_scale * rmp.M;
       const Eigen::Vector3d f = M * (w.target_accel_scale * rmp.a);
-      const Eigen::Vector3d j = PointJacobianColumn(model, kin, dof, p_WE);
+      const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, p_WE);
       results[dof].force += j.dot(f - M * jdqd);
       results[dof].metric += j.dot(M * j);
     }
@@ -133,15 +133,15 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
       }
       if (res.distance > r) continue;
       const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-      const double xd = n.dot(MaterialPointVelocity(kin, lc.link, res.p_W1) - obstacle.v_WO);
+      const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
       const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
-      const double jdqd = n.dot(MaterialPointJdotQdot(kin, lc.link, res.p_W1));
+      const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
       for (int dof : dofs) {
         const JointLayerWeights& w = weights[dof];
         if (!w.use_collision) continue;
         const double m = w.collision_metric_scale * rmp.m;
         const double f = m * w.collision_accel_scale * rmp.a;
-        const double j = n.dot(PointJacobianColumn(model, kin, dof, res.p_W1));
+        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
         results[dof].force += j * (f - m * jdqd);
         results[dof].metric += j * m * j;
         ++results[dof].collision_terms;

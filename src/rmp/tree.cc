@@ -301,9 +301,9 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         x3 = p_W;
         Eigen::Map<Eigen::Matrix3Xd> J3(J, 3, model.nq());
         J3.setZero();
-        for (int dof : model.link_dofs(m.link)) J3.col(dof) = internal::PointJacobianColumn(model, kin, dof, p_W);
-        xd3 = internal::MaterialPointVelocity(kin, m.link, p_W);
-        jdqd3 = internal::MaterialPointJdotQdot(kin, m.link, p_W);
+        for (int dof : model.link_dofs(m.link)) J3.col(dof) = kinematics::CalcPointJacobianColumn(model, kin, dof, p_W);
+        xd3 = kinematics::CalcPointVelocityAtWorldPoint(kin, m.link, p_W);
+        jdqd3 = kinematics::CalcPointJdotQdotAtWorldPoint(kin, m.link, p_W);
         break;
       }
       case TaskMapType::kCapsuleObstacleDistance: {
@@ -319,8 +319,8 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         std::fill(J, J + model.nq(), 0.0);
         add_row(node.link1, res.p_W1, n, 1.0, J);
-        xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) - obstacle.v_WO);
-        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1));
+        xd[0] = n.dot(kinematics::CalcPointVelocityAtWorldPoint(kin, node.link1, res.p_W1) - obstacle.v_WO);
+        jdqd[0] = n.dot(kinematics::CalcPointJdotQdotAtWorldPoint(kin, node.link1, res.p_W1));
         break;
       }
       case TaskMapType::kCapsuleCapsuleDistance: {
@@ -335,10 +335,10 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         std::fill(J, J + model.nq(), 0.0);
         add_row(node.link1, res.p_W1, n, 1.0, J);
         add_row(node.link2, res.p_W2, n, -1.0, J);
-        xd[0] = n.dot(internal::MaterialPointVelocity(kin, node.link1, res.p_W1) -
-                      internal::MaterialPointVelocity(kin, node.link2, res.p_W2));
-        jdqd[0] = n.dot(internal::MaterialPointJdotQdot(kin, node.link1, res.p_W1) -
-                        internal::MaterialPointJdotQdot(kin, node.link2, res.p_W2));
+        xd[0] = n.dot(kinematics::CalcPointVelocityAtWorldPoint(kin, node.link1, res.p_W1) -
+                      kinematics::CalcPointVelocityAtWorldPoint(kin, node.link2, res.p_W2));
+        jdqd[0] = n.dot(kinematics::CalcPointJdotQdotAtWorldPoint(kin, node.link1, res.p_W1) -
+                        kinematics::CalcPointJdotQdotAtWorldPoint(kin, node.link2, res.p_W2));
         break;
       }
       case TaskMapType::kAffine: {

@@ -58,13 +58,15 @@ TEST(ManipulatorEnvTest, PerJointSpecIsIdenticalAtEveryJointOfEveryArm) {
 
     // the other two interfaces
     c.interface = InterfaceMode::kPerJointDirect;
-    const EnvSpec& d = MakeTaskContext(c)->spec();
+    const auto direct_context = MakeTaskContext(c);
+    const EnvSpec& d = direct_context->spec();
     EXPECT_EQ(d.num_agents, nq);
     EXPECT_EQ(d.local_obs_dim, LocalObs::kBaseSize);
     EXPECT_EQ(d.action.size(), 1);
     EXPECT_EQ(d.action.num_options, 0);
     c.interface = InterfaceMode::kDirect;
-    const EnvSpec& g = MakeTaskContext(c)->spec();
+    const auto single_context = MakeTaskContext(c);
+    const EnvSpec& g = single_context->spec();
     EXPECT_EQ(g.num_agents, 1);
     EXPECT_EQ(g.action.size(), nq);
     EXPECT_EQ(g.local_obs_dim, g.global_state_dim);

@@ -89,7 +89,9 @@ TEST(RandomStepsTest, MillionRandomStepsStayFinite) {
                 std::string(TaskKindName(share.task)).c_str(), std::string(InterfaceModeName(share.mode)).c_str(),
                 s.steps, s.episodes, s.invalid_episodes, s.collisions, s.seconds, s.steps / s.seconds, s.nonfinite);
     EXPECT_EQ(s.nonfinite, 0) << TaskKindName(share.task);
-    EXPECT_GT(s.episodes, 0);
+    if (scale >= 1.0) {
+      EXPECT_GT(s.episodes, 0);
+    }
     total += s.steps;
     nonfinite += s.nonfinite;
   }

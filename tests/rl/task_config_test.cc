@@ -99,6 +99,7 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["line.num_obstacles"] = l.num_obstacles;
   f["line.obstacle_side"] = l.obstacle_side;
   f["line.spacing"] = l.spacing;
+  f["line.arrangement"] = static_cast<double>(l.arrangement);
   f["line.target_speed"] = l.target_speed;
   f["line.max_yaw_deg"] = l.max_yaw_deg;
   f["line.min_base_distance"] = l.min_base_distance;
@@ -200,6 +201,28 @@ rmp: {collision_rmp: {metric_scalar: 2}}
   // untouched keys keep the task's defaults
   EXPECT_EQ(c.observation.max_obstacles, DefaultTaskConfig(TaskKind::kLineCrossing).observation.max_obstacles);
   EXPECT_EQ(c.basic_layer.params.collision.metric_modulation_radius, 0.15);
+}
+
+TEST(TaskConfigTest, OverridesMergeOverTheFile) {
+  const TaskConfig c = LoadTaskConfig(TaskConfigPath("line-crossing"),
+                                      "episode: {max_steps: 33}\nscenario: {arrangement: across, speeds: [2.8]}\n");
+  EXPECT_EQ(c.episode.max_steps, 33);
+  EXPECT_EQ(c.episode.control_rate, 100.0);  // the rest of the episode section stays
+  EXPECT_EQ(c.scenario.line_crossing.arrangement, sim::LineArrangement::kAcrossMotion);
+  EXPECT_EQ(c.scenario.line_speeds, std::vector<double>{2.8});
+  EXPECT_EQ(c.scenario.line_crossing.num_obstacles, 5);
+  try {
+    LoadTaskConfig(TaskConfigPath("line-crossing"), "episode: {max_stepz: 33}");
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("line-crossing.yaml + overrides"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("'episode.max_stepz'"), std::string::npos) << msg;
+  }
+  const TaskConfig p = ParseTaskConfig("task: pretrain-2link\ninterface: direct\n", "inline");
+  EXPECT_EQ(p.interface, InterfaceMode::kDirect);
+  EXPECT_EQ(p.source, "inline");
+  EXPECT_THROW(ParseTaskConfig("task: [", "inline"), InputError);
 }
 
 TEST(TaskConfigTest, UnknownKeysNameFileAndKey) {

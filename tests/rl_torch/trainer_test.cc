@@ -247,8 +247,6 @@ TEST(EvaluateTest, CheckpointAndExportedRuntimeAgree) {
 // ---------------------------------------------------------------------------------------------------- learning
 // Learning smoke tests: fixed seeds, thresholds set from measured values with margin (see the comments).
 
-double MeanSuccess(const EvalResult& r) { return r.success_rate; }
-
 TEST(LearningTest, PpoSolvesOneDimensionalReach) {
   const auto start = std::chrono::steady_clock::now();
   const std::string dir = TempDir("learn_ppo");
@@ -263,8 +261,9 @@ TEST(LearningTest, PpoSolvesOneDimensionalReach) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   fmt::print("PPO toy-reach direct: success {:.3f}, tracking {:.1f} mm, {:.1f} s\n", r.success_rate,
              r.tracking_error_mean_mm, seconds);
-  EXPECT_GE(MeanSuccess(r), 0.9);
-  EXPECT_LT(seconds, 60.0);
+  // measured (seed 5, 40 updates × 16 envs × 64 steps): success 1.000, tracking 68.7 mm, ~1 s
+  EXPECT_GE(r.success_rate, 0.9);
+  EXPECT_LT(r.tracking_error_mean_mm, 120.0);
 }
 
 TEST(LearningTest, MappoOptionsAgentsBeatARandomOptionPolicy) {
@@ -291,9 +290,46 @@ TEST(LearningTest, MappoOptionsAgentsBeatARandomOptionPolicy) {
              "success {:.3f} vs {:.3f}; {:.1f} s\n", trained.mean_return, random.mean_return,
              trained.tracking_error_mean_mm, random.tracking_error_mean_mm, trained.success_rate,
              random.success_rate, seconds);
-  EXPECT_GT(trained.mean_return, random.mean_return + 5.0);
-  EXPECT_LT(trained.tracking_error_mean_mm, 0.5 * random.tracking_error_mean_mm);
-  EXPECT_LT(seconds, 60.0);
+  // measured (seed 5): return −2.60 vs −23.41, tracking 64.9 vs 585.4 mm, success 0.953 vs 0.000, ~2 s
+  EXPECT_GT(trained.mean_return, random.mean_return + 10.0);
+  EXPECT_LT(trained.tracking_error_mean_mm, 0.3 * random.tracking_error_mean_mm);
+  EXPECT_GT(trained.success_rate, 0.7);
+}
+
+// HRL-RMP on a reduced pretrain-2link (100-step episodes, 2 robot variants, 64-unit MLPs): the per-joint RMP agents
+// trained with MAPPO for 150 updates (120k env steps) against the random-option policy — the untrained actor,
+// sampled: near-uniform options (logits ≈ 0 from the 0.01-gain output layer), termination p ≈ ½, gains ~ N(0, 0.61).
+TEST(LearningTest, HrlRmpOnReducedPretrain2LinkBeatsRandomOptions) {
+  const auto start = std::chrono::steady_clock::now();
+  TrainConfig c = ToyConfig(2, "per-joint-rmp", TempDir("learn_hrl"));
+  c.task = TaskSelection{.name = "pretrain-2link", .interface = "per-joint-rmp",
+                         .overrides_yaml = "{episode: {max_steps: 100}, randomization: {variants: 2}}"};
+  c.seed = 3;
+  c.total_updates = 150;
+  c.checkpoint_every = 150;
+  c.write_tensorboard = false;
+  c.network = NetworkOptions{}.actor_hidden({64, 64}).critic_hidden({64, 64});
+  c.ppo = PpoOptions{}.rollout_steps(100).epochs(4).minibatches(4).lr(1e-3);
+  const EnvFactory factory = MakeTaskFactory(c.task);
+  TrainConfig untrained = c;
+  untrained.total_updates = 1;
+  untrained.ppo.lr(1e-12);
+  untrained.output_dir = TempDir("learn_hrl_random");
+  RunTraining(untrained, factory);
+  RunTraining(c, factory);
+  const EvalOptions sampled{.episodes = 128, .num_envs = 16, .stochastic = true};
+  const EvalResult random = Evaluate(untrained.output_dir + "/final.ckpt", factory, sampled);
+  const EvalResult trained = Evaluate(c.output_dir + "/final.ckpt", factory, sampled);
+  const EvalResult trained_modes = Evaluate(c.output_dir + "/final.ckpt", factory, {.episodes = 128, .num_envs = 16});
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  fmt::print("HRL-RMP reduced pretrain-2link: return {:.1f} (modes {:.1f}) vs random {:.1f}; success {:.3f} (modes "
+             "{:.3f}) vs {:.3f}; {:.1f} s\n", trained.mean_return, trained_modes.mean_return, random.mean_return,
+             trained.success_rate, trained_modes.success_rate, random.success_rate, seconds);
+  // measured (seed 3): return 623.5 (modes 606.4) vs random 557.0. The margin over seeds 1, 2, 3, 4 (same setup, CLI):
+  // +70/+74/+66/+58 sampled, +64/+56/+49/+58 modes, so the threshold +25 has a 2× margin. Success (no collision in
+  // 100 steps) does not separate them here (random: 0.88–0.96), so it is printed, not asserted.
+  EXPECT_GT(trained.mean_return, random.mean_return + 25.0);
+  EXPECT_GT(trained_modes.mean_return, random.mean_return + 25.0);
 }
 
 }  // namespace

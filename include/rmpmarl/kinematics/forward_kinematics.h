@@ -26,6 +26,16 @@ void CalcPointJacobian(const Model& model, const Data& data, int link, const Eig
 void CalcPointJacobianAtWorldPoint(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_WP,
                                    Eigen::Ref<Eigen::Matrix3Xd> J_WP);
 
+/// column `dof` of the position Jacobian of world point p_WP taken as fixed on a link that `dof` moves:
+/// a × (p_WP − o_J) for a rotational joint, a for a prismatic one.  \pre CalcForwardKinematics.
+Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, int dof, const Eigen::Vector3d& p_WP);
+
+/// linear velocity of the material point of `link` at world point p_WP.  \pre CalcVelocityKinematics.
+Eigen::Vector3d CalcPointVelocityAtWorldPoint(const Data& data, int link, const Eigen::Vector3d& p_WP);
+
+/// J̇q̇ of the material point of `link` at world point p_WP.  \pre CalcVelocityKinematics.
+Eigen::Vector3d CalcPointJdotQdotAtWorldPoint(const Data& data, int link, const Eigen::Vector3d& p_WP);
+
 /// J̇q̇ of point P fixed on link `link` at p_LP: its acceleration in world when q̈ = 0.
 /// \pre CalcVelocityKinematics.
 Eigen::Vector3d CalcPointJdotQdot(const Data& data, int link, const Eigen::Vector3d& p_LP);

@@ -1,6 +1,7 @@
 // Networks, the hybrid action distribution, GAE, the PPO losses, normalisers and the PPO/MAPPO learner.
 #include <torch/types.h>
 #include <ATen/CPUGeneratorImpl.h>
+#include <ATen/autocast_mode.h>
 #include <fmt/format.h>
 #include <torch/nn/utils/clip_grad.h>
 #include <torch/serialize.h>
@@ -40,6 +41,40 @@ std::uint64_t Mix(std::uint64_t x) {
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
   return x ^ (x >> 31);
+}
+
+// bfloat16 CPU autocast for the forward passes inside its scope (PpoOptions::bf16_autocast); a no-op when off.
+class Bf16Autocast {
+ public:
+  explicit Bf16Autocast(bool on) : on_(on) {
+    if (!on_) return;
+    previous_ = at::autocast::is_cpu_enabled();
+    previous_dtype_ = at::autocast::get_autocast_cpu_dtype();
+    at::autocast::set_cpu_enabled(true);
+    at::autocast::set_autocast_cpu_dtype(at::kBFloat16);
+    at::autocast::increment_nesting();
+  }
+  ~Bf16Autocast() {
+    if (!on_) return;
+    if (at::autocast::decrement_nesting() == 0) at::autocast::clear_cache();
+    at::autocast::set_cpu_enabled(previous_);
+    at::autocast::set_autocast_cpu_dtype(previous_dtype_);
+  }
+  Bf16Autocast(const Bf16Autocast&) = delete;
+  Bf16Autocast& operator=(const Bf16Autocast&) = delete;
+
+ private:
+  bool on_;
+  bool previous_ = false;
+  at::ScalarType previous_dtype_ = at::kBFloat16;
+};
+
+// the head's tensors as float (after a bf16 forward).
+HeadOutputs ToFloat(HeadOutputs h) {
+  for (torch::Tensor* t : {&h.option_logits, &h.mean, &h.log_std, &h.termination_logit}) {
+    if (t->defined()) *t = t->to(torch::kFloat);
+  }
+  return h;
 }
 
 }  // namespace
@@ -405,8 +440,13 @@ ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_s
     r.actor_obs = local_obs.to(torch::kFloat);
     r.critic_state = global_state.to(torch::kFloat);
   }
-  r.sampled = SampleActions(actor_->forward(r.actor_obs), layout_, generator_, deterministic);
-  r.raw_values = critic_->forward(r.critic_state);
+  HeadOutputs head;
+  {
+    Bf16Autocast autocast(options_.bf16_autocast());
+    head = ToFloat(actor_->forward(r.actor_obs));
+    r.raw_values = critic_->forward(r.critic_state).to(torch::kFloat);
+  }
+  r.sampled = SampleActions(head, layout_, generator_, deterministic);
   r.values = options_.normalize_value() ? value_norm_.Denormalize(r.raw_values) : r.raw_values;
   return r;
 }
@@ -415,7 +455,11 @@ torch::Tensor Ppo::Values(const torch::Tensor& global_state) {
   torch::NoGradGuard no_grad;
   const torch::Tensor state = options_.normalize_observations() ? state_norm_.Normalize(global_state, options_.obs_clip())
                                                                 : global_state.to(torch::kFloat);
-  const torch::Tensor raw = critic_->forward(state);
+  torch::Tensor raw;
+  {
+    Bf16Autocast autocast(options_.bf16_autocast());
+    raw = critic_->forward(state).to(torch::kFloat);
+  }
   return options_.normalize_value() ? value_norm_.Denormalize(raw) : raw;
 }
 
@@ -462,7 +506,11 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       const torch::Tensor rows = (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
       LossInputs in;
       in.layout = layout_;
-      in.head = actor_->forward(batch.actor_obs.index_select(0, rows));
+      {
+        Bf16Autocast autocast(options_.bf16_autocast());
+        in.head = ToFloat(actor_->forward(batch.actor_obs.index_select(0, rows)));
+        in.values = critic_->forward(batch.critic_state.index_select(0, idx)).to(torch::kFloat);
+      }
       in.actions = batch.actions.index_select(0, rows);
       in.old_log_probs = {batch.old_log_probs.option.index_select(0, rows),
                           batch.old_log_probs.continuous.index_select(0, rows),
@@ -470,7 +518,6 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       in.option_mask = batch.option_mask.index_select(0, rows);
       in.termination_mask = batch.termination_mask.index_select(0, rows);
       in.advantages = advantages.index_select(0, idx).repeat_interleave(A);
-      in.values = critic_->forward(batch.critic_state.index_select(0, idx));
       in.old_values = old_values_n.index_select(0, idx);
       in.returns = returns_n.index_select(0, idx);
       const LossTerms terms = ComputePpoLoss(in, options_);

@@ -156,6 +156,7 @@ const std::vector<Key>& Keys() {
     pb("normalize_observations", &P::normalize_observations, &P::normalize_observations);
     pd("obs_clip", &P::obs_clip, &P::obs_clip);
     pb("normalize_value", &P::normalize_value, &P::normalize_value);
+    pb("bf16_autocast", &P::bf16_autocast, &P::bf16_autocast);
     return k;
   }();
   return keys;

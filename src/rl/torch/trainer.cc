@@ -231,14 +231,18 @@ struct Trainer::Impl {
   std::unique_ptr<Ppo> ppo;
   int update = 0;
   std::int64_t env_steps = 0;
+  int env_built_for = 0;   // the segment-start update the current VecEnv was seeded for
   int envs_reset_at = -1;  // update at which the current envs were seeded and reset
   std::deque<EpisodeMetrics> recent;  // the last stats_window finished episodes (checkpointed)
 
   // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
   void ResetEnvs(int u) {
-    const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs;
-    env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
-    env->Reset();
+    if (!env || env_built_for != u) {
+      const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs;
+      env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
+      env_built_for = u;
+    }
+    env->Reset();  // re-seeds env k's RNG with the VecEnv's seed + k
     envs_reset_at = u;
   }
 
@@ -464,6 +468,7 @@ void Trainer::Resume(const std::string& path) {
                                  e.what_without_backtrace()));
   }
   m.envs_reset_at = -1;  // the next update seeds and resets the envs for its segment
+  m.env_built_for = -1;
 }
 
 void Trainer::ExportPolicy(const std::string& path) const { SavePolicyFile(impl_->ppo->Export(), path); }

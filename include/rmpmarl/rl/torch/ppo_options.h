@@ -83,6 +83,10 @@ class PpoOptions {
   RMPMARL_OPTION(double, obs_clip, 10.0);
   /// the critic predicts returns normalised by their running mean/variance (MAPPO's value normalisation).
   RMPMARL_OPTION(bool, normalize_value, true);
+  // ---- speed
+  /// run the networks' matrix products in bfloat16 (CPU autocast; fp32 master weights, losses and optimiser). About
+  /// 4× faster on CPUs with AMX/AVX512-BF16 (oneDNN), slower elsewhere; the exported policy stays fp32.
+  RMPMARL_OPTION(bool, bf16_autocast, false);
 };
 
 /// Name of an activation / schedule (as written in configs); parse throws InputError on unknown names.
