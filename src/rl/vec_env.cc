@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <condition_variable>
+#include <exception>
 #include <mutex>
 #include <thread>
 
@@ -49,6 +50,7 @@ struct VecEnv::Impl {
   int pending = 0;
   bool stopping = false;
   enum class Job { kReset, kStep } job = Job::kStep;
+  std::exception_ptr error;  // first exception thrown by an env during the current job
   const float* actions = nullptr;
 
   StepOutput OutputOf(int k) {
@@ -96,6 +98,16 @@ struct VecEnv::Impl {
     }
   }
 
+  // runs a block, keeping the first exception for the calling thread (an exception must not end a worker).
+  void RunBlockCatching(int begin, int end) {
+    try {
+      RunBlock(begin, end);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!error) error = std::current_exception();
+    }
+  }
+
   // envs of block b when the envs are split into `blocks` contiguous blocks.
   std::pair<int, int> Block(int b, int blocks) const {
     const int n = static_cast<int>(envs.size());
@@ -112,7 +124,7 @@ struct VecEnv::Impl {
         seen = generation;
       }
       const auto [begin, end] = Block(worker + 1, options.num_threads);
-      RunBlock(begin, end);
+      RunBlockCatching(begin, end);
       {
         std::lock_guard<std::mutex> lock(mutex);
         if (--pending == 0) work_done.notify_one();
@@ -123,6 +135,7 @@ struct VecEnv::Impl {
   void Run(Job new_job, const float* new_actions) {
     job = new_job;
     actions = new_actions;
+    error = nullptr;
     if (workers.empty()) {
       RunBlock(0, static_cast<int>(envs.size()));
       return;
@@ -134,9 +147,10 @@ struct VecEnv::Impl {
     }
     work_ready.notify_all();
     const auto [begin, end] = Block(0, options.num_threads);
-    RunBlock(begin, end);
+    RunBlockCatching(begin, end);
     std::unique_lock<std::mutex> lock(mutex);
     work_done.wait(lock, [&] { return pending == 0; });
+    if (error) std::rethrow_exception(error);
   }
 };
 

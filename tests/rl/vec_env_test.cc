@@ -158,6 +158,26 @@ TEST(VecEnvTest, TruncationAtTheHorizon) {
   }
 }
 
+// An env whose reset throws (as a scenario that cannot place its obstacles does).
+class ThrowingEnv : public RandomWalkEnv {
+ public:
+  void Reset(std::mt19937_64&, const StepOutput&) override { throw InputError("cannot place obstacles"); }
+};
+
+TEST(VecEnvTest, ExceptionsOnWorkerThreadsReachTheCaller) {
+  auto factory = [](int k) -> std::unique_ptr<Env> {
+    if (k == 3) return std::make_unique<ThrowingEnv>();
+    return std::make_unique<RandomWalkEnv>();
+  };
+  VecEnv env(factory, {.num_envs = 4, .seed = 0, .num_threads = 2});
+  try {
+    env.Reset();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "cannot place obstacles");
+  }
+}
+
 TEST(VecEnvTest, RejectsBadOptionsAndMismatchedLayouts) {
   EXPECT_THROW(VecEnv(Factory(), {.num_envs = 0}), InputError);
   EXPECT_THROW(VecEnv(Factory(), {.num_envs = 2, .seed = 0, .num_threads = 0}), InputError);
