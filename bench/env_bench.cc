@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl {
 namespace {
@@ -74,6 +75,32 @@ BENCHMARK(BM_EnvStep)
     ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 5})
     ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 1})
     ->Unit(benchmark::kMicrosecond);
+
+// the batched engine: 32 envs (per-joint RMP agents, 1 physics step per env step) on 1 or 2 worker threads;
+// wall-clock rate, so the thread scaling is visible (goal: 2 threads ≥ 1.8× one).
+void BM_VecEnvStep(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  auto context = MakeTaskContext(BenchConfig(InterfaceMode::kPerJointRmp, ScenarioUpdate::kControlStep, 1));
+  const int num_envs = 32;
+  VecEnv envs(MakeManipulatorEnvFactory(context), {.num_envs = num_envs, .seed = 3, .num_threads = threads});
+  const EnvSpec& spec = envs.spec();
+  const int action_size = spec.num_agents * spec.action.size();
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<std::vector<float>> batches(16, std::vector<float>(static_cast<size_t>(num_envs) * action_size));
+  for (auto& b : batches) {
+    for (size_t k = 0; k < b.size(); ++k) b[k] = u(rng);
+    for (size_t k = 0; k < b.size(); k += spec.action.size()) {
+      b[k] = static_cast<float>(std::uniform_int_distribution<int>(0, 2)(rng));
+    }
+  }
+  envs.Reset();
+  long k = 0;
+  for (auto _ : state) envs.Step(batches[k++ % 16].data());
+  state.counters["env_steps/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * num_envs, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_VecEnvStep)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 // bare mj_step (physics only: no servo targets change, no scenario, no observation) on the env's compiled model,
 // from a state of a reset episode (obstacles placed, arm at its start posture).
