@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <set>
 
+#include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 
 #ifndef RMPMARL_MODELS_DIR
@@ -23,45 +24,9 @@ namespace rmpmarl::kinematics {
 namespace {
 
 // reads collision.yaml nodes with messages naming the file and key path.
-class YamlReader {
+class RobotYamlReader : public internal::YamlReader {
  public:
-  explicit YamlReader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key, const std::string& message) const {
-    if (node.IsDefined() && node.Mark().line >= 0) {
-      throw InputError(fmt::format("{}:{}: key '{}': {}", file_, node.Mark().line + 1, key, message));
-    }
-    throw InputError(fmt::format("{}: key '{}': {}", file_, key, message));
-  }
-
-  void CheckKeys(const YAML::Node& map, const std::string& key, const std::set<std::string>& allowed) const {
-    if (!map.IsMap()) Fail(map, key, "expected a mapping");
-    for (const auto& entry : map) {
-      const std::string name = entry.first.as<std::string>();
-      if (!allowed.count(name)) {
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(entry.first, key.empty() ? name : key + "." + name, fmt::format("unknown key (expected one of: {})", list));
-      }
-    }
-  }
-
-  double Number(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsDefined()) Fail(node, key, "missing");
-    if (!node.IsScalar()) Fail(node, key, "expected a number");
-    double value = 0.0;
-    if (!YAML::convert<double>::decode(node, value)) {
-      Fail(node, key, fmt::format("expected a number, got '{}'", node.Scalar()));
-    }
-    if (!std::isfinite(value)) Fail(node, key, fmt::format("expected a finite number, got {}", node.Scalar()));
-    return value;
-  }
-
-  std::string String(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsDefined()) Fail(node, key, "missing");
-    if (!node.IsScalar()) Fail(node, key, "expected a string");
-    return node.Scalar();
-  }
+  using internal::YamlReader::YamlReader;
 
   Eigen::Vector3d Vec3(const YAML::Node& node, const std::string& key) const {
     if (!node.IsDefined()) Fail(node, key, "missing");
@@ -83,8 +48,6 @@ class YamlReader {
     return k;
   }
 
- private:
-  std::string file_;
 };
 
 Eigen::Matrix3d RotationFromRpy(const Eigen::Vector3d& rpy) {
@@ -115,7 +78,7 @@ void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
   } catch (const YAML::Exception& e) {
     throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
   }
-  const YamlReader yaml(file);
+  const RobotYamlReader yaml(file);
   if (!root.IsMap()) yaml.Fail(root, "<root>", "expected a mapping with keys robot, end_effector, capsules");
   yaml.CheckKeys(root, "", {"robot", "end_effector", "capsules", "links_without_capsule", "self_collision_exclude"});
   const Model& model = robot->model;

@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <set>
 
+#include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 
@@ -19,61 +20,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // reads YAML nodes; every message names the file, line and dotted key.
-class Reader {
+class Reader : public internal::YamlReader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key, const std::string& message) const {
-    if (node.IsDefined() && node.Mark().line >= 0) {
-      throw InputError(fmt::format("{}:{}: key '{}': {}", file_, node.Mark().line + 1, key, message));
-    }
-    throw InputError(fmt::format("{}: key '{}': {}", file_, key, message));
-  }
-
-  void CheckKeys(const YAML::Node& map, const std::string& key, const std::set<std::string>& allowed) const {
-    if (!map.IsMap()) Fail(map, key.empty() ? "<root>" : key, "expected a mapping");
-    for (const auto& entry : map) {
-      const std::string name = entry.first.as<std::string>();
-      if (!allowed.count(name)) {
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(entry.first, key.empty() ? name : key + "." + name,
-             fmt::format("unknown key (expected one of: {})", list));
-      }
-    }
-  }
-
-  double Number(const YAML::Node& node, const std::string& key, bool allow_inf = false) const {
-    double value = 0.0;
-    if (!node.IsScalar() || !YAML::convert<double>::decode(node, value)) {
-      Fail(node, key, fmt::format("expected a number, got '{}'", node.IsScalar() ? node.Scalar() : "non-scalar"));
-    }
-    if (std::isnan(value) || (!allow_inf && !std::isfinite(value))) {
-      Fail(node, key, fmt::format("expected a finite number, got {}", node.Scalar()));
-    }
-    return value;
-  }
-
-  int Integer(const YAML::Node& node, const std::string& key) const {
-    const double value = Number(node, key);
-    if (value != std::round(value) || std::abs(value) > 1e9) {
-      Fail(node, key, fmt::format("expected an integer, got {}", node.Scalar()));
-    }
-    return static_cast<int>(value);
-  }
-
-  bool Bool(const YAML::Node& node, const std::string& key) const {
-    bool value = false;
-    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
-      Fail(node, key, fmt::format("expected true or false, got '{}'", node.IsScalar() ? node.Scalar() : "non-scalar"));
-    }
-    return value;
-  }
-
-  std::string String(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar()) Fail(node, key, "expected a string");
-    return node.Scalar();
-  }
+  using internal::YamlReader::YamlReader;
 
   std::array<double, 2> Range(const YAML::Node& node, const std::string& key) const {
     if (node.IsScalar()) {
@@ -107,8 +56,6 @@ class Reader {
     Fail(node, key, fmt::format("expected one of {}, got '{}'", list, value));
   }
 
- private:
-  std::string file_;
 };
 
 // a numeric/bool field of a section: key and setter.

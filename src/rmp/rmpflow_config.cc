@@ -7,6 +7,7 @@
 #include <set>
 #include <string>
 
+#include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
@@ -20,48 +21,9 @@ struct Field {
 };
 
 // reads config nodes with messages naming the file and key path.
-class ConfigReader {
+class ConfigReader : public internal::YamlReader {
  public:
-  explicit ConfigReader(std::string file) : file_(std::move(file)) {}
-  const std::string& file() const { return file_; }
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& key, const std::string& message) const {
-    if (node.IsDefined() && node.Mark().line >= 0) {
-      throw InputError(fmt::format("{}:{}: key '{}': {}", file_, node.Mark().line + 1, key, message));
-    }
-    throw InputError(fmt::format("{}: key '{}': {}", file_, key, message));
-  }
-
-  void CheckKeys(const YAML::Node& map, const std::string& key, const std::set<std::string>& allowed) const {
-    if (!map.IsMap()) Fail(map, key.empty() ? "<root>" : key, "expected a mapping");
-    for (const auto& entry : map) {
-      const std::string name = entry.first.as<std::string>();
-      if (!allowed.count(name)) {
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(entry.first, key.empty() ? name : key + "." + name,
-             fmt::format("unknown key (expected one of: {})", list));
-      }
-    }
-  }
-
-  double Number(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar()) Fail(node, key, "expected a number");
-    double value = 0.0;
-    if (!YAML::convert<double>::decode(node, value)) {
-      Fail(node, key, fmt::format("expected a number, got '{}'", node.Scalar()));
-    }
-    if (!std::isfinite(value)) Fail(node, key, fmt::format("expected a finite number, got {}", node.Scalar()));
-    return value;
-  }
-
-  bool Bool(const YAML::Node& node, const std::string& key) const {
-    bool value = false;
-    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
-      Fail(node, key, fmt::format("expected true or false, got '{}'", node.IsScalar() ? node.Scalar() : "non-scalar"));
-    }
-    return value;
-  }
+  using internal::YamlReader::YamlReader;
 
   // reads the numeric fields present in `section` (others keep their value); `extra` keys are allowed too.
   void Section(const YAML::Node& section, const std::string& key, std::initializer_list<Field> fields,
@@ -73,9 +35,6 @@ class ConfigReader {
       if (const YAML::Node value = section[f.key]) *f.value = Number(value, key + "." + f.key);
     }
   }
-
- private:
-  std::string file_;
 };
 
 void ReadCollision(const ConfigReader& reader, const YAML::Node& node, const std::string& key, CollisionRmpParams* p) {
