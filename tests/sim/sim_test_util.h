@@ -6,36 +6,19 @@
 #include <string>
 #include <vector>
 
+#include "../kinematics/test_robots.h"
 #include "rmpmarl/kinematics/robot.h"
 
 namespace rmpmarl::sim::testing {
 
-// the hand-written branching robot of the test data (revolute, continuous, prismatic and fixed joints).
-inline kinematics::Robot LoadTreeRobot() {
-  const std::string dir = std::string(RMPMARL_TEST_DATA_DIR) + "/robots/tree/";
-  return kinematics::LoadRobot(dir + "tree.urdf", dir + "collision.yaml");
-}
+using rmpmarl::testing::LoadTreeRobot;
+using rmpmarl::testing::RandomConfiguration;
 
-// every robot the FK comparison runs on.
+// every robot the FK comparison runs on: the kinematics test robots plus planar2 with its default lengths.
 inline std::vector<kinematics::Robot> AllSimTestRobots() {
-  std::vector<kinematics::Robot> robots;
-  for (const std::string& name : kinematics::ShippedRobotNames()) robots.push_back(kinematics::LoadShippedRobot(name));
+  std::vector<kinematics::Robot> robots = rmpmarl::testing::AllTestRobots();
   robots.push_back(kinematics::MakePlanar2());
-  robots.push_back(kinematics::MakePlanar2({.link1_length = 0.37, .link2_length = 0.61}));
-  robots.push_back(LoadTreeRobot());
   return robots;
-}
-
-// a uniformly random configuration within the joint limits (continuous joints in [-pi, pi]).
-inline Eigen::VectorXd RandomConfiguration(const kinematics::Model& model, std::mt19937_64& rng) {
-  Eigen::VectorXd q(model.nq());
-  for (int i = 0; i < model.nq(); ++i) {
-    const auto& l = model.limits()[i];
-    const double lo = std::isfinite(l.lower) ? l.lower : -M_PI;
-    const double hi = std::isfinite(l.upper) ? l.upper : M_PI;
-    q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
-  }
-  return q;
 }
 
 // a uniformly random rotation (unit quaternion from four normals).
