@@ -4,7 +4,10 @@
 #include "rmpmarl/rl/policy_runtime.h"
 
 #include <fmt/format.h>
+#if defined(__x86_64__) || defined(__i386__)
+#define RMPMARL_RUNTIME_X86 1
 #include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <array>
@@ -110,6 +113,7 @@ void WriteLayer(Writer& w, const DenseLayer& layer) {
 using KernelFn = void (*)(const float* packed, const float* bias, int in, int blocks, const float* x, int x_stride,
                           float* y, int y_stride, bool relu);
 
+#ifdef RMPMARL_RUNTIME_X86
 template <int NA, int NB>
 __attribute__((target("avx2,fma"))) void DenseBlocks(const float* packed, const float* bias, int in, int ob,
                                                      const float* x, int x_stride, float* y, int y_stride,
@@ -154,6 +158,10 @@ bool CpuHasAvx2() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 }
+#else
+constexpr std::array<KernelFn, 9> kKernels = {};
+bool CpuHasAvx2() { return false; }
+#endif  // RMPMARL_RUNTIME_X86
 
 int RoundUp8(int n) { return (n + 7) / 8 * 8; }
 

@@ -151,6 +151,7 @@ TEST(HybridHeadTest, JointLogProbMasksTheOptionAndTermination) {
 }
 
 TEST(HybridHeadTest, HeadSizesComeFromTheActionSpec) {
+  torch::manual_seed(1);
   for (const auto& [options, continuous, termination] :
        std::vector<std::tuple<int, int, bool>>{{3, 1, true}, {0, 4, false}, {5, 0, false}, {0, 0, true}, {2, 7, true}}) {
     EnvSpec spec;

@@ -609,7 +609,7 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
   const int first = trainer.update();
   const auto start = std::chrono::steady_clock::now();
   if (config.progress) {
-    fmt::print("{}: task {} ({} agents, obs {}, state {}), {} envs × {} steps per update, updates {}..{}\n",
+    fmt::print("{}: task {} (agents {}, local obs {}, global state {}), {} envs × {} steps per update, updates {}..{}\n",
                config.name, trainer.spec().task, trainer.spec().num_agents, trainer.spec().local_obs_dim,
                trainer.spec().global_state_dim, config.num_envs, config.ppo.rollout_steps(), first + 1,
                config.total_updates);
