@@ -5,10 +5,13 @@
 
 #include <chrono>
 #include <optional>
+#include <random>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/episode.h"
@@ -30,11 +33,19 @@ struct DemoArgs {
   int width = 960, height = 720;
   std::optional<double> obstacle_speed, target_speed;
   std::optional<int> num_obstacles;
+  std::string policy;                // a trained per-joint policy (.rmpp) instead of RMPflow
+  std::string task = "reach-avoid";  // the task the trained policy runs on
 };
+
+// a camera looking at a workspace from the front-left, far enough to see the whole reach.
+sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args);
 
 // a camera looking at the workspace from the front-left, far enough to see the whole reach.
 sim::RenderOptions CameraFor(const sim::Scenario& scenario, const DemoArgs& args) {
-  const sim::Workspace& ws = scenario.workspace();
+  return CameraFor(scenario.workspace(), args);
+}
+
+sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
   sim::RenderOptions options;
   options.width = args.width;
   options.height = args.height;
@@ -124,6 +135,82 @@ void RunDemo(const DemoArgs& args) {
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
 
+// the trained per-joint agents (Eigen runtime, no libtorch) on one episode of a task: the same world and basic layer
+// as training, rendered like the RMPflow demo.
+void RunPolicyDemo(const DemoArgs& args) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  rl::TaskConfig config = rl::LoadShippedTaskConfig(args.task);
+  if (config.robot != "planar2") config.robot = args.robot;
+  rl::ManipulatorEnv env(rl::MakeTaskContext(config));
+  const rl::EnvSpec& spec = env.spec();
+  rl::PolicyRuntime runtime(rl::LoadPolicyFile(args.policy), spec.num_agents);
+  if (runtime.obs_dim() != spec.local_obs_dim || runtime.action_size() != spec.action.size()) {
+    throw InputError(fmt::format("{}: the policy takes {} observations and gives {} action floats; task '{}' on {} "
+                                 "has {} and {}", args.policy, runtime.obs_dim(), runtime.action_size(), args.task,
+                                 config.robot, spec.local_obs_dim, spec.action.size()));
+  }
+  const int A = spec.num_agents;
+  std::vector<float> obs(static_cast<size_t>(A) * spec.local_obs_dim), global(spec.global_state_dim),
+      terms(spec.reward_terms.size()), started(A), actions(static_cast<size_t>(A) * spec.action.size());
+  float reward = 0.0f;
+  std::uint8_t terminated = 0, truncated = 0;
+  rl::EpisodeMetrics metrics;
+  const rl::StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated,
+                           started.data(), &metrics};
+  std::mt19937_64 rng(args.seed);
+  env.Reset(rng, out);
+
+  std::unique_ptr<sim::OffscreenRenderer> renderer;
+  std::unique_ptr<sim::VideoWriter> video;
+  std::vector<std::uint8_t> rgb;
+  if (!args.video.empty()) {
+    std::string why_not;
+    const kinematics::Robot& robot = env.world().model().robot();
+    const sim::Workspace ws = sim::MakeWorkspace(robot, env.world().q());
+    renderer = sim::OffscreenRenderer::Create(env.world().mj_model(), CameraFor(ws, args), &why_not);
+    if (renderer == nullptr) {
+      fmt::print("video: offscreen rendering is not possible here ({}); running without video\n", why_not);
+    } else {
+      video = std::make_unique<sim::VideoWriter>(args.video, args.width, args.height, args.fps);
+    }
+  }
+  fmt::print("rmpmarl demo: {} ({} agents, one per joint), task '{}', policy {} (Eigen runtime{}), seed {}\n",
+             config.robot, A, args.task, args.policy, runtime.uses_avx2() ? ", AVX2" : "", args.seed);
+  double next_frame = 0.0, agent_us = 0.0;
+  const int max_steps = args.duration > 0.0 ? static_cast<int>(args.duration / spec.control_dt) : spec.max_episode_steps;
+  int steps = 0;
+  while (steps < max_steps && !terminated && !truncated) {
+    if (video && env.world().time() + 1e-9 >= next_frame) {
+      renderer->Render(env.world().mj_data(), &rgb);
+      video->AddFrame(rgb);
+      next_frame += 1.0 / args.fps;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    runtime.Act(obs.data(), A, actions.data());
+    agent_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
+    env.Step(actions.data(), rng, out);
+    ++steps;
+  }
+  const rl::EpisodeMetrics& m = (terminated || truncated) ? metrics : env.metrics();
+  fmt::print("\n  tracking error      {:.1f} mm mean, final {:.1f} mm\n", m.mean_tracking_error_mm,
+             m.final_tracking_error_mm);
+  fmt::print("  min clearance       {}\n", std::isfinite(m.min_clearance_m)
+                                                ? fmt::format("{:.1f} mm to obstacles", 1000.0 * m.min_clearance_m)
+                                                : std::string("none within 15 cm"));
+  fmt::print("  collisions          {} events\n", m.collisions);
+  fmt::print("  agents              {:.1f} µs per control step for all {} agents (batch 1 each)\n",
+             agent_us / std::max(steps, 1), A);
+  fmt::print("  result              {}\n", m.invalid ? "INVALID episode"
+                                                     : m.collisions == 0 ? "success: no collision"
+                                                                         : fmt::format("FAILURE: {} collision events", m.collisions));
+  if (video) {
+    const auto written = video->Close();
+    fmt::print("  video               {} ({} frames)\n", written.string(), video->frames());
+  }
+  fmt::print("  wall time           {:.1f} s\n",
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
+}
+
 }  // namespace
 
 void RegisterDemo(CLI::App& app) {
@@ -146,11 +233,17 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]");
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]");
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles");
+  cmd->add_option("--policy", args.policy, "run trained per-joint agents (.rmpp from rmpmarl train) instead of RMPflow");
+  cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
   cmd->callback([] {
     if (args.urdf.empty() != args.collision.empty()) {
       throw InputError("--urdf and --collision go together: expected both or neither");
     }
-    RunDemo(args);
+    if (!args.policy.empty()) {
+      RunPolicyDemo(args);
+    } else {
+      RunDemo(args);
+    }
   });
 }
 
