@@ -36,13 +36,8 @@ void BM_EnvStep(benchmark::State& state) {
   auto context = MakeTaskContext(BenchConfig(mode, update, physics_steps));
   ManipulatorEnv env(context);
   const EnvSpec& spec = env.spec();
-  std::vector<float> obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim), global(spec.global_state_dim),
-      terms(spec.reward_terms.size()), started(spec.num_agents);
-  float reward = 0.0f;
-  std::uint8_t terminated = 0, truncated = 0;
-  EpisodeMetrics metrics;
-  const StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated, started.data(),
-                       &metrics};
+  StepBuffers buffers(spec);
+  const StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
   // draw the actions up front: 4096 random joint actions, cycled
   const int action_size = spec.num_agents * spec.action.size();
@@ -61,7 +56,7 @@ void BM_EnvStep(benchmark::State& state) {
   for (auto _ : state) {
     env.Step(actions.data() + (k++ % 4096) * action_size, rng, out);
     warnings += static_cast<long>(env.world().mj_data()->ncon);
-    if (terminated || truncated) env.Reset(rng, out);
+    if (buffers.terminated || buffers.truncated) env.Reset(rng, out);
   }
   state.counters["env_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
                                                      benchmark::Counter::kIsRate);
@@ -108,13 +103,8 @@ void BM_BareMjStep(benchmark::State& state) {
   auto context = MakeTaskContext(BenchConfig(InterfaceMode::kPerJointRmp, ScenarioUpdate::kPhysicsStep, 5));
   ManipulatorEnv env(context);
   const EnvSpec& spec = env.spec();
-  std::vector<float> obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim), global(spec.global_state_dim),
-      terms(spec.reward_terms.size()), started(spec.num_agents);
-  float reward = 0.0f;
-  std::uint8_t terminated = 0, truncated = 0;
-  EpisodeMetrics metrics;
-  const StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated, started.data(),
-                       &metrics};
+  StepBuffers buffers(spec);
+  const StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
   env.Reset(rng, out);
   const mjModel* m = env.world().mj_model();

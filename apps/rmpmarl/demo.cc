@@ -150,13 +150,11 @@ void RunPolicyDemo(const DemoArgs& args) {
                                  config.robot, spec.local_obs_dim, spec.action.size()));
   }
   const int A = spec.num_agents;
-  std::vector<float> obs(static_cast<size_t>(A) * spec.local_obs_dim), global(spec.global_state_dim),
-      terms(spec.reward_terms.size()), started(A), actions(static_cast<size_t>(A) * spec.action.size());
-  float reward = 0.0f;
-  std::uint8_t terminated = 0, truncated = 0;
-  rl::EpisodeMetrics metrics;
-  const rl::StepOutput out{obs.data(), global.data(), terms.data(), &reward, &terminated, &truncated,
-                           started.data(), &metrics};
+  rl::StepBuffers buffers(spec);
+  const rl::StepOutput out = buffers.out();
+  std::vector<float> actions(static_cast<size_t>(A) * spec.action.size());
+  const std::uint8_t& terminated = buffers.terminated;
+  const std::uint8_t& truncated = buffers.truncated;
   std::mt19937_64 rng(args.seed);
   env.Reset(rng, out);
 
@@ -186,12 +184,12 @@ void RunPolicyDemo(const DemoArgs& args) {
       next_frame += 1.0 / args.fps;
     }
     const auto start = std::chrono::steady_clock::now();
-    runtime.Act(obs.data(), A, actions.data());
+    runtime.Act(buffers.local_obs.data(), A, actions.data());
     agent_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
     env.Step(actions.data(), rng, out);
     ++steps;
   }
-  const rl::EpisodeMetrics& m = (terminated || truncated) ? metrics : env.metrics();
+  const rl::EpisodeMetrics& m = (terminated || truncated) ? buffers.metrics : env.metrics();
   fmt::print("\n  tracking error      {:.1f} mm mean, final {:.1f} mm\n", m.mean_tracking_error_mm,
              m.final_tracking_error_mm);
   fmt::print("  min clearance       {}\n", std::isfinite(m.min_clearance_m)

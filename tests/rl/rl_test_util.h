@@ -10,33 +10,11 @@
 
 namespace rmpmarl::rl::testing {
 
-// owned output buffers of one env (what a VecEnv row would hold).
-struct Buffers {
-  explicit Buffers(const EnvSpec& spec)
-      : local_obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim, -7.0f),
-        global_state(spec.global_state_dim, -7.0f),
-        reward_terms(spec.reward_terms.size(), -7.0f),
-        option_started(spec.num_agents, -7.0f) {}
-
-  StepOutput out() {
-    StepOutput o;
-    o.local_obs = local_obs.data();
-    o.global_state = global_state.data();
-    o.reward_terms = reward_terms.data();
-    o.reward = &reward;
-    o.terminated = &terminated;
-    o.truncated = &truncated;
-    o.option_started = option_started.data();
-    o.metrics = &metrics;
-    return o;
-  }
+// owned output buffers of one env, filled with a sentinel (-7) so that unwritten entries show.
+struct Buffers : StepBuffers {
+  explicit Buffers(const EnvSpec& spec) : StepBuffers(spec, -7.0f) { terminated = truncated = 7; }
   // obs feature `k` of agent `a`.
   float obs(const EnvSpec& spec, int a, int k) const { return local_obs[static_cast<size_t>(a) * spec.local_obs_dim + k]; }
-
-  std::vector<float> local_obs, global_state, reward_terms, option_started;
-  float reward = -7.0f;
-  std::uint8_t terminated = 7, truncated = 7;
-  EpisodeMetrics metrics;
 };
 
 // index of a feature name in a name list (-1 when absent).

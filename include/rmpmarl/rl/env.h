@@ -72,6 +72,30 @@ struct StepOutput {
   EpisodeMetrics* metrics = nullptr;   ///< written when terminated or truncated
 };
 
+/// Owned buffers for one env's step results (what a VecEnv row holds), sized from a spec, and the StepOutput view
+/// over them — for driving an Env directly (demos, benchmarks, tests). Not copyable: views point into it.
+struct StepBuffers {
+  /// sized for `spec`, every float set to `fill`.
+  explicit StepBuffers(const EnvSpec& spec, float fill = 0.0f)
+      : local_obs(static_cast<size_t>(spec.num_agents) * spec.local_obs_dim, fill),
+        global_state(spec.global_state_dim, fill),
+        reward_terms(spec.reward_terms.size(), fill),
+        option_started(spec.num_agents, fill),
+        reward(fill) {}
+  StepBuffers(const StepBuffers&) = delete;
+  StepBuffers& operator=(const StepBuffers&) = delete;
+
+  StepOutput out() {
+    return {local_obs.data(), global_state.data(), reward_terms.data(), &reward, &terminated, &truncated,
+            option_started.data(), &metrics};
+  }
+
+  std::vector<float> local_obs, global_state, reward_terms, option_started;
+  float reward = 0.0f;
+  std::uint8_t terminated = 0, truncated = 0;
+  EpisodeMetrics metrics;
+};
+
 /// One environment instance. Implementations own their simulation state (e.g. a sim::World over a shared
 /// WorldModel), allocate nothing in Step, and draw every random number from the engine-provided RNG.
 class Env {
