@@ -3,28 +3,12 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 #include <random>
 
 #include "rmpmarl/common/error.h"
+#include "../support/alloc_counter.h"
 #include "test_robots.h"
-
-// Counts heap allocations made while g_count_allocations is set, to check that the algorithms allocate nothing.
-namespace {
-std::atomic<bool> g_count_allocations{false};
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace rmpmarl::kinematics {
 namespace {
@@ -176,16 +160,14 @@ TEST(ForwardKinematicsTest, AlgorithmsAllocateNothingAfterDataIsMade) {
     const Eigen::VectorXd q = RandomConfiguration(model, rng);
     const Eigen::VectorXd qd = RandomVelocity(model, rng);
     Eigen::Vector3d sink = Eigen::Vector3d::Zero();
-    g_allocations = 0;
-    g_count_allocations = true;
+    const long before = rmpmarl::testing::AllocationCount();
     CalcForwardKinematics(model, q, &data);
     CalcVelocityKinematics(model, q, qd, &data);
     for (const LinkCapsule& c : robot.capsules) {
       CalcPointJacobian(model, data, c.link, c.p_LA, J);
       sink += CalcPointJdotQdot(data, c.link, c.p_LB) + CalcPointVelocity(data, c.link, c.p_LA);
     }
-    g_count_allocations = false;
-    EXPECT_EQ(g_allocations.load(), 0) << robot.name;
+    EXPECT_EQ(rmpmarl::testing::AllocationCount() - before, 0) << robot.name;
     EXPECT_TRUE(sink.allFinite());
   }
 }

@@ -1,27 +1,9 @@
-// ManipulatorEnv::Step allocates nothing: counted through a replaced global operator new (this binary only).
+// ManipulatorEnv::Step allocates nothing: counted through a replaced global operator new (tests/support/alloc_counter.cc).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
+#include "../support/alloc_counter.h"
 #include "rl_test_util.h"
 #include "rmpmarl/rl/manipulator_env.h"
-
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace rmpmarl::rl {
 namespace {
@@ -51,9 +33,9 @@ TEST(NoAllocTest, EnvStepDoesNotAllocate) {
     std::vector<float> actions(400 * static_cast<size_t>(s.num_agents) * s.action.size());
     for (int k = 0; k < 400; ++k) testing::RandomActions(s, arng, actions.data() + k * s.num_agents * s.action.size());
     for (int k = 0; k < 20; ++k) env.Step(actions.data() + k * s.num_agents * s.action.size(), rng, b.out());
-    const long before = g_allocations.load();
+    const long before = rmpmarl::testing::AllocationCount();
     for (int k = 20; k < 400; ++k) env.Step(actions.data() + k * s.num_agents * s.action.size(), rng, b.out());
-    EXPECT_EQ(g_allocations.load() - before, 0);
+    EXPECT_EQ(rmpmarl::testing::AllocationCount() - before, 0);
     EXPECT_FALSE(b.terminated);
   }
 }

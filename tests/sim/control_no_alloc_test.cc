@@ -6,13 +6,13 @@
 #include <cstdio>
 #include <vector>
 
-#include "alloc_counter.h"
+#include "../support/alloc_counter.h"
 #include "rmpmarl/sim/episode.h"
 
 namespace rmpmarl::sim {
 namespace {
 
-using testing::AllocationCount;
+using rmpmarl::testing::AllocationCount;
 
 std::vector<double>* volatile g_escape = nullptr;  // keeps the compiler from eliding the allocation below
 

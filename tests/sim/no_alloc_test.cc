@@ -1,30 +1,9 @@
-// Step() and QueryContacts() allocate nothing: counted through a replaced global operator new (this binary only).
+// Step() and QueryContacts() allocate nothing: counted through a replaced global operator new (tests/support/alloc_counter.cc).
 #include <gtest/gtest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
-
-#include "alloc_counter.h"
+#include "../support/alloc_counter.h"
 #include "rmpmarl/sim/world.h"
 #include "sim_test_util.h"
-
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-
-long rmpmarl::sim::testing::AllocationCount() { return g_allocations.load(); }
 
 namespace rmpmarl::sim {
 namespace {
@@ -41,13 +20,13 @@ TEST(NoAllocTest, StepAndContactQueryDoNotAllocate) {
   const Eigen::Matrix3d R_WO = testing::RandomRotation(rng);
   world.SetJointTargets(q_cmd);
   long contacts = 0;
-  const long before = g_allocations.load();
+  const long before = rmpmarl::testing::AllocationCount();
   for (int s = 0; s < 500; ++s) {
     world.SetObstaclePose(s % 4, p_WO, R_WO);
     world.Step();
     contacts += static_cast<long>(world.QueryContacts().warnings.size());
   }
-  const long after = g_allocations.load();
+  const long after = rmpmarl::testing::AllocationCount();
   EXPECT_EQ(after - before, 0);
   EXPECT_GT(contacts, 0);  // the query did real work
 }
