@@ -21,6 +21,8 @@ void RegisterTrain(CLI::App& app);
 void RegisterEval(CLI::App& app);
 /// `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor for the torch-free runtime.
 void RegisterExportPolicy(CLI::App& app);
+/// `rmpmarl experiment NAME ...`: the paper's tables and figures (docs/experiments.md); argv goes into the report.
+void RegisterExperiment(CLI::App& app, int argc, char** argv);
 #endif
 
 }  // namespace rmpmarl::apps

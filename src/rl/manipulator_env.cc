@@ -17,6 +17,7 @@ namespace rmpmarl::rl {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 std::atomic<long> g_world_models_built{0};
 
 double Uniform(std::mt19937_64& rng, double lo, double hi) {
@@ -267,6 +268,15 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   info_.qdd.setZero(nq_);
 }
 
+ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context, ExternalController external)
+    : ManipulatorEnv(std::move(context)) {
+  if (!external.make_policy) throw InputError("ManipulatorEnv: the external controller has no policy maker");
+  external_ = std::move(external);
+  external_.options.control_rate = config_.episode.control_rate;
+  sim::ValidateControllerOptions(external_.options, config_.episode.physics_timestep);
+  external_controllers_.resize(context_->num_variants());
+}
+
 ManipulatorEnv::~ManipulatorEnv() = default;
 
 void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
@@ -299,6 +309,15 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
     const Eigen::VectorXd q0 = world_->q();
     world_->Reset(q0, qd0);
   }
+  if (external_.make_policy) {
+    std::unique_ptr<sim::ReactiveController>& ext = external_controllers_[variant_];
+    if (!ext) {
+      ext = std::make_unique<sim::ReactiveController>(world_->model(), external_.make_policy(*robot_),
+                                                      external_.options);
+    }
+    external_controller_ = ext.get();
+    external_controller_->Reset(*world_);
+  }
   if (controller_) controller_->Reset(*world_);
   q_cmd_ = world_->q();
 
@@ -308,6 +327,9 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
   physics_step_ = 0;
   steps_ = 0;
   tracking_sum_mm_ = 0.0;
+  settled_sum_mm_ = 0.0;
+  settled_steps_ = 0;
+  control_us_sum_ = 0.0;
   metrics_ = EpisodeMetrics{};
   metrics_.min_clearance_m = kInf;
   info_.invalid = false;
@@ -322,6 +344,7 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
   step_min_clearance_ = kInf;
   CountCollisions(*report_);  // pairs touching at the start are not new events later
   step_collisions_ = 0;
+  collision_physics_steps_ = 0;
   metrics_.min_clearance_m = step_min_clearance_;
   scenario_->FillScene(&scene_);
   p_WT_ = scenario_->target().p_WT;
@@ -358,6 +381,14 @@ bool ManipulatorEnv::ValidActions(const float* actions) const {
 void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
   const ActionSpec& a = spec().action;
   const int size = a.size();
+  if (external_controller_ != nullptr) {  // a baseline drives the robot; the actions are ignored
+    q_cmd_before_ = external_controller_->q_cmd();
+    control_us_sum_ += external_controller_->Step(*world_, scene_).compute_us;
+    info_.qdd = external_controller_->qdd();
+    info_.dq_command = external_controller_->q_cmd() - q_cmd_before_;
+    std::fill(option_started, option_started + num_agents_, 0.0f);
+    return;
+  }
   switch (config_.interface) {
     case InterfaceMode::kPerJointRmp: {
       q_cmd_before_ = controller_->q_cmd();
@@ -376,7 +407,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
         w.collision_metric_scale = GainScale(u[RmpActionLayout::kCollisionMetricScale], g);
         terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
       }
-      controller_->Step(*world_, scene_);
+      control_us_sum_ += controller_->Step(*world_, scene_).compute_us;
       info_.qdd = controller_->qdd();
       info_.dq_command = controller_->q_cmd() - q_cmd_before_;
       break;
@@ -404,6 +435,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
 void ManipulatorEnv::CountCollisions(const sim::ContactReport& report) {
   const int links = robot_->model.num_links();
   const int partners = context_->num_obstacles() + links + 1;
+  if (!report.colliding_pairs.empty()) ++collision_physics_steps_;
   for (const sim::CollidingPair& p : report.colliding_pairs) {
     int partner = 0;
     switch (p.other_kind) {
@@ -642,6 +674,9 @@ void ManipulatorEnv::Finish(const StepOutput& out, bool terminated, bool truncat
     metrics_.length = steps_;
     metrics_.mean_tracking_error_mm = steps_ > 0 ? tracking_sum_mm_ / steps_ : 1000.0 * (p_WE_ - p_WT_).norm();
     metrics_.final_tracking_error_mm = 1000.0 * (p_WE_ - p_WT_).norm();
+    metrics_.settled_tracking_error_mm = settled_steps_ > 0 ? settled_sum_mm_ / settled_steps_ : kNaN;
+    metrics_.time_in_collision_s = collision_physics_steps_ * config_.episode.physics_timestep;
+    metrics_.mean_control_us = steps_ > 0 ? control_us_sum_ / steps_ : 0.0;
     metrics_.success = !invalid && metrics_.collisions == 0 &&
                        metrics_.final_tracking_error_mm <= 1000.0 * config_.episode.success_max_final_error;
     if (out.metrics != nullptr) *out.metrics = metrics_;
@@ -665,7 +700,7 @@ void ManipulatorEnv::Step(std::span<const float> actions, std::mt19937_64& rng, 
 void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const StepOutput& out) {
   info_.reward = RewardTerms{};
   info_.collision_events = 0;
-  if (!active_ || actions == nullptr || !ValidActions(actions)) {
+  if (!active_ || (external_controller_ == nullptr && (actions == nullptr || !ValidActions(actions)))) {
     std::fill(out.option_started, out.option_started + num_agents_, 0.0f);
     Finish(out, /*terminated=*/true, false, /*invalid=*/true);
     return;
@@ -680,7 +715,7 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   const bool ok = AdvancePhysics();
   UpdateKinematics();
   ++steps_;
-  if (config_.interface == InterfaceMode::kPerJointRmp) {
+  if (config_.interface == InterfaceMode::kPerJointRmp && external_controller_ == nullptr) {
     for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, warnings_[i].present);
   }
   if (!ok) {  // MuJoCo diverged (the World reset the robot): the episode is invalid
@@ -705,6 +740,10 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   metrics_.min_clearance_m = std::min(metrics_.min_clearance_m, step_min_clearance_);
   metrics_.episode_return += r.total();
   tracking_sum_mm_ += 1000.0 * d;
+  if (steps_ * control_period_ >= kSettleTime - 1e-9) {
+    settled_sum_mm_ += 1000.0 * d;
+    ++settled_steps_;
+  }
 
   const bool collided = step_collisions_ > 0;
   const bool terminated = collided && config_.episode.terminate_on_collision;

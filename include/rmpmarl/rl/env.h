@@ -5,6 +5,7 @@
 /// observations and actions (one per joint for the per-joint agents; 1 for single-agent baselines) and one global
 /// state for a centralised critic.
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -58,7 +59,17 @@ struct EpisodeMetrics {
   double min_clearance_m = 0.0;          ///< smallest robot–obstacle signed distance seen (+inf: never within margin)
   int length = 0;                        ///< env steps
   double episode_return = 0.0;           ///< undiscounted sum of rewards
+  /// mean end-effector–target distance over the steps at simulated time t ≥ kSettleTime (NaN: the episode ended
+  /// before); the tracking precision once the start transient is over.
+  double settled_tracking_error_mm = std::numeric_limits<double>::quiet_NaN();
+  double time_in_collision_s = 0.0;      ///< simulated time with at least one pair in penetration [s]
+  /// mean wall time of the env's own controller per control step (basic layer or an external policy; 0 when the
+  /// agents command joints directly) [µs]
+  double mean_control_us = 0.0;
 };
+
+/// the start of the settled phase of an episode (EpisodeMetrics::settled_tracking_error_mm) [s].
+inline constexpr double kSettleTime = 1.0;
 
 /// Where one env writes one step's results: views into the engine's batch buffers (row-major).
 struct StepOutput {

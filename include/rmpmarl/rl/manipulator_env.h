@@ -97,10 +97,21 @@ struct StepInfo {
   Eigen::VectorXd qdd;             ///< per-joint-rmp: the basic layer's q̈ of the step
 };
 
+/// A controller that drives the robot in place of the agents (the baselines of the experiments: RMPflow, RRT): an
+/// acceleration policy made once per robot variant, run through sim::ReactiveController with its own options, the
+/// same way as `rmpmarl demo`. Episodes, metrics and rewards are the task's own, so baselines and agents are measured
+/// on identical episodes.
+struct ExternalController {
+  std::function<std::unique_ptr<sim::AccelerationPolicy>(const kinematics::Robot& variant_robot)> make_policy;
+  sim::ControllerOptions options;  ///< control_rate is replaced by the task's
+};
+
 /// The manipulator environment. See docs/environments.md for the observation, action and reward definitions.
 class ManipulatorEnv final : public Env {
  public:
   explicit ManipulatorEnv(std::shared_ptr<const TaskContext> context);
+  /// an env whose robot is driven by `external` (Step ignores the actions; observations are still written).
+  ManipulatorEnv(std::shared_ptr<const TaskContext> context, ExternalController external);
   ~ManipulatorEnv() override;
 
   const EnvSpec& spec() const override { return context_->spec(); }
@@ -152,6 +163,9 @@ class ManipulatorEnv final : public Env {
   class PerJointRmpPolicy;
   PerJointRmpPolicy* policy_ = nullptr;                    // owned by controller_
   std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp
+  ExternalController external_;                            // baselines (make_policy empty: the agents act)
+  std::vector<std::unique_ptr<sim::ReactiveController>> external_controllers_;  // per variant, made lazily
+  sim::ReactiveController* external_controller_ = nullptr; // the current variant's
   int physics_steps_ = 1;
   double control_period_ = 0.0;
   rmp::Scene scene_;
@@ -178,6 +192,10 @@ class ManipulatorEnv final : public Env {
   bool active_ = false;
   int steps_ = 0;
   double tracking_sum_mm_ = 0.0;
+  double settled_sum_mm_ = 0.0;
+  int settled_steps_ = 0;
+  long collision_physics_steps_ = 0;
+  double control_us_sum_ = 0.0;
   EpisodeMetrics metrics_;
   StepInfo info_;
 };

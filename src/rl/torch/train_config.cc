@@ -107,6 +107,7 @@ const std::vector<Key>& Keys() {
     k.push_back(FieldKey("checkpoint_every", &TrainConfig::checkpoint_every, integer));
     k.push_back(FieldKey("output_dir", &TrainConfig::output_dir, str));
     k.push_back(FieldKey("init_actor_from", &TrainConfig::init_actor_from, str));
+    k.push_back(FieldKey("snapshot_updates", &TrainConfig::snapshot_updates, ints));
     k.push_back(FieldKey("logging.csv", &TrainConfig::write_csv, boolean));
     k.push_back(FieldKey("logging.tensorboard", &TrainConfig::write_tensorboard, boolean));
     k.push_back(FieldKey("logging.progress", &TrainConfig::progress, boolean));
@@ -190,6 +191,11 @@ void Validate(const TrainConfig& c, const std::string& where) {
   if (c.total_updates < 1) fail("total_updates", fmt::format("expected >= 1, got {}", c.total_updates));
   if (c.stats_window < 1) fail("logging.window", fmt::format("expected >= 1, got {}", c.stats_window));
   if (c.checkpoint_every < 1) fail("checkpoint_every", fmt::format("expected >= 1, got {}", c.checkpoint_every));
+  for (int u : c.snapshot_updates) {
+    if (u < 1 || u > c.total_updates) {
+      fail("snapshot_updates", fmt::format("expected updates in 1..{} (total_updates), got {}", c.total_updates, u));
+    }
+  }
   const PpoOptions& p = c.ppo;
   if (p.rollout_steps() < 1) fail("ppo.rollout_steps", fmt::format("expected >= 1, got {}", p.rollout_steps()));
   if (p.epochs() < 1) fail("ppo.epochs", fmt::format("expected >= 1, got {}", p.epochs()));

@@ -8,6 +8,7 @@
 #include <torch/types.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -34,6 +35,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // keys that may differ between a checkpoint's config and the resuming config.
 bool IsRunLocalKey(const std::string& key) {
   return key == "name" || key == "output_dir" || key == "env_threads" || key == "torch_threads" ||
+         key == "snapshot_updates" ||
          key.rfind("logging.", 0) == 0;
 }
 
@@ -182,9 +184,14 @@ LoadedCheckpoint LoadLearner(const std::string& path) {
 struct EpisodeStats {
   int episodes = 0, successes = 0, collisions = 0, collision_free = 0, clearance_count = 0;
   double return_sum = 0.0, track_sum = 0.0, track_sq = 0.0, final_track_sum = 0.0, clearance_sum = 0.0;
-  double length_sum = 0.0;
+  double length_sum = 0.0, settled_sum = 0.0;
+  int settled_count = 0;
   void Add(const EpisodeMetrics& m) {
     ++episodes;
+    if (std::isfinite(m.settled_tracking_error_mm)) {
+      settled_sum += m.settled_tracking_error_mm;
+      ++settled_count;
+    }
     successes += m.success ? 1 : 0;
     collisions += m.collisions;
     collision_free += m.collisions == 0 ? 1 : 0;
@@ -632,6 +639,10 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
       tb->Write(last.env_steps, scalars);
     }
     if (files && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
+    if (files && std::find(config.snapshot_updates.begin(), config.snapshot_updates.end(), u) !=
+                     config.snapshot_updates.end()) {
+      trainer.ExportPolicy(fmt::format("{}/policy-u{}.rmpp", out, u));
+    }
     if (options.on_update) options.on_update(last);
     if (config.progress) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -741,6 +752,7 @@ EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, c
   for (double t : tracking) var += (t - r.tracking_error_mean_mm) * (t - r.tracking_error_mean_mm);
   r.tracking_error_std_mm = std::sqrt(var / stats.episodes);
   r.final_tracking_error_mean_mm = stats.final_track_sum / stats.episodes;
+  r.settled_tracking_error_mean_mm = stats.settled_count > 0 ? stats.settled_sum / stats.settled_count : kNaN;
   r.min_clearance_mean_m = stats.clearance_count > 0 ? stats.clearance_sum / stats.clearance_count : kNaN;
   r.collisions_per_episode = static_cast<double>(stats.collisions) / stats.episodes;
   r.collision_free_rate = static_cast<double>(stats.collision_free) / stats.episodes;

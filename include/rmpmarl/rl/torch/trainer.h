@@ -41,6 +41,9 @@ struct TrainConfig {
   int checkpoint_every = 25;        ///< also the env re-seeding period (see above)
   std::string output_dir;           ///< empty: no files are written
   std::string init_actor_from;      ///< checkpoint of a pre-trained agent whose actor initialises the shared actor
+  /// training-budget snapshots: after each of these updates the actor is also exported as
+  /// <output_dir>/policy-u<update>.rmpp (e.g. the paper's 5K/10K budgets of Table 3 inside one 15K run). 1..total.
+  std::vector<int> snapshot_updates;
   bool write_csv = true;
   bool write_tensorboard = true;
   bool progress = true;             ///< progress bar and one line per update on stderr/stdout
@@ -143,6 +146,8 @@ struct EvalResult {
   double success_rate = 0.0;
   double tracking_error_mean_mm = 0.0, tracking_error_std_mm = 0.0;  ///< per-episode mean tracking error
   double final_tracking_error_mean_mm = 0.0;
+  /// mean over episodes of the settled tracking error (t ≥ kSettleTime; NaN when no episode lasted that long)
+  double settled_tracking_error_mean_mm = 0.0;
   double min_clearance_mean_m = 0.0;   ///< mean over episodes of the smallest clearance (finite ones)
   double collisions_per_episode = 0.0;
   double collision_free_rate = 0.0;

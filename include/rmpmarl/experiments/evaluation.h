@@ -1,0 +1,71 @@
+#pragma once
+/// One evaluation path for every method of the paper's comparisons (docs/experiments.md): a learned policy (an
+/// exported .rmpp actor of any interface mode, run by the Eigen runtime), a fixed-option ablation of the basic layer,
+/// the RMPflow baseline and the RRT baseline all act in the SAME task episodes: episode i of evaluation seed S is
+/// ManipulatorEnv::Reset with std::mt19937_64(EpisodeSeed(S, i)), whatever the method, so robot variant, start
+/// state, target path and obstacle paths are identical (tests/experiments/evaluation_test.cc proves it).
+///
+///   const auto records = experiments::EvaluateMethod(experiments::Method::Rmpflow(), task, {.episodes = 50});
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rmpmarl/planning/rrt.h"
+#include "rmpmarl/rl/env.h"
+#include "rmpmarl/rl/task_config.h"
+
+namespace rmpmarl::experiments {
+
+/// What acts in the episodes.
+enum class MethodKind {
+  kPolicy,       ///< an exported actor (.rmpp) on its interface mode (per-joint-rmp, direct, per-joint-direct)
+  kFixedOption,  ///< the basic layer alone: every joint runs one RMP option with unit scales and never terminates it
+  kRmpflow,      ///< the full RMPflow baseline (configs/rmpflow), through the demo's controller and servos
+  kRrt,          ///< the RRT-Connect replanning baseline (planning::RrtPolicy)
+};
+
+/// One method of a comparison.
+struct Method {
+  std::string name;                                         ///< row label, e.g. "MARL-RMP"
+  MethodKind kind = MethodKind::kRmpflow;
+  std::string policy_path;                                  ///< kPolicy: the .rmpp file
+  rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
+  int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (rl::RmpOption order)
+  planning::RrtOptions rrt;                                 ///< kRrt
+
+  static Method Policy(std::string name, std::string path, rl::InterfaceMode interface);
+  static Method FixedOption(std::string name, int option);
+  static Method Rmpflow(std::string name = "RMPflow");
+  static Method Rrt(std::string name = "RRT", planning::RrtOptions options = {});
+};
+
+/// How many episodes, which ones, and on how many threads.
+struct EvalProtocol {
+  int episodes = 50;
+  /// evaluation seed S: episodes are EpisodeSeed(S, 0 … episodes − 1). Tune on another seed than the one reported.
+  std::uint64_t eval_seed = 20231001;
+  int jobs = 2;  ///< worker threads (one env and one runtime each); results do not depend on it
+};
+
+/// One evaluated episode.
+struct EpisodeRecord {
+  int index = 0;                   ///< episode index i
+  std::uint64_t episode_seed = 0;  ///< EpisodeSeed(S, i)
+  rl::EpisodeMetrics metrics;      ///< the env's metrics (success, collisions, tracking, settled, clearance, …)
+  int variant = 0;                 ///< the robot variant of the episode
+  int setting = 0;                 ///< the scenario setting (line-crossing: index into the speeds)
+  /// wall time per control step of the whole method: the policy's forward pass (learned methods) plus the env's
+  /// controller (basic layer / RMPflow / RRT) [µs]
+  double control_step_us = 0.0;
+};
+
+/// seed of episode i of evaluation seed S: splitmix64 of (S, i), forced ≥ 2^32 so that it never equals a training
+/// env seed (the trainer seeds env k of segment s with seed + s·num_envs + k < 2^32).
+std::uint64_t EpisodeSeed(std::uint64_t eval_seed, int index);
+
+/// runs protocol.episodes episodes of `task` (its interface replaced by the method's) with `method`; the records
+/// are in episode order. Throws InputError when a policy does not fit the task.
+std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskConfig& task,
+                                          const EvalProtocol& protocol);
+
+}  // namespace rmpmarl::experiments

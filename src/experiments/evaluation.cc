@@ -1,0 +1,208 @@
+// One evaluation path for every method (docs/experiments.md): identical episodes by construction.
+#include "rmpmarl/experiments/evaluation.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/sim/controller.h"
+
+namespace rmpmarl::experiments {
+namespace {
+
+std::uint64_t SplitMix64(std::uint64_t x) {  // Steele, Lea & Flood (2014), the splitmix64 finaliser
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+/// the acting part of a method: fills the actions of one env step from its observations.
+class Actor {
+ public:
+  virtual ~Actor() = default;
+  virtual void Act(const rl::StepBuffers& step, float* actions) = 0;
+};
+
+class PolicyActor final : public Actor {
+ public:
+  PolicyActor(const rl::PolicyWeights& weights, int num_agents) : runtime_(weights, num_agents), agents_(num_agents) {}
+  void Act(const rl::StepBuffers& step, float* actions) override {
+    runtime_.Act(step.local_obs.data(), agents_, actions);
+  }
+
+ private:
+  rl::PolicyRuntime runtime_;
+  int agents_;
+};
+
+/// a constant action: the fixed option, unit scales (u = 0 ↦ scale 1), never terminating.
+class ConstantActor final : public Actor {
+ public:
+  explicit ConstantActor(std::vector<float> actions) : actions_(std::move(actions)) {}
+  void Act(const rl::StepBuffers& /*step*/, float* actions) override {
+    std::copy(actions_.begin(), actions_.end(), actions);
+  }
+
+ private:
+  std::vector<float> actions_;
+};
+
+rl::InterfaceMode EnvInterface(const Method& m) {
+  return m.kind == MethodKind::kPolicy ? m.interface : rl::InterfaceMode::kPerJointRmp;
+}
+
+}  // namespace
+
+Method Method::Policy(std::string name, std::string path, rl::InterfaceMode interface) {
+  Method m;
+  m.name = std::move(name);
+  m.kind = MethodKind::kPolicy;
+  m.policy_path = std::move(path);
+  m.interface = interface;
+  return m;
+}
+
+Method Method::FixedOption(std::string name, int option) {
+  if (option < 0 || option >= rl::kNumRmpOptions) {
+    throw InputError(fmt::format("fixed option: expected 0..{}, got {}", rl::kNumRmpOptions - 1, option));
+  }
+  Method m;
+  m.name = std::move(name);
+  m.kind = MethodKind::kFixedOption;
+  m.fixed_option = option;
+  return m;
+}
+
+Method Method::Rmpflow(std::string name) {
+  Method m;
+  m.name = std::move(name);
+  m.kind = MethodKind::kRmpflow;
+  return m;
+}
+
+Method Method::Rrt(std::string name, planning::RrtOptions options) {
+  Method m;
+  m.name = std::move(name);
+  m.kind = MethodKind::kRrt;
+  m.rrt = options;
+  return m;
+}
+
+std::uint64_t EpisodeSeed(std::uint64_t eval_seed, int index) {
+  std::uint64_t s = SplitMix64(SplitMix64(eval_seed) ^ static_cast<std::uint64_t>(index));
+  while (s < (std::uint64_t{1} << 32)) s = SplitMix64(s);
+  return s;
+}
+
+std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskConfig& task,
+                                          const EvalProtocol& protocol) {
+  if (protocol.episodes < 1) throw InputError(fmt::format("episodes: expected >= 1, got {}", protocol.episodes));
+  if (protocol.jobs < 1) throw InputError(fmt::format("jobs: expected >= 1, got {}", protocol.jobs));
+  rl::TaskConfig config = task;
+  config.interface = EnvInterface(method);
+  const auto context = rl::MakeTaskContext(config);
+  const rl::EnvSpec& spec = context->spec();
+  const int A = spec.num_agents, as = spec.action.size();
+
+  rl::PolicyWeights weights;
+  if (method.kind == MethodKind::kPolicy) {
+    weights = rl::LoadPolicyFile(method.policy_path);
+    if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != as) {
+      throw InputError(fmt::format("{}: policy {} does not fit task {} ({}): it takes obs {} and gives {} action "
+                                   "floats, the env has obs {} and actions of {}", method.name, method.policy_path,
+                                   spec.task, rl::InterfaceModeName(config.interface), weights.obs_dim,
+                                   weights.action_size(), spec.local_obs_dim, as));
+    }
+  }
+  std::vector<float> fixed(static_cast<size_t>(A) * as, 0.0f);
+  if (method.kind == MethodKind::kFixedOption) {
+    for (int a = 0; a < A; ++a) fixed[static_cast<size_t>(a) * as + rl::RmpActionLayout::kOption] =
+        static_cast<float>(method.fixed_option);
+  }
+
+  auto make_env = [&]() -> std::unique_ptr<rl::ManipulatorEnv> {
+    if (method.kind == MethodKind::kRmpflow || method.kind == MethodKind::kRrt) {
+      rl::ExternalController external;
+      external.options = sim::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
+      const int max_obstacles = context->num_obstacles();
+      if (method.kind == MethodKind::kRmpflow) {
+        external.make_policy = [max_obstacles](const kinematics::Robot& robot) {
+          return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, max_obstacles);
+        };
+      } else {
+        planning::RrtOptions rrt = method.rrt;
+        const double period = spec.control_dt;
+        const int substeps = static_cast<int>(std::ceil(period / external.options.max_substep - 1e-9));
+        rrt.evaluation_period = period / substeps;
+        external.make_policy = [rrt](const kinematics::Robot& robot) {
+          return std::make_unique<planning::RrtPolicy>(robot, rrt);
+        };
+      }
+      return std::make_unique<rl::ManipulatorEnv>(context, std::move(external));
+    }
+    return std::make_unique<rl::ManipulatorEnv>(context);
+  };
+  auto make_actor = [&]() -> std::unique_ptr<Actor> {
+    if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
+    return std::make_unique<ConstantActor>(fixed);
+  };
+
+  std::vector<EpisodeRecord> records(protocol.episodes);
+  std::atomic<int> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    try {
+      std::unique_ptr<rl::ManipulatorEnv> env = make_env();
+      std::unique_ptr<Actor> actor = make_actor();
+      rl::StepBuffers step(spec);
+      std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
+      for (int i = next.fetch_add(1); i < protocol.episodes; i = next.fetch_add(1)) {
+        EpisodeRecord& r = records[i];
+        r.index = i;
+        r.episode_seed = EpisodeSeed(protocol.eval_seed, i);
+        std::mt19937_64 rng(r.episode_seed);
+        env->Reset(rng, step.out());
+        r.variant = env->variant();
+        r.setting = env->scenario_setting();
+        double act_us = 0.0;
+        int steps = 0;
+        while (true) {
+          const auto t0 = std::chrono::steady_clock::now();
+          actor->Act(step, actions.data());
+          act_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+          env->Step(actions.data(), rng, step.out());
+          ++steps;
+          if (step.terminated || step.truncated) break;
+        }
+        r.metrics = step.metrics;
+        r.control_step_us = act_us / steps + step.metrics.mean_control_us;
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      next.store(protocol.episodes);
+    }
+  };
+  const int threads = std::min(protocol.jobs, protocol.episodes);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+  return records;
+}
+
+}  // namespace rmpmarl::experiments

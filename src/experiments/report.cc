@@ -1,0 +1,220 @@
+// results.csv, summary.csv, episodes.csv and report.md of an experiment (report.h).
+#include "report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/statistics.h"
+
+namespace rmpmarl::experiments {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Pooled {
+  std::string method, condition;
+  std::vector<int> seeds;
+  std::vector<double> seed_success;  // per training seed
+  int episodes = 0, successes = 0;
+  Interval success, tracking, settled;
+  double collisions_per_episode = 0.0, time_in_collision_s = 0.0, min_clearance_mm = 0.0, control_us = 0.0;
+};
+
+double Mean(const std::vector<double>& v) {
+  double s = 0.0;
+  int n = 0;
+  for (double x : v) {
+    if (std::isfinite(x)) {
+      s += x;
+      ++n;
+    }
+  }
+  return n > 0 ? s / n : NAN;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+std::vector<Pooled> Pool(const std::vector<ResultRow>& rows) {
+  std::vector<Pooled> pooled;
+  for (const ResultRow& r : rows) {
+    auto it = std::find_if(pooled.begin(), pooled.end(), [&](const Pooled& p) {
+      return p.method == r.method && p.condition == r.condition;
+    });
+    if (it == pooled.end()) {
+      Pooled p;
+      p.method = r.method;
+      p.condition = r.condition;
+      pooled.push_back(std::move(p));
+      it = pooled.end() - 1;
+    }
+    int successes = 0;
+    for (const EpisodeRecord& e : r.episodes) successes += e.metrics.success ? 1 : 0;
+    it->seeds.push_back(r.train_seed);
+    it->seed_success.push_back(r.episodes.empty() ? NAN : static_cast<double>(successes) / r.episodes.size());
+  }
+  std::uint64_t bootstrap_seed = 1;
+  for (Pooled& p : pooled) {
+    std::vector<double> tracking, settled, collisions, in_collision, clearance, control;
+    for (const ResultRow& r : rows) {
+      if (r.method != p.method || r.condition != p.condition) continue;
+      for (const EpisodeRecord& e : r.episodes) {
+        ++p.episodes;
+        p.successes += e.metrics.success ? 1 : 0;
+        tracking.push_back(e.metrics.mean_tracking_error_mm);
+        settled.push_back(e.metrics.settled_tracking_error_mm);
+        collisions.push_back(e.metrics.collisions);
+        in_collision.push_back(e.metrics.time_in_collision_s);
+        clearance.push_back(std::isfinite(e.metrics.min_clearance_m) ? 1000.0 * e.metrics.min_clearance_m : NAN);
+        control.push_back(e.control_step_us);
+      }
+    }
+    p.success = WilsonInterval(p.successes, p.episodes);
+    p.tracking = BootstrapMeanInterval(tracking, bootstrap_seed++);
+    p.settled = BootstrapMeanInterval(settled, bootstrap_seed++);
+    p.collisions_per_episode = Mean(collisions);
+    p.time_in_collision_s = Mean(in_collision);
+    p.min_clearance_mm = Mean(clearance);
+    p.control_us = Median(control);
+  }
+  return pooled;
+}
+
+std::string Num(double v, const char* format = "{:.1f}") {
+  return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string("nan");
+}
+
+std::string Pct(const Interval& i) {
+  if (!std::isfinite(i.value)) return "–";
+  return fmt::format("{:.1f} % [{:.1f}, {:.1f}]", 100.0 * i.value, 100.0 * i.low, 100.0 * i.high);
+}
+
+std::string Mm(const Interval& i) {
+  if (!std::isfinite(i.value)) return "–";
+  return fmt::format("{:.1f} [{:.1f}, {:.1f}]", i.value, i.low, i.high);
+}
+
+std::ofstream Open(const fs::path& path) {
+  std::ofstream out(path, std::ios::trunc);
+  if (!out) throw InputError(fmt::format("cannot write {}", path.string()));
+  return out;
+}
+
+}  // namespace
+
+void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
+  fs::create_directories(out);
+  std::ofstream csv = Open(out / "results.csv");
+  csv << "method,condition,train_seed,episodes,success_rate,tracking_mm,settled_tracking_mm,collisions_per_episode,"
+         "time_in_collision_s,min_clearance_mm,control_step_us\n";
+  std::ofstream episodes = Open(out / "episodes.csv");
+  episodes << "method,condition,train_seed,episode,episode_seed,variant,setting,success,collisions,"
+              "time_in_collision_s,tracking_mm,settled_tracking_mm,final_tracking_mm,min_clearance_mm,length,"
+              "return,control_step_us\n";
+  for (const ResultRow& r : rows) {
+    std::vector<double> tracking, settled, collisions, in_collision, clearance, control;
+    int successes = 0;
+    for (const EpisodeRecord& e : r.episodes) {
+      const rl::EpisodeMetrics& m = e.metrics;
+      successes += m.success ? 1 : 0;
+      tracking.push_back(m.mean_tracking_error_mm);
+      settled.push_back(m.settled_tracking_error_mm);
+      collisions.push_back(m.collisions);
+      in_collision.push_back(m.time_in_collision_s);
+      clearance.push_back(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN);
+      control.push_back(e.control_step_us);
+      episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition,
+                              r.train_seed, e.index, e.episode_seed, e.variant, e.setting, m.success ? 1 : 0,
+                              m.collisions, Num(m.time_in_collision_s, "{:.3f}"), Num(m.mean_tracking_error_mm, "{:.2f}"),
+                              Num(m.settled_tracking_error_mm, "{:.2f}"), Num(m.final_tracking_error_mm, "{:.2f}"),
+                              Num(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN, "{:.1f}"),
+                              m.length, Num(m.episode_return, "{:.2f}"), Num(e.control_step_us, "{:.2f}"));
+    }
+    const double n = static_cast<double>(r.episodes.size());
+    csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition, r.train_seed, r.episodes.size(),
+                       Num(n > 0 ? successes / n : NAN, "{:.4f}"), Num(Mean(tracking), "{:.2f}"),
+                       Num(Mean(settled), "{:.2f}"), Num(Mean(collisions), "{:.3f}"), Num(Mean(in_collision), "{:.3f}"),
+                       Num(Mean(clearance), "{:.1f}"), Num(Median(control), "{:.2f}"));
+  }
+  std::ofstream summary = Open(out / "summary.csv");
+  summary << "method,condition,train_seeds,episodes,success_rate,success_low,success_high,tracking_mm,tracking_low,"
+             "tracking_high,settled_tracking_mm,settled_low,settled_high,collisions_per_episode,control_step_us\n";
+  for (const Pooled& p : Pool(rows)) {
+    summary << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", p.method, p.condition, p.seeds.size(),
+                           p.episodes, Num(p.success.value, "{:.4f}"), Num(p.success.low, "{:.4f}"),
+                           Num(p.success.high, "{:.4f}"), Num(p.tracking.value, "{:.2f}"), Num(p.tracking.low, "{:.2f}"),
+                           Num(p.tracking.high, "{:.2f}"), Num(p.settled.value, "{:.2f}"), Num(p.settled.low, "{:.2f}"),
+                           Num(p.settled.high, "{:.2f}"), Num(p.collisions_per_episode, "{:.3f}"),
+                           Num(p.control_us, "{:.2f}"));
+  }
+}
+
+void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, const fs::path& out) {
+  std::ofstream md = Open(out / "report.md");
+  md << "# " << text.title << "\n\n";
+  md << fmt::format("Command: `{}`  \nWall clock: {:.1f} min on this machine ({} hardware threads).\n\n",
+                    text.command, text.wall_seconds / 60.0, std::thread::hardware_concurrency());
+  md << text.setup << "\n\n";
+  md << "Success = no collision event in the episode. Rates: pooled over the training seeds' episodes with the 95 % "
+        "Wilson interval; per-seed rates in brackets. Means: 95 % percentile-bootstrap interval over episodes. "
+        "Tracking = mean end-effector–target distance over the episode; settled = over t ≥ 1 s.\n\n";
+  md << "| method | condition | seeds | episodes | success [95 % CI] | per seed | tracking mm [CI] | settled mm [CI] "
+        "| collisions / ep | min clearance mm | step µs | paper success | paper tracking |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const Pooled& p : Pool(rows)) {
+    std::string per_seed;
+    for (double s : p.seed_success) per_seed += (per_seed.empty() ? "" : " / ") + Num(100.0 * s, "{:.0f}");
+    PaperValue paper;
+    if (auto it = text.paper.find({p.method, p.condition}); it != text.paper.end()) paper = it->second;
+    const bool untrained = p.seeds.size() == 1 && p.seeds[0] == 0;
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", p.method, p.condition,
+                      untrained ? "–" : std::to_string(p.seeds.size()), p.episodes, Pct(p.success),
+                      untrained ? "–" : per_seed, Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
+                      Num(p.min_clearance_mm, "{:.0f}"), Num(p.control_us, "{:.1f}"),
+                      paper.success.empty() ? "–" : paper.success, paper.tracking.empty() ? "–" : paper.tracking);
+  }
+  md << "\n" << text.notes << "\n";
+  if (!text.plots.empty()) {
+    md << "\n## Plots\n\n";
+    for (const std::string& png : text.plots) md << "![" << png << "](" << png << ")\n\n";
+  }
+  md << "\nFiles: `results.csv` (one row per method × condition × training seed), `summary.csv` (pooled, with "
+        "intervals), `episodes.csv` (every episode with its seed).\n";
+}
+
+std::vector<std::string> MakePlots(const std::string& name, const fs::path& out) {
+  const fs::path script = fs::path(RMPMARL_SCRIPTS_DIR) / "plot_experiment.py";
+  // Debian's interpreter (where python3-matplotlib lives), not whichever python3 comes first on PATH
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string command = fmt::format("{} '{}' '{}' '{}' 2>&1", python, script.string(), name, out.string());
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string output;
+  if (pipe != nullptr) {
+    char buffer[512];
+    while (fgets(buffer, sizeof buffer, pipe) != nullptr) output += buffer;
+  }
+  const int status = pipe != nullptr ? pclose(pipe) : -1;
+  std::vector<std::string> pngs;
+  if (status != 0) {
+    fmt::print("plots: {} failed ({}); the CSVs are written, plot them with: python3 {} {} {}\n", script.string(),
+               output.empty() ? "no output" : output, script.string(), name, out.string());
+    return pngs;
+  }
+  std::set<std::string> sorted;
+  for (const auto& entry : fs::directory_iterator(out)) {
+    if (entry.path().extension() == ".png") sorted.insert(entry.path().filename().string());
+  }
+  return {sorted.begin(), sorted.end()};
+}
+
+}  // namespace rmpmarl::experiments

@@ -1,0 +1,593 @@
+// The paper's RRT baseline (IEEE Access 2023, section IV.B–C): DLS IK goal, OMPL RRT-Connect in joint space,
+// greedy shortcutting, constant-velocity timing and joint-space PD tracking; replanning at a fixed rate and on
+// invalidation.
+#include "rmpmarl/planning/rrt.h"
+
+#include <fmt/format.h>
+#include <ompl/base/PlannerTerminationCondition.h>
+#include <ompl/base/ProblemDefinition.h>
+#include <ompl/base/ScopedState.h>
+#include <ompl/base/SpaceInformation.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/PathGeometric.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/util/Console.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string_view>
+#include <utility>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::planning {
+namespace {
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kTimeEpsilon = 1e-9;  // [s] slack of the evaluated-time comparisons (calls × period)
+constexpr int kStatsCapacity = 4096;   // planning_times_s entries reserved up front
+
+// throws InputError "RrtOptions.<field>: expected <expected>, got <got>" unless ok (and got is a number).
+void Require(bool ok, std::string_view field, std::string_view expected, double got) {
+  if (!ok || std::isnan(got)) throw InputError(fmt::format("RrtOptions.{}: expected {}, got {}", field, expected, got));
+}
+
+// SplitMix64 finaliser (Steele, Lea & Flood, OOPSLA 2014): decorrelates the per-plan sampler seeds.
+std::uint64_t SplitMix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// OMPL's uniform sampler with an instance seed (ompl::RNG::setLocalSeed) instead of one drawn from the process-wide
+// seed generator: RRT-Connect's only random choice, so a plan is a function of (problem, seed).
+class SeededSampler final : public ob::RealVectorStateSampler {
+ public:
+  SeededSampler(const ob::StateSpace* space, std::uint_fast32_t seed) : ob::RealVectorStateSampler(space) {
+    rng_.setLocalSeed(seed);
+  }
+};
+
+bool SameObstacle(const rmp::Obstacle& a, const rmp::Obstacle& b) {
+  if (a.shape != b.shape) return false;
+  if (a.shape == rmp::ObstacleShape::kSphere) {
+    return a.sphere.p_WC == b.sphere.p_WC && a.sphere.radius == b.sphere.radius;
+  }
+  return a.box.X_WB.matrix() == b.box.X_WB.matrix() && a.box.half_size == b.box.half_size;
+}
+
+}  // namespace
+
+void ValidateRrtOptions(const RrtOptions& o) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  Require(positive(o.evaluation_period), "evaluation_period", "a finite period > 0 s", o.evaluation_period);
+  Require(positive(o.replan_period), "replan_period", "a finite period > 0 s", o.replan_period);
+  Require(std::isfinite(o.retry_period) && o.retry_period >= 0.0, "retry_period", "a finite period >= 0 s",
+          o.retry_period);
+  Require(positive(o.planning_time_budget), "planning_time_budget", "a finite budget > 0 s", o.planning_time_budget);
+  Require(o.ik_seeds >= 1, "ik_seeds", "an integer >= 1", o.ik_seeds);
+  Require(o.ik_iterations >= 1, "ik_iterations", "an integer >= 1", o.ik_iterations);
+  Require(positive(o.ik_damping), "ik_damping", "a finite damping > 0 m", o.ik_damping);
+  Require(positive(o.ik_max_step), "ik_max_step", "a finite step > 0", o.ik_max_step);
+  Require(positive(o.ik_tolerance), "ik_tolerance", "a finite tolerance > 0 m", o.ik_tolerance);
+  Require(std::isfinite(o.floor_height), "floor_height", "a finite height", o.floor_height);
+  Require(std::isfinite(o.safety_margin) && o.safety_margin >= 0.0, "safety_margin", "a finite margin >= 0 m",
+          o.safety_margin);
+  Require(positive(o.validity_resolution), "validity_resolution", "a finite step > 0", o.validity_resolution);
+  Require(positive(o.path_speed_fraction) && o.path_speed_fraction <= 1.0, "path_speed_fraction",
+          "a fraction in (0, 1]", o.path_speed_fraction);
+  Require(positive(o.kp), "kp", "a finite gain > 0", o.kp);
+  Require(positive(o.kd), "kd", "a finite gain > 0", o.kd);
+}
+
+struct RrtPolicy::Impl {
+  Impl(const kinematics::Robot& r, const RrtOptions& o) : robot(r), options(o), kin(robot.model) {}
+
+  // smallest signed distance at q over the obstacles (and, unless obstacles_only, the floor and checked capsule
+  // pairs); returns early, with a value <= stop_below, once one distance is that small.
+  double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
+  // q within the bounds of the current plan and every checked distance > margin.
+  bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && Clearance(q, false, margin) > margin; }
+  bool InBounds(const Eigen::Ref<const Eigen::VectorXd>& q) const {
+    return ((q - lower).array() >= -1e-12).all() && ((upper - q).array() >= -1e-12).all();
+  }
+  // the states of segment a → b at most validity_resolution apart (excluding a, including b) are valid; with
+  // obstacles_only, only the obstacle distances are checked (margin `margin`).
+  bool SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only);
+  // joint bounds of a plan starting at q: the limits, continuous joints within ±π of q.
+  void SetBounds(const Eigen::Ref<const Eigen::VectorXd>& q);
+  void SetObstacles(const rmp::Scene& scene) { obstacles = scene.obstacles; }
+  bool ObstaclesChanged(const rmp::Scene& scene) const;
+  Eigen::Vector3d EndEffector(const Eigen::Ref<const Eigen::VectorXd>& q);
+  IkResult SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const Eigen::Vector3d& p_WT);
+  // one DLS run from q (in place); returns the final end-effector error.
+  double RunDls(Eigen::VectorXd* q, const Eigen::Vector3d& p_WT);
+  std::vector<Eigen::VectorXd> Plan(const Eigen::VectorXd& q_start, const Eigen::VectorXd& q_goal);
+  void Shortcut(std::vector<Eigen::VectorXd>* path);
+  // replans from q: IK goal, plan, adopt the new path unless the current one is as good (stats updated).
+  void Replan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
+  // adopts `waypoints` as the executed path from the current time, timed at the speed limits.
+  void Adopt(std::vector<Eigen::VectorXd> waypoints, const Eigen::Vector3d& p_WE_goal);
+  // joint-space length of the path still ahead of q: q → q_d(now) → the remaining waypoints.
+  double RemainingLength(const Eigen::Ref<const Eigen::VectorXd>& q);
+  // q_d(tau), q̇_d(tau) of the executed path.
+  void Reference(double tau);
+  bool RemainingPathValid(const Eigen::Ref<const Eigen::VectorXd>& q);
+  void ResetEpisode();
+
+  kinematics::Robot robot;
+  RrtOptions options;
+  std::uint64_t seed = 0;
+  int nq = 0;
+  kinematics::Data kin;
+  Eigen::VectorXd limit_lower, limit_upper;  // the model's limits (±inf for continuous joints)
+  Eigen::VectorXd lower, upper;              // bounds of the current plan
+  Eigen::VectorXd v_path;                    // path_speed_fraction × velocity limits
+  std::vector<char> continuous;
+  std::vector<char> floor_checked;           // per capsule
+  std::vector<std::pair<int, int>> self_pairs;
+  std::vector<math::Capsule> capsule_W;
+  std::vector<Eigen::Vector4d> capsule_sphere;  // bounding sphere (centre, radius) per capsule
+  std::vector<rmp::Obstacle> obstacles;         // the snapshot planning and path checks use
+  double margin = 0.0;                          // validity margin in use (safety_margin, or less from a tight start)
+
+  // the executed path
+  std::vector<Eigen::VectorXd> path;
+  std::vector<double> path_times;  // arrival time at each waypoint, from the path's start [s]
+  Eigen::Vector3d path_p_WE = Eigen::Vector3d::Zero();  // end effector at the path's goal
+  double path_margin = 0.0;
+  double path_start_time = 0.0;
+  int segment = 0;
+  Eigen::VectorXd q_d, qd_d, previous_goal;
+  bool has_previous_goal = false;
+
+  long calls = 0;
+  double time = 0.0;
+  bool attempted = false;
+  double last_attempt = 0.0;
+  std::uint64_t plans = 0;
+  std::mt19937_64 rng;
+  RrtStats stats;
+  Eigen::Matrix3Xd J_WE;
+  Eigen::VectorXd scratch, q_now;
+};
+
+double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only,
+                                  double stop_below) {
+  kinematics::CalcForwardKinematics(robot.model, q, &kin);
+  for (size_t c = 0; c < robot.capsules.size(); ++c) {
+    const kinematics::LinkCapsule& lc = robot.capsules[c];
+    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+    capsule_W[c] = {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    capsule_sphere[c] << 0.5 * (capsule_W[c].p_WA + capsule_W[c].p_WB),
+        0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + lc.radius;
+  }
+  double d = kInf;
+  // a pair whose bounding spheres are farther apart than the smallest distance so far cannot lower it
+  auto bounded_out = [&d](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+    return (a.head<3>() - centre).norm() - a[3] - radius >= d;
+  };
+  for (const rmp::Obstacle& o : obstacles) {
+    const Eigen::Vector3d centre = rmp::Centre(o);
+    const double radius = rmp::BoundingRadius(o);
+    for (size_t c = 0; c < capsule_W.size(); ++c) {
+      if (bounded_out(capsule_sphere[c], centre, radius)) continue;
+      d = std::min(d, rmp::CapsuleObstacleDistance(capsule_W[c], o).distance);
+      if (d <= stop_below) return d;
+    }
+  }
+  if (obstacles_only) return d;
+  if (options.check_floor) {
+    for (size_t c = 0; c < capsule_W.size(); ++c) {
+      if (!floor_checked[c]) continue;
+      const double z = std::min(capsule_W[c].p_WA.z(), capsule_W[c].p_WB.z()) - capsule_W[c].radius;
+      d = std::min(d, z - options.floor_height);
+      if (d <= stop_below) return d;
+    }
+  }
+  for (const auto& [a, b] : self_pairs) {
+    if (bounded_out(capsule_sphere[a], capsule_sphere[b].head<3>(), capsule_sphere[b][3])) continue;
+    d = std::min(d, math::CapsuleCapsuleDistance(capsule_W[a], capsule_W[b]).distance);
+    if (d <= stop_below) return d;
+  }
+  return d;
+}
+
+bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only) {
+  const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / options.validity_resolution)));
+  for (int k = 1; k <= n; ++k) {
+    scratch = a + (static_cast<double>(k) / n) * (b - a);
+    if (Clearance(scratch, obstacles_only, margin) <= margin) return false;
+  }
+  return true;
+}
+
+void RrtPolicy::Impl::SetBounds(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  for (int i = 0; i < nq; ++i) {
+    lower[i] = continuous[i] ? q[i] - M_PI : limit_lower[i];
+    upper[i] = continuous[i] ? q[i] + M_PI : limit_upper[i];
+  }
+}
+
+bool RrtPolicy::Impl::ObstaclesChanged(const rmp::Scene& scene) const {
+  if (scene.obstacles.size() != obstacles.size()) return true;
+  for (size_t j = 0; j < obstacles.size(); ++j) {
+    if (!SameObstacle(scene.obstacles[j], obstacles[j])) return true;
+  }
+  return false;
+}
+
+Eigen::Vector3d RrtPolicy::Impl::EndEffector(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  kinematics::CalcForwardKinematics(robot.model, q, &kin);
+  return kinematics::CalcPointPosition(kin, robot.end_effector.link, robot.end_effector.X_LE.translation());
+}
+
+double RrtPolicy::Impl::RunDls(Eigen::VectorXd* q, const Eigen::Vector3d& p_WT) {
+  const int link = robot.end_effector.link;
+  const Eigen::Vector3d p_LE = robot.end_effector.X_LE.translation();
+  const double lambda2 = options.ik_damping * options.ik_damping;
+  const double converged = 0.1 * options.ik_tolerance;
+  double error = kInf;
+  for (int it = 0; it <= options.ik_iterations; ++it) {
+    kinematics::CalcForwardKinematics(robot.model, *q, &kin);
+    const Eigen::Vector3d e = p_WT - kinematics::CalcPointPosition(kin, link, p_LE);
+    error = e.norm();
+    if (error <= converged || it == options.ik_iterations) break;
+    kinematics::CalcPointJacobian(robot.model, kin, link, p_LE, J_WE);
+    // damped least squares (Wampler 1986): Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e
+    const Eigen::Matrix3d A = J_WE * J_WE.transpose() + lambda2 * Eigen::Matrix3d::Identity();
+    scratch.noalias() = J_WE.transpose() * A.ldlt().solve(e);
+    const double largest = scratch.cwiseAbs().maxCoeff();
+    if (largest > options.ik_max_step) scratch *= options.ik_max_step / largest;
+    *q = (*q + scratch).cwiseMax(lower).cwiseMin(upper);
+  }
+  return error;
+}
+
+IkResult RrtPolicy::Impl::SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const Eigen::Vector3d& p_WT) {
+  SetBounds(q_start);
+  IkResult best;
+  double best_distance = kInf;
+  Eigen::VectorXd q(nq);
+  for (int s = 0; s < options.ik_seeds; ++s) {
+    if (s == 0) {
+      q = q_start.cwiseMax(lower).cwiseMin(upper);
+    } else if (s == 1 && has_previous_goal) {
+      for (int i = 0; i < nq; ++i) {  // the previous goal, continuous joints taken the short way from q_start
+        q[i] = continuous[i] ? q_start[i] + std::remainder(previous_goal[i] - q_start[i], 2.0 * M_PI)
+                             : previous_goal[i];
+      }
+      q = q.cwiseMax(lower).cwiseMin(upper);
+    } else {
+      for (int i = 0; i < nq; ++i) q[i] = std::uniform_real_distribution<double>(lower[i], upper[i])(rng);
+    }
+    const double error = RunDls(&q, p_WT);
+    if (!Valid(q)) continue;
+    const bool reached = error <= options.ik_tolerance;
+    const double distance = (q - q_start).norm();
+    // reached solutions beat unreached ones; among reached the closest to q_start, among unreached the most accurate
+    const bool better = !best.found || (reached && !best.reached) ||
+                        (reached && best.reached && distance < best_distance) ||
+                        (!reached && !best.reached && error < best.error);
+    if (better) {
+      best = {true, reached, q, error};
+      best_distance = distance;
+    }
+  }
+  return best;
+}
+
+std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_start, const Eigen::VectorXd& q_goal) {
+  SetBounds(q_start);
+  if (!Valid(q_start) || !Valid(q_goal)) return {};
+  if (SegmentValid(q_start, q_goal, false)) return {q_start, q_goal};
+
+  auto space = std::make_shared<ob::RealVectorStateSpace>(nq);
+  ob::RealVectorBounds bounds(nq);
+  for (int i = 0; i < nq; ++i) {
+    bounds.setLow(i, lower[i]);
+    bounds.setHigh(i, upper[i]);
+  }
+  space->setBounds(bounds);
+  const auto sampler_seed = static_cast<std::uint_fast32_t>(SplitMix64(seed ^ SplitMix64(plans)) & 0xffffffffULL);
+  space->setStateSamplerAllocator(
+      [sampler_seed](const ob::StateSpace* s) { return std::make_shared<SeededSampler>(s, sampler_seed); });
+  auto si = std::make_shared<ob::SpaceInformation>(space);
+  si->setStateValidityChecker([this](const ob::State* state) {
+    const double* v = state->as<ob::RealVectorStateSpace::StateType>()->values;
+    return Clearance(Eigen::Map<const Eigen::VectorXd>(v, nq), false, margin) > margin;
+  });
+  si->setStateValidityCheckingResolution(options.validity_resolution / space->getMaximumExtent());
+  si->setup();
+
+  auto to_state = [&](const Eigen::VectorXd& q, ob::ScopedState<ob::RealVectorStateSpace>* s) {
+    for (int i = 0; i < nq; ++i) (*s)[i] = q[i];
+  };
+  ob::ScopedState<ob::RealVectorStateSpace> start(space), goal(space);
+  to_state(q_start, &start);
+  to_state(q_goal, &goal);
+  auto pdef = std::make_shared<ob::ProblemDefinition>(si);
+  pdef->setStartAndGoalStates(start, goal, 1e-9);
+  og::RRTConnect planner(si);
+  planner.setProblemDefinition(pdef);
+  planner.setup();
+  const ob::PlannerStatus status = planner.solve(ob::timedPlannerTerminationCondition(options.planning_time_budget));
+  if (status != ob::PlannerStatus::EXACT_SOLUTION) return {};
+
+  const auto& states = std::static_pointer_cast<og::PathGeometric>(pdef->getSolutionPath())->getStates();
+  std::vector<Eigen::VectorXd> path;
+  path.reserve(states.size() + 1);
+  for (const ob::State* s : states) {
+    path.emplace_back(Eigen::Map<const Eigen::VectorXd>(s->as<ob::RealVectorStateSpace::StateType>()->values, nq));
+  }
+  path.back() = q_goal;  // exact goal (the goal threshold lets RRT-Connect stop a hair away)
+  Shortcut(&path);
+  return path;
+}
+
+void RrtPolicy::Impl::Shortcut(std::vector<Eigen::VectorXd>* path) {
+  // greedy: from each kept waypoint jump to the farthest later one that a straight valid segment reaches
+  std::vector<Eigen::VectorXd> out;
+  out.reserve(path->size());
+  out.push_back(path->front());
+  size_t i = 0;
+  while (i + 1 < path->size()) {
+    size_t j = path->size() - 1;
+    while (j > i + 1 && !SegmentValid((*path)[i], (*path)[j], false)) --j;
+    out.push_back((*path)[j]);
+    i = j;
+  }
+  *path = std::move(out);
+}
+
+void RrtPolicy::Impl::Adopt(std::vector<Eigen::VectorXd> waypoints, const Eigen::Vector3d& p_WE_goal) {
+  path = std::move(waypoints);
+  path_times.assign(path.size(), 0.0);
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double duration = ((path[k] - path[k - 1]).cwiseAbs().cwiseQuotient(v_path)).maxCoeff();
+    path_times[k] = path_times[k - 1] + std::max(duration, 1e-6);
+  }
+  path_p_WE = p_WE_goal;
+  path_margin = margin;
+  path_start_time = time;
+  segment = 0;
+  previous_goal = path.back();
+  has_previous_goal = true;
+}
+
+void RrtPolicy::Impl::Reference(double tau) {
+  const int last = static_cast<int>(path.size()) - 1;
+  while (segment < last && tau >= path_times[segment + 1]) ++segment;
+  if (segment >= last) {
+    q_d = path[last];
+    qd_d.setZero();
+    return;
+  }
+  const double duration = path_times[segment + 1] - path_times[segment];
+  const double s = std::clamp((tau - path_times[segment]) / duration, 0.0, 1.0);
+  q_d = path[segment] + s * (path[segment + 1] - path[segment]);
+  qd_d = (path[segment + 1] - path[segment]) / duration;
+}
+
+double RrtPolicy::Impl::RemainingLength(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  Reference(time - path_start_time);
+  double length = (q_d - q).norm();
+  if (segment + 1 < static_cast<int>(path.size())) {
+    length += (path[segment + 1] - q_d).norm();
+    for (size_t k = segment + 2; k < path.size(); ++k) length += (path[k] - path[k - 1]).norm();
+  }
+  return length;
+}
+
+bool RrtPolicy::Impl::RemainingPathValid(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  margin = path_margin;
+  Reference(time - path_start_time);
+  q_now = q;
+  if (Clearance(q_now, true, margin) <= margin) return false;
+  if (!SegmentValid(q_now, q_d, true)) return false;
+  const Eigen::VectorXd* from = &q_d;
+  for (size_t k = segment + 1; k < path.size(); ++k) {
+    if (!SegmentValid(*from, path[k], true)) return false;
+    from = &path[k];
+  }
+  return true;
+}
+
+void RrtPolicy::Impl::Replan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ++stats.plans_attempted;
+  attempted = true;
+  last_attempt = time;
+  SetObstacles(scene);
+  const Eigen::VectorXd q_start = q;
+  // from a start inside the safety margin (an obstacle came close) plan with half its clearance as the margin, so the
+  // robot can still move away; in penetration there is nothing valid to start from
+  margin = options.safety_margin;
+  SetBounds(q_start);
+  const double start_clearance = Clearance(q_start, false, -kInf);
+  if (start_clearance <= options.safety_margin) margin = 0.5 * start_clearance;
+  std::vector<Eigen::VectorXd> waypoints;
+  IkResult ik;
+  if (margin > 0.0) {
+    ik = SolveIk(q_start, scene.p_WT);
+    if (!ik.reached) ++stats.ik_failures;
+    if (ik.found) waypoints = Plan(q_start, ik.q);
+    ++plans;
+  }
+  if (!waypoints.empty()) {
+    ++stats.plans_succeeded;
+    const Eigen::Vector3d p_WE_goal = EndEffector(ik.q);
+    // keep the current path when it is still valid (obstacles are checked every Evaluate), still ends at the target
+    // and is no longer than the new one: fixed-rate replanning then does not swap equivalent random paths
+    double new_length = 0.0;
+    for (size_t k = 1; k < waypoints.size(); ++k) new_length += (waypoints[k] - waypoints[k - 1]).norm();
+    const bool keep = !path.empty() && (path_p_WE - scene.p_WT).norm() <= options.ik_tolerance &&
+                      RemainingLength(q_start) <= new_length;
+    if (!keep) Adopt(std::move(waypoints), p_WE_goal);
+  }
+  stats.planning_times_s.push_back(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+void RrtPolicy::Impl::ResetEpisode() {
+  path.clear();
+  path_times.clear();
+  has_previous_goal = false;
+  calls = 0;
+  time = 0.0;
+  attempted = false;
+  last_attempt = 0.0;
+  plans = 0;
+  rng.seed(seed);
+  stats.plans_attempted = stats.plans_succeeded = stats.ik_failures = stats.invalidations = 0;
+  stats.planning_times_s.clear();
+}
+
+RrtPolicy::RrtPolicy(const kinematics::Robot& robot, const RrtOptions& options) {
+  ValidateRrtOptions(options);
+  impl_ = std::make_unique<Impl>(robot, options);
+  Impl& m = *impl_;
+  const kinematics::Model& model = m.robot.model;
+  m.nq = model.nq();
+  m.seed = options.seed;
+  m.limit_lower = model.LowerLimits();
+  m.limit_upper = model.UpperLimits();
+  m.lower = m.limit_lower;
+  m.upper = m.limit_upper;
+  m.v_path.resize(m.nq);
+  m.continuous.resize(m.nq);
+  for (int i = 0; i < m.nq; ++i) {
+    const double v = model.limits()[i].velocity;
+    if (!std::isfinite(v) || !(v > 0.0)) {
+      throw InputError(fmt::format("RrtPolicy: robot '{}' joint '{}': expected a finite velocity limit > 0, got {}",
+                                   m.robot.name, model.dof_name(i), v));
+    }
+    m.v_path[i] = options.path_speed_fraction * v;
+    m.continuous[i] = !std::isfinite(m.limit_lower[i]) || !std::isfinite(m.limit_upper[i]);
+  }
+  // a capsule's height is fixed when every dof moving its link is a revolute joint about a vertical axis whose parent
+  // link is fixed to the base (axes taken at q = 0; they cannot move since the parent does not)
+  kinematics::CalcForwardKinematics(model, Eigen::VectorXd::Zero(m.nq), &m.kin);
+  for (const kinematics::LinkCapsule& c : m.robot.capsules) {
+    bool fixed_height = true;
+    for (int i : model.link_dofs(c.link)) {
+      const kinematics::Link& joint_link = model.link(model.dof_link(i));
+      const bool revolute = joint_link.joint_type != kinematics::JointType::kPrismatic;
+      const bool parent_fixed = model.link_dofs(joint_link.parent).empty();
+      const bool vertical = std::abs(std::abs(m.kin.axis_W.col(i).z()) - 1.0) < 1e-9;
+      fixed_height = fixed_height && revolute && parent_fixed && vertical;
+    }
+    m.floor_checked.push_back(fixed_height ? 0 : 1);
+  }
+  const int num_capsules = static_cast<int>(m.robot.capsules.size());
+  for (int a = 0; a < num_capsules; ++a) {
+    for (int b = a + 1; b < num_capsules; ++b) {
+      const int la = m.robot.capsules[a].link, lb = m.robot.capsules[b].link;
+      if (la != lb && !m.robot.IsExcludedPair(la, lb)) m.self_pairs.emplace_back(a, b);
+    }
+  }
+  m.capsule_W.resize(num_capsules);
+  m.capsule_sphere.resize(num_capsules);
+  m.obstacles.reserve(64);
+  m.q_d.setZero(m.nq);
+  m.qd_d.setZero(m.nq);
+  m.previous_goal.setZero(m.nq);
+  m.J_WE.setZero(3, m.nq);
+  m.scratch.setZero(m.nq);
+  m.q_now.setZero(m.nq);
+  m.stats.planning_times_s.reserve(kStatsCapacity);
+  m.margin = options.safety_margin;
+  // OMPL logs every plan at LOG_INFO; keep warnings and errors (the level is process-wide in OMPL)
+  if (ompl::msg::getLogLevel() < ompl::msg::LOG_WARN) ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+  m.ResetEpisode();
+}
+
+RrtPolicy::~RrtPolicy() = default;
+
+void RrtPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                         const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) {
+  Impl& m = *impl_;
+  m.time = static_cast<double>(m.calls++) * m.options.evaluation_period;
+  if (!scene.has_target || !scene.p_WT.allFinite()) {
+    qdd = -m.options.kd * qd;
+    return;
+  }
+  // the path ahead is re-checked whenever the obstacles moved; an invalid one is dropped (the robot brakes)
+  if (!m.path.empty() && m.ObstaclesChanged(scene)) {
+    m.SetObstacles(scene);
+    if (!m.RemainingPathValid(q)) {
+      ++m.stats.invalidations;
+      m.path.clear();
+    }
+  }
+  const double since = m.time - m.last_attempt;
+  const bool periodic = since >= m.options.replan_period - kTimeEpsilon;
+  const bool retry = m.path.empty() && since >= m.options.retry_period - kTimeEpsilon;
+  if (!m.attempted || periodic || retry) m.Replan(q, scene);
+
+  if (m.path.empty()) {
+    qdd = -m.options.kd * qd;
+    return;
+  }
+  m.Reference(m.time - m.path_start_time);
+  qdd = m.options.kp * (m.q_d - q) + m.options.kd * (m.qd_d - qd);
+}
+
+void RrtPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) {
+  kinematics::CheckJointVector(impl_->robot.model, q0, "q0");
+  impl_->ResetEpisode();
+}
+
+int RrtPolicy::nq() const { return impl_->nq; }
+const RrtOptions& RrtPolicy::options() const { return impl_->options; }
+const RrtStats& RrtPolicy::stats() const { return impl_->stats; }
+void RrtPolicy::set_seed(std::uint64_t seed) { impl_->seed = seed; }
+const std::vector<Eigen::VectorXd>& RrtPolicy::path() const { return impl_->path; }
+
+double RrtPolicy::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  kinematics::CheckJointVector(impl_->robot.model, q, "q");
+  impl_->SetObstacles(scene);
+  return impl_->Clearance(q, false, -kInf);
+}
+
+bool RrtPolicy::IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  kinematics::CheckJointVector(impl_->robot.model, q, "q");
+  Impl& m = *impl_;
+  m.SetObstacles(scene);
+  m.margin = m.options.safety_margin;
+  m.SetBounds(q);
+  return m.Valid(q);
+}
+
+IkResult RrtPolicy::SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const rmp::Scene& scene) {
+  kinematics::CheckJointVector(impl_->robot.model, q_start, "q_start");
+  Impl& m = *impl_;
+  m.SetObstacles(scene);
+  m.margin = m.options.safety_margin;
+  return m.SolveIk(q_start, scene.p_WT);
+}
+
+std::vector<Eigen::VectorXd> RrtPolicy::PlanPath(const Eigen::Ref<const Eigen::VectorXd>& q_start,
+                                                 const Eigen::Ref<const Eigen::VectorXd>& q_goal,
+                                                 const rmp::Scene& scene) {
+  kinematics::CheckJointVector(impl_->robot.model, q_start, "q_start");
+  kinematics::CheckJointVector(impl_->robot.model, q_goal, "q_goal");
+  Impl& m = *impl_;
+  m.SetObstacles(scene);
+  m.margin = m.options.safety_margin;
+  std::vector<Eigen::VectorXd> path = m.Plan(q_start, q_goal);
+  ++m.plans;
+  return path;
+}
+
+}  // namespace rmpmarl::planning

@@ -1,0 +1,168 @@
+// The experiments' measuring instrument: identical episodes for every method, seeds that never meet training
+// seeds, thread-count independence, and the confidence intervals against hand-computed values.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/evaluation.h"
+#include "rmpmarl/experiments/statistics.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/sim/controller.h"
+
+namespace rmpmarl::experiments {
+namespace {
+
+rl::TaskConfig SmallTask(rl::TaskKind kind, int max_steps) {
+  rl::TaskConfig c = rl::DefaultTaskConfig(kind);
+  c.randomization.variants = 3;
+  c.episode.max_steps = max_steps;
+  return c;
+}
+
+TEST(EpisodeSeedTest, DeterministicDistinctAndNeverATrainingSeed) {
+  std::set<std::uint64_t> seen;
+  for (std::uint64_t s : {0ull, 1ull, 20231001ull}) {
+    for (int i = 0; i < 2000; ++i) {
+      const std::uint64_t e = EpisodeSeed(s, i);
+      EXPECT_EQ(e, EpisodeSeed(s, i));
+      EXPECT_GE(e, std::uint64_t{1} << 32);  // training env seeds are seed + s·num_envs + k < 2^32
+      EXPECT_TRUE(seen.insert(e).second);
+    }
+  }
+}
+
+// Every interface mode and the external baselines start episode i of a seed in the same state, and the scenario
+// (target and obstacle paths) evolves identically whatever the robot does, until an obstacle hits the robot.
+TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
+  rl::TaskConfig base = SmallTask(rl::TaskKind::kReachAvoid, 60);
+  base.scenario.crossing.num_obstacles = 2;
+  std::vector<std::unique_ptr<rl::ManipulatorEnv>> envs;
+  for (rl::InterfaceMode mode : {rl::InterfaceMode::kPerJointRmp, rl::InterfaceMode::kDirect,
+                                 rl::InterfaceMode::kPerJointDirect}) {
+    rl::TaskConfig c = base;
+    c.interface = mode;
+    envs.push_back(std::make_unique<rl::ManipulatorEnv>(rl::MakeTaskContext(c)));
+  }
+  rl::ExternalController rmpflow;
+  rmpflow.make_policy = [](const kinematics::Robot& robot) {
+    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 4);
+  };
+  envs.push_back(std::make_unique<rl::ManipulatorEnv>(rl::MakeTaskContext(base), rmpflow));
+
+  for (int episode = 0; episode < 6; ++episode) {
+    std::vector<std::unique_ptr<rl::StepBuffers>> buffers;
+    std::vector<std::mt19937_64> rngs;
+    for (auto& env : envs) {
+      buffers.push_back(std::make_unique<rl::StepBuffers>(env->spec()));
+      rngs.emplace_back(EpisodeSeed(7, episode));
+      env->Reset(rngs.back(), buffers.back()->out());
+    }
+    const rl::ManipulatorEnv& ref = *envs[0];
+    for (size_t k = 1; k < envs.size(); ++k) {
+      const rl::ManipulatorEnv& e = *envs[k];
+      EXPECT_EQ(e.variant(), ref.variant());
+      EXPECT_EQ(e.scenario_setting(), ref.scenario_setting());
+      EXPECT_EQ(e.world().q(), ref.world().q());
+      EXPECT_EQ(e.world().qd(), ref.world().qd());
+      EXPECT_EQ(e.scenario().target().p_WT, ref.scenario().target().p_WT);
+      EXPECT_EQ(e.scenario().target().v_WT, ref.scenario().target().v_WT);
+      for (int j = 0; j < ref.scenario().num_obstacles(); ++j) {
+        EXPECT_EQ(e.scenario().obstacles()[j].p_WO(), ref.scenario().obstacles()[j].p_WO());
+        EXPECT_EQ(e.scenario().obstacles()[j].v_WO(), ref.scenario().obstacles()[j].v_WO());
+      }
+    }
+    // 30 steps with different actions per method: the target moves identically
+    for (int t = 0; t < 30; ++t) {
+      for (size_t k = 0; k < envs.size(); ++k) {
+        std::vector<float> a(static_cast<size_t>(envs[k]->spec().num_agents) * envs[k]->spec().action.size(),
+                             static_cast<float>(k % 2));
+        envs[k]->Step(a.data(), rngs[k], buffers[k]->out());
+      }
+    }
+    for (size_t k = 1; k < envs.size(); ++k) {
+      EXPECT_EQ(envs[k]->scenario().target().p_WT, ref.scenario().target().p_WT) << "env " << k;
+    }
+  }
+}
+
+TEST(EvaluateMethodTest, ResultsDoNotDependOnTheThreadCountAndRecordTheEpisode) {
+  const rl::TaskConfig task = SmallTask(rl::TaskKind::kLineCrossing, 80);
+  const Method basic = Method::FixedOption("basic", 0);
+  const auto one = EvaluateMethod(basic, task, {.episodes = 5, .eval_seed = 3, .jobs = 1});
+  const auto two = EvaluateMethod(basic, task, {.episodes = 5, .eval_seed = 3, .jobs = 2});
+  ASSERT_EQ(one.size(), 5u);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(one[i].index, i);
+    EXPECT_EQ(one[i].episode_seed, EpisodeSeed(3, i));
+    EXPECT_EQ(one[i].metrics.collisions, two[i].metrics.collisions);
+    EXPECT_EQ(one[i].metrics.mean_tracking_error_mm, two[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(one[i].variant, two[i].variant);
+    EXPECT_EQ(one[i].setting, two[i].setting);
+    EXPECT_EQ(one[i].metrics.length, 80);
+    EXPECT_GT(one[i].control_step_us, 0.0);
+  }
+}
+
+TEST(EvaluateMethodTest, RmpflowConvergesOnTheTargetAndTheBasicLayerStaysCollisionFree) {
+  rl::TaskConfig task = SmallTask(rl::TaskKind::kReachAvoid, 300);
+  task.scenario.crossing.num_obstacles = 0;
+  // measured (eval seed 1, 3 s episodes): RMPflow ends within 0.1–4.0 mm of the moving target; its settled error
+  // (t >= 1 s) is 30–110 mm because it needs 1–2 s to get there
+  for (const EpisodeRecord& r : EvaluateMethod(Method::Rmpflow(), task, {.episodes = 4, .eval_seed = 1, .jobs = 2})) {
+    EXPECT_TRUE(r.metrics.success);
+    EXPECT_LT(r.metrics.final_tracking_error_mm, 10.0);
+    EXPECT_LT(r.metrics.settled_tracking_error_mm, r.metrics.mean_tracking_error_mm);
+  }
+  for (const EpisodeRecord& r :
+       EvaluateMethod(Method::FixedOption("basic", 0), task, {.episodes = 4, .eval_seed = 1, .jobs = 2})) {
+    EXPECT_TRUE(r.metrics.success);
+    EXPECT_TRUE(std::isfinite(r.metrics.settled_tracking_error_mm));
+  }
+}
+
+TEST(EvaluateMethodTest, APolicyOfTheWrongShapeIsRejectedWithAMessage) {
+  const rl::TaskConfig task = SmallTask(rl::TaskKind::kReachAvoid, 10);
+  EXPECT_THROW(EvaluateMethod(Method::Policy("x", "/nonexistent.rmpp", rl::InterfaceMode::kDirect), task, {}),
+               InputError);
+  EXPECT_THROW(Method::FixedOption("bad", 3), InputError);
+  EXPECT_THROW(EvaluateMethod(Method::Rmpflow(), task, {.episodes = 0}), InputError);
+}
+
+TEST(StatisticsTest, WilsonMatchesHandComputedIntervals) {
+  // 8 of 10, z = 1.96: centre (0.8 + 0.19207) / 1.38415 = 0.71674, half 1.96 √(0.016 + 0.0096) / 1.38415 =
+  // 0.22657 → [0.4902, 0.9433]  (E. B. Wilson 1927)
+  const Interval a = WilsonInterval(8, 10);
+  EXPECT_NEAR(a.value, 0.8, 1e-12);
+  EXPECT_NEAR(a.low, 0.4902, 2e-4);
+  EXPECT_NEAR(a.high, 0.9433, 2e-4);
+  // 0 of 20: [0, z²/(n + z²)] = [0, 0.1611]
+  const Interval b = WilsonInterval(0, 20);
+  EXPECT_NEAR(b.low, 0.0, 1e-12);
+  EXPECT_NEAR(b.high, 3.8415 / 23.8415, 2e-4);
+  EXPECT_TRUE(std::isnan(WilsonInterval(0, 0).value));
+}
+
+TEST(StatisticsTest, BootstrapIntervalCoversTheMeanAndShrinksWithTheSample) {
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> n(10.0, 2.0);
+  std::vector<double> small(20), large(2000);
+  for (double& x : small) x = n(rng);
+  for (double& x : large) x = n(rng);
+  const Interval s = BootstrapMeanInterval(small, 1), l = BootstrapMeanInterval(large, 1);
+  EXPECT_LE(s.low, s.value);
+  EXPECT_GE(s.high, s.value);
+  // the 95 % half width ≈ 1.96 σ / √n: 0.88 for n = 20, 0.088 for n = 2000
+  EXPECT_NEAR(s.high - s.low, 2 * 1.96 * 2.0 / std::sqrt(20.0), 0.45);
+  EXPECT_NEAR(l.high - l.low, 2 * 1.96 * 2.0 / std::sqrt(2000.0), 0.03);
+  const Interval c = BootstrapMeanInterval({3.0, 3.0, NAN, 3.0}, 1);
+  EXPECT_EQ(c.value, 3.0);
+  EXPECT_EQ(c.low, 3.0);
+  EXPECT_EQ(c.high, 3.0);
+  EXPECT_EQ(BootstrapMeanInterval(small, 9).low, BootstrapMeanInterval(small, 9).low);  // seeded
+}
+
+}  // namespace
+}  // namespace rmpmarl::experiments

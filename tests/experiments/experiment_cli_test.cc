@@ -1,0 +1,53 @@
+// `rmpmarl experiment table4 --quick`: the whole pipeline (training, evaluation of every method, CSV, report, plot)
+// in a temporary directory; checks the report's shape, not its numbers.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+namespace fs = std::filesystem;
+
+std::string Read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
+  const fs::path dir = fs::temp_directory_path() / ("rmpmarl_table4_quick_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string command = std::string(RMPMARL_CLI_PATH) + " experiment table4 --quick --seeds 1 --out " +
+                              (dir / "table4").string() + " --runs " + (dir / "runs").string() + " > " +
+                              (dir.string() + ".log") + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << Read(dir.string() + ".log");
+  const std::string report = Read(dir / "table4" / "report.md");
+  for (const char* method : {"| PPO |", "| MAPPO (no pre-training) |", "| MARL-PPO |", "| RMPflow |", "| RRT |",
+                             "| MARL-RMP |", "| basic layer (target option) |"}) {
+    EXPECT_NE(report.find(method), std::string::npos) << method;
+  }
+  for (const char* speed : {"0.2 m/s", "0.6 m/s", "1.2 m/s", "1.8 m/s", "2.8 m/s"}) {
+    EXPECT_NE(report.find(speed), std::string::npos) << speed;
+  }
+  const std::string csv = Read(dir / "table4" / "results.csv");
+  EXPECT_EQ(csv.rfind("method,condition,train_seed,episodes,success_rate,tracking_mm,settled_tracking_mm,"
+                      "collisions_per_episode", 0), 0u);
+  // 8 methods x 5 speeds, one training seed: 40 rows + header
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 41);
+  EXPECT_TRUE(fs::exists(dir / "table4" / "table4_success.png"));
+  EXPECT_GT(fs::file_size(dir / "table4" / "table4_success.png"), 1000u);
+  // a second run reuses the finished training runs
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  EXPECT_NE(Read(dir.string() + ".log").find("finished before, reused"), std::string::npos);
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".log");
+}
+
+}  // namespace
