@@ -111,6 +111,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
   if (protocol.episodes < 1) throw InputError(fmt::format("episodes: expected >= 1, got {}", protocol.episodes));
   if (protocol.jobs < 1) throw InputError(fmt::format("jobs: expected >= 1, got {}", protocol.jobs));
   rl::TaskConfig config = task;
+  if (method.adjust_task) method.adjust_task(config);
   config.interface = EnvInterface(method);
   const auto context = rl::MakeTaskContext(config);
   const rl::EnvSpec& spec = context->spec();

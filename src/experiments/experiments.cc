@@ -27,12 +27,19 @@ namespace {
 /// obstacle slots of every experiment task: the global state (PPO's observation, the critics') must have the same
 /// size on reach-avoid (training, 1–4 cubes), line-crossing (5) and cluttered (6).
 constexpr int kObstacleSlots = 6;
-const std::string kSlotsOverride = fmt::format("{{observation: {{max_obstacles: {}}}}}", kObstacleSlots);
 
 /// the training configs (configs/train/), found beside the task configs.
 std::string TrainConfigPath(const std::string& name) {
   return (rl::TaskConfigDirectory().parent_path() / "train" / (name + ".yaml")).string();
 }
+
+/// The basic layer as first implemented (issue 9's ablation "v0"): the collision RMPs alone in the collision option
+/// and composite phase b, and W_i from every warning contact including the robot's own links.
+void BasicLayerV0(rl::TaskConfig& task) {
+  task.options.collision_target_weight = 0.0;
+  task.options.warnings = rl::OptionWarnings::kAll;
+}
+const char* kBasicLayerV0Yaml = "options: {collision_target_weight: 0, warnings: all}";
 
 /// A learned method: a training recipe, seeds 1..N.
 struct Recipe {
@@ -42,6 +49,7 @@ struct Recipe {
   rl::InterfaceMode interface;
   std::string init_prefix;  ///< pre-training run prefix ("" none)
   bool experiment_slots;    ///< trained with kObstacleSlots (the reach-avoid methods)
+  bool layer_v0 = false;    ///< trained and evaluated with BasicLayerV0 (ablation)
 };
 
 const std::vector<Recipe>& Recipes() {
@@ -59,6 +67,11 @@ const std::vector<Recipe>& Recipes() {
       {"marl-ppo", "MARL-PPO", "marl-ppo", "marl-ppo-reach-avoid", InterfaceMode::kPerJointDirect, "marl-ppo-2link",
        true},
       {"marl-rmp", "MARL-RMP", "marl-rmp", "mappo-reach-avoid", InterfaceMode::kPerJointRmp, "hrl-rmp-2link", true},
+      // ablation: the same recipes on the first basic layer (BasicLayerV0)
+      {"hrl-rmp-v0", "HRL-RMP (v0 basic layer)", "hrl-rmp-2link-v0", "pretrain-2link", InterfaceMode::kPerJointRmp,
+       "", false, true},
+      {"marl-rmp-v0", "MARL-RMP (v0 basic layer)", "marl-rmp-v0", "mappo-reach-avoid", InterfaceMode::kPerJointRmp,
+       "hrl-rmp-2link-v0", true, true},
   };
   return recipes;
 }
@@ -104,7 +117,10 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
     run.total_updates = r.experiment_slots ? b.panda : b.pretrain;
     if (!r.experiment_slots) run.snapshot_updates = pretrain_snapshots;
     run.init_from = init;
-    if (r.experiment_slots) run.task_overrides = kSlotsOverride;
+    std::vector<std::string> overrides;
+    if (r.experiment_slots) overrides.push_back(fmt::format("observation: {{max_obstacles: {}}}", kObstacleSlots));
+    if (r.layer_v0) overrides.push_back(kBasicLayerV0Yaml);
+    if (!overrides.empty()) run.task_overrides = fmt::format("{{{}}}", fmt::join(overrides, ", "));
     runs.push_back(run);
     added.insert(id);
   };
@@ -147,12 +163,18 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   };
   const Entry basic = fixed("basic", Method::FixedOption("basic layer (target option)", 0));
   const Entry basic_ttc = fixed("basic-ttc", Method::FixedOption("basic layer (target-then-collision)", 2));
+  Method ttc_v0 = Method::FixedOption("basic layer v0 (target-then-collision)", 2);
+  ttc_v0.adjust_task = BasicLayerV0;
+  const Entry basic_ttc_v0 = fixed("basic-ttc-v0", ttc_v0);
   const Entry rmpflow = fixed("rmpflow", Method::Rmpflow());
   const Entry rrt = fixed("rrt", Method::Rrt());
-  if (experiment == "table3") return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc};
+  if (experiment == "table3") {
+    return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
+            learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0};
+  }
   if (experiment == "table4" || experiment == "cluttered") {
     return {learned("ppo", "ppo"), learned("mappo", "mappo"), learned("marl-ppo", "marl-ppo"), rmpflow, rrt,
-            learned("marl-rmp", "marl-rmp"), basic, basic_ttc};
+            learned("marl-rmp", "marl-rmp"), basic, basic_ttc, learned("marl-rmp-v0", "marl-rmp-v0"), basic_ttc_v0};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
@@ -214,7 +236,9 @@ void AddJobs(const std::vector<Entry>& entries, const std::string& condition, co
     }
     const Recipe& r = FindRecipe(e.recipe);
     for (int s = 1; s <= seeds; ++s) {
-      jobs->push_back({Method::Policy(e.label, policy(r, s).string(), r.interface), condition, s, task});
+      Method m = Method::Policy(e.label, policy(r, s).string(), r.interface);
+      if (r.layer_v0) m.adjust_task = BasicLayerV0;
+      jobs->push_back({m, condition, s, task});
     }
   }
 }

@@ -255,6 +255,7 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   J_WE_.setZero(3, nq_);
   J_WE_before_.setZero(3, nq_);
   warnings_.resize(nq_);
+  option_warning_.assign(nq_, 0);
   options_.assign(nq_, OptionMachine(config_.options.termination, config_.options.horizon));
   terminate_flags_.assign(nq_, 0);
   joint_weights_.resize(nq_);
@@ -396,13 +397,15 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
       for (int i = 0; i < nq_; ++i) {
         const float* u = actions + i * size;
         const OptionSelection sel = options_[i].Begin(DecodeOptionIndex(u[RmpActionLayout::kOption], a.num_options),
-                                                      warnings_[i].present);
+                                                      option_warning_[i] != 0);
         option_started[i] = sel.started ? 1.0f : 0.0f;
         rmp::JointLayerWeights& w = policy_->weights[i];
-        w.use_target = sel.use_target;
+        // while the collision RMPs run, the target RMP keeps a small priority (options.collision_target_weight)
+        const double target_weight = sel.use_collision ? config_.options.collision_target_weight : 1.0;
+        w.use_target = sel.use_target || target_weight > 0.0;
         w.use_collision = sel.use_collision;
         w.target_accel_scale = GainScale(u[RmpActionLayout::kTargetAccelScale], g);
-        w.target_metric_scale = GainScale(u[RmpActionLayout::kTargetMetricScale], g);
+        w.target_metric_scale = target_weight * GainScale(u[RmpActionLayout::kTargetMetricScale], g);
         w.collision_accel_scale = GainScale(u[RmpActionLayout::kCollisionAccelScale], g);
         w.collision_metric_scale = GainScale(u[RmpActionLayout::kCollisionMetricScale], g);
         terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
@@ -482,12 +485,16 @@ void ManipulatorEnv::UpdateKinematics() {
   kinematics::CalcPointJacobian(m, kin_, ee.link, ee.X_LE.translation(), J_WE_);
 
   for (JointWarning& w : warnings_) w = JointWarning{};
+  const bool all_warnings = config_.options.warnings == OptionWarnings::kAll;
+  std::fill(option_warning_.begin(), option_warning_.end(), 0);
   for (const sim::WarningContact& c : report_->warnings) {
     const int other_link = c.other_kind == sim::PartnerKind::kLink ? c.other_index : -1;
     for (int i = 0; i < nq_; ++i) {
       const bool moves_robot_side = m.DofMovesLink(i, c.link);
       const bool moves_other_side = other_link >= 0 && m.DofMovesLink(i, other_link);
       if (moves_robot_side == moves_other_side) continue;  // joint i moves both rigidly, or neither
+      // W_i of the options: what the collision RMPs act on (obstacles), or every warning (options.warnings: all)
+      if (all_warnings || c.other_kind == sim::PartnerKind::kObstacle) option_warning_[i] = 1;
       JointWarning& w = warnings_[i];
       if (c.distance >= w.distance) continue;
       w.present = true;
@@ -716,7 +723,7 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   UpdateKinematics();
   ++steps_;
   if (config_.interface == InterfaceMode::kPerJointRmp && external_controller_ == nullptr) {
-    for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, warnings_[i].present);
+    for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, option_warning_[i] != 0);
   }
   if (!ok) {  // MuJoCo diverged (the World reset the robot): the episode is invalid
     Finish(out, /*terminated=*/true, false, /*invalid=*/true);

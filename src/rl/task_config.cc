@@ -431,7 +431,12 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                     o.termination = r.Choice(v, k, {"learned", "fixed"}) == 0 ? OptionTermination::kLearned
                                                                               : OptionTermination::kFixed;
                   }},
-                 Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range)});
+                 Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range),
+                 Num(r, "collision_target_weight", &o.collision_target_weight),
+                 {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
+                    o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
+                                                                          : OptionWarnings::kAll;
+                  }}});
   }
   if (const YAML::Node n = root["direct"]) {
     ReadSection(r, n, "direct", {Num(r, "max_speed_fraction", &c.direct.max_speed_fraction)});
@@ -532,6 +537,9 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         c.options.horizon);
   check(std::isfinite(c.options.gain_range) && c.options.gain_range >= 1.0 && c.options.gain_range <= 1e6,
         "options.gain_range", "a factor in [1, 1e6]", c.options.gain_range);
+  check(std::isfinite(c.options.collision_target_weight) && c.options.collision_target_weight >= 0.0 &&
+            c.options.collision_target_weight <= 1.0,
+        "options.collision_target_weight", "a weight in [0, 1]", c.options.collision_target_weight);
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);

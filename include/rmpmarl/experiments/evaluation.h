@@ -7,6 +7,7 @@
 ///
 ///   const auto records = experiments::EvaluateMethod(experiments::Method::Rmpflow(), task, {.episodes = 50});
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,8 @@ struct Method {
   rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
   int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (rl::RmpOption order)
   planning::RrtOptions rrt;                                 ///< kRrt
+  /// changes to the task this method is evaluated on (e.g. the basic-layer settings it was trained with); empty: none
+  std::function<void(rl::TaskConfig&)> adjust_task;
 
   static Method Policy(std::string name, std::string path, rl::InterfaceMode interface);
   static Method FixedOption(std::string name, int option);

@@ -178,7 +178,8 @@ class ManipulatorEnv final : public Env {
   Eigen::Vector3d p_WT_ = Eigen::Vector3d::Zero(), v_WT_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3Xd J_WE_, J_WE_before_;
   Eigen::Vector3d e_before_ = Eigen::Vector3d::Zero();  // p_T − p_E at the start of the step
-  std::vector<JointWarning> warnings_;
+  std::vector<JointWarning> warnings_;      // nearest warning contact per joint (observations)
+  std::vector<std::uint8_t> option_warning_; // W_i ≠ ∅ for the options (options.warnings)
   // options and reward state
   std::vector<OptionMachine> options_;
   std::vector<std::uint8_t> terminate_flags_;
