@@ -1,9 +1,10 @@
-// `rmpmarl demo`: the README's main job — a robot tracks a moving target while obstacles cross its workspace, under
-// a reactive policy (RMPflow by default), in MuJoCo; prints a summary and writes a video rendered offscreen (EGL).
+// `rmpmarl demo`: the README's main job — a robot tracks a moving target while obstacles cross its workspace, in
+// MuJoCo: the shipped learned per-joint agents and RMPflow on the same episode (or RMPflow alone), summaries and videos.
 #include <fmt/core.h>
 #include <mujoco/mujoco.h>
 
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <random>
 
@@ -135,78 +136,133 @@ void RunDemo(const DemoArgs& args) {
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
 
-// the trained per-joint agents (Eigen runtime, no libtorch) on one episode of a task: the same world and basic layer
-// as training, rendered like the RMPflow demo.
-void RunPolicyDemo(const DemoArgs& args) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  rl::TaskConfig config = rl::LoadShippedTaskConfig(args.task);
-  if (config.robot != "planar2") config.robot = args.robot;
-  rl::ManipulatorEnv env(rl::MakeTaskContext(config));
+// What one method did in the comparison demo's episode.
+struct DemoRun {
+  std::string label;
+  rl::EpisodeMetrics metrics;
+  double step_us = 0.0;  // policy + controller per control step
+  std::string video;     // written file ("" none)
+};
+
+// runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
+// learned agents (`runtime`) or, when null, the env's external controller; renders it when args.video is set.
+DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, rl::PolicyRuntime* runtime, const std::string& label,
+                       const std::string& video_path, const DemoArgs& args) {
   const rl::EnvSpec& spec = env.spec();
-  rl::PolicyRuntime runtime(rl::LoadPolicyFile(args.policy), spec.num_agents);
-  if (runtime.obs_dim() != spec.local_obs_dim || runtime.action_size() != spec.action.size()) {
-    throw InputError(fmt::format("{}: the policy takes {} observations and gives {} action floats; task '{}' on {} "
-                                 "has {} and {}", args.policy, runtime.obs_dim(), runtime.action_size(), args.task,
-                                 config.robot, spec.local_obs_dim, spec.action.size()));
-  }
   const int A = spec.num_agents;
   rl::StepBuffers buffers(spec);
-  const rl::StepOutput out = buffers.out();
-  std::vector<float> actions(static_cast<size_t>(A) * spec.action.size());
-  const std::uint8_t& terminated = buffers.terminated;
-  const std::uint8_t& truncated = buffers.truncated;
+  std::vector<float> actions(static_cast<size_t>(A) * spec.action.size(), 0.0f);
   std::mt19937_64 rng(args.seed);
-  env.Reset(rng, out);
-
+  env.Reset(rng, buffers.out());
   std::unique_ptr<sim::OffscreenRenderer> renderer;
   std::unique_ptr<sim::VideoWriter> video;
   std::vector<std::uint8_t> rgb;
-  if (!args.video.empty()) {
+  if (!video_path.empty()) {
     std::string why_not;
-    const kinematics::Robot& robot = env.world().model().robot();
-    const sim::Workspace ws = sim::MakeWorkspace(robot, env.world().q());
-    renderer = sim::OffscreenRenderer::Create(env.world().mj_model(), CameraFor(ws, args), &why_not);
+    renderer = sim::OffscreenRenderer::Create(env.world().mj_model(), CameraFor(env.scenario().workspace(), args),
+                                              &why_not);
     if (renderer == nullptr) {
       fmt::print("video: offscreen rendering is not possible here ({}); running without video\n", why_not);
     } else {
-      video = std::make_unique<sim::VideoWriter>(args.video, args.width, args.height, args.fps);
+      video = std::make_unique<sim::VideoWriter>(video_path, args.width, args.height, args.fps);
     }
   }
-  fmt::print("rmpmarl demo: {} ({} agents, one per joint), task '{}', policy {} (Eigen runtime{}), seed {}\n",
-             config.robot, A, args.task, args.policy, runtime.uses_avx2() ? ", AVX2" : "", args.seed);
-  double next_frame = 0.0, agent_us = 0.0;
+  DemoRun run{label, {}, 0.0, ""};
+  double next_frame = 0.0, act_us = 0.0, control_us = 0.0;
   const int max_steps = args.duration > 0.0 ? static_cast<int>(args.duration / spec.control_dt) : spec.max_episode_steps;
   int steps = 0;
-  while (steps < max_steps && !terminated && !truncated) {
+  while (steps < max_steps && !buffers.terminated && !buffers.truncated) {
     if (video && env.world().time() + 1e-9 >= next_frame) {
       renderer->Render(env.world().mj_data(), &rgb);
       video->AddFrame(rgb);
       next_frame += 1.0 / args.fps;
     }
     const auto start = std::chrono::steady_clock::now();
-    runtime.Act(buffers.local_obs.data(), A, actions.data());
-    agent_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
-    env.Step(actions.data(), rng, out);
+    if (runtime != nullptr) runtime->Act(buffers.local_obs.data(), A, actions.data());
+    act_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
+    env.Step(actions.data(), rng, buffers.out());
     ++steps;
   }
-  const rl::EpisodeMetrics& m = (terminated || truncated) ? buffers.metrics : env.metrics();
-  fmt::print("\n  tracking error      {:.1f} mm mean, final {:.1f} mm\n", m.mean_tracking_error_mm,
-             m.final_tracking_error_mm);
-  fmt::print("  min clearance       {}\n", std::isfinite(m.min_clearance_m)
-                                                ? fmt::format("{:.1f} mm to obstacles", 1000.0 * m.min_clearance_m)
-                                                : std::string("none within 15 cm"));
-  fmt::print("  collisions          {} events\n", m.collisions);
-  fmt::print("  agents              {:.1f} µs per control step for all {} agents (batch 1 each)\n",
-             agent_us / std::max(steps, 1), A);
-  fmt::print("  result              {}\n", m.invalid ? "INVALID episode"
-                                                     : m.collisions == 0 ? "success: no collision"
-                                                                         : fmt::format("FAILURE: {} collision events", m.collisions));
-  if (video) {
-    const auto written = video->Close();
-    fmt::print("  video               {} ({} frames)\n", written.string(), video->frames());
+  run.metrics = (buffers.terminated || buffers.truncated) ? buffers.metrics : env.metrics();
+  control_us = run.metrics.mean_control_us;
+  run.step_us = act_us / std::max(steps, 1) + control_us;
+  if (video) run.video = video->Close().string();
+  return run;
+}
+
+// the trained per-joint agents (Eigen runtime, no libtorch) and RMPflow on the SAME episode of a task (the
+// experiments' evaluation path: RMPflow drives the env as an external controller), summaries side by side and a
+// video of each.
+void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  rl::TaskConfig config = rl::LoadShippedTaskConfig(args.task);
+  if (config.robot != "planar2") config.robot = args.robot;
+  if (args.num_obstacles && config.task == rl::TaskKind::kReachAvoid) {
+    config.scenario.crossing.num_obstacles = *args.num_obstacles;
+  }
+  if (args.obstacle_speed && config.task == rl::TaskKind::kReachAvoid) {
+    config.scenario.crossing.obstacle_speed = *args.obstacle_speed;
+  }
+  config.observation.max_obstacles = std::max(config.observation.max_obstacles, 6);
+  config.randomization.variants = 1;  // the nominal robot
+  const auto context = rl::MakeTaskContext(config);
+  const rl::EnvSpec& spec = context->spec();
+  rl::PolicyRuntime runtime(rl::LoadPolicyFile(policy_path), spec.num_agents);
+  if (runtime.obs_dim() != spec.local_obs_dim || runtime.action_size() != spec.action.size()) {
+    throw InputError(fmt::format("{}: the policy takes {} observations and gives {} action floats; task '{}' on {} "
+                                 "has {} and {}", policy_path, runtime.obs_dim(), runtime.action_size(), args.task,
+                                 config.robot, spec.local_obs_dim, spec.action.size()));
+  }
+  auto video_for = [&](const std::string& suffix) {
+    if (args.video.empty()) return std::string();
+    const std::filesystem::path v(args.video);
+    return (v.parent_path() / (v.stem().string() + "-" + suffix + v.extension().string())).string();
+  };
+  fmt::print("rmpmarl demo: {} ({} joints), task '{}', seed {}: the learned per-joint agents ({}; Eigen runtime{}) "
+             "and RMPflow on the same episode\n", config.robot, spec.num_agents, args.task, args.seed, policy_path,
+             runtime.uses_avx2() ? ", AVX2" : "");
+  rl::ManipulatorEnv agents_env(context);
+  const DemoRun learned = RunDemoEpisode(agents_env, &runtime, "MARL-RMP", video_for("marl-rmp"), args);
+  rl::ExternalController rmpflow;
+  rmpflow.make_policy = [&](const kinematics::Robot& robot) {
+    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
+  };
+  rl::ManipulatorEnv rmpflow_env(context, rmpflow);
+  const DemoRun baseline = RunDemoEpisode(rmpflow_env, nullptr, "RMPflow", video_for("rmpflow"), args);
+
+  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
+  auto row = [](const std::string& name, const std::string& a, const std::string& b) {
+    fmt::print("  {:<26}{:>20}{:>20}\n", name, a, b);
+  };
+  fmt::print("\n");
+  row("", learned.label, baseline.label);
+  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
+  row("settled (t >= 1 s)", mm(learned.metrics.settled_tracking_error_mm),
+      mm(baseline.metrics.settled_tracking_error_mm));
+  row("final error", mm(learned.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
+  auto clearance = [&](const rl::EpisodeMetrics& m) {
+    return std::isfinite(m.min_clearance_m) ? mm(1000.0 * m.min_clearance_m) : std::string("none within 15 cm");
+  };
+  row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
+  row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
+  row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
+  auto result = [](const rl::EpisodeMetrics& m) {
+    return m.invalid ? std::string("INVALID") : m.collisions == 0 ? std::string("success") : std::string("FAILURE");
+  };
+  row("result", result(learned.metrics), result(baseline.metrics));
+  for (const DemoRun* r : {&learned, &baseline}) {
+    if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
   }
   fmt::print("  wall time           {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
+}
+
+// the shipped MARL-RMP policy (models/policies/marl-rmp.rmpp), if present.
+std::optional<std::string> ShippedMarlRmp() {
+  const std::filesystem::path p = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" /
+                                  "marl-rmp.rmpp";
+  if (std::filesystem::exists(p)) return p.string();
+  return std::nullopt;
 }
 
 }  // namespace
@@ -231,14 +287,21 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]");
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]");
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles");
-  cmd->add_option("--policy", args.policy, "run trained per-joint agents (.rmpp from rmpmarl train) instead of RMPflow");
+  cmd->add_option("--policy", args.policy,
+                  "rmpflow: RMPflow alone on --scenario; a .rmpp file: those per-joint agents and RMPflow on the same "
+                  "task episode (default: the shipped models/policies/marl-rmp.rmpp vs RMPflow when it exists)");
   cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
   cmd->callback([] {
     if (args.urdf.empty() != args.collision.empty()) {
       throw InputError("--urdf and --collision go together: expected both or neither");
     }
-    if (!args.policy.empty()) {
-      RunPolicyDemo(args);
+    const bool custom_robot = !args.urdf.empty();
+    std::optional<std::string> policy;
+    if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;
+    if (args.policy.empty() && !custom_robot && args.scenario == sim::kDefaultScenario) policy = ShippedMarlRmp();
+    if (policy && custom_robot) throw InputError("--policy with --urdf: the learned tasks run shipped robots only");
+    if (policy) {
+      RunComparisonDemo(args, *policy);
     } else {
       RunDemo(args);
     }

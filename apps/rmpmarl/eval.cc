@@ -61,7 +61,7 @@ void RegisterEval(CLI::App& app) {
     fmt::print("  success rate      {:.1f} %\n", 100.0 * r.success_rate);
     fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
                r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
-    fmt::print("  settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
+    fmt::print("settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
                r.settled_tracking_error_mean_mm, rl::kSettleTime);
     if (std::isfinite(r.min_clearance_mean_m)) {
       fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/common/random.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/manipulator_env.h"
 #include "rmpmarl/rl/policy_runtime.h"
@@ -20,13 +21,6 @@
 
 namespace rmpmarl::experiments {
 namespace {
-
-std::uint64_t SplitMix64(std::uint64_t x) {  // Steele, Lea & Flood (2014), the splitmix64 finaliser
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 /// the acting part of a method: fills the actions of one env step from its observations.
 class Actor {

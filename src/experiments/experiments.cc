@@ -266,7 +266,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   const std::vector<Entry> entries = Selected(o);  // validates the name and methods
   if (o.seeds < 1) throw InputError(fmt::format("--seeds: expected >= 1, got {}", o.seeds));
   if (o.jobs < 1) throw InputError(fmt::format("--jobs: expected >= 1, got {}", o.jobs));
-  if (o.episodes < 0) throw InputError(fmt::format("--episodes: expected >= 1, got {}", o.episodes));
+  if (o.episodes < 0) throw InputError(fmt::format("--episodes: expected >= 1 (0: the default), got {}", o.episodes));
   if (o.out.empty()) o.out = fs::path("results") / o.name;
   if (o.runs.empty()) o.runs = o.out.parent_path() / (o.quick ? "runs-quick" : "runs");
   fs::create_directories(o.out);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/rl/manipulator_env.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/render.h"
@@ -70,18 +71,6 @@ std::vector<double> Smoothed(const std::vector<CurvePoint>& c, int window) {
     if (n > 0) out[k] = sum / n;
   }
   return out;
-}
-
-double FiniteMean(const std::vector<double>& v) {
-  double s = 0.0;
-  int n = 0;
-  for (double x : v) {
-    if (std::isfinite(x)) {
-      s += x;
-      ++n;
-    }
-  }
-  return n > 0 ? s / n : NAN;
 }
 
 }  // namespace

@@ -21,29 +21,13 @@ namespace {
 struct Pooled {
   std::string method, condition;
   std::vector<int> seeds;
-  std::vector<double> seed_success;  // per training seed
+  std::vector<double> seed_success_rates;  // per training seed
   int episodes = 0, successes = 0;
-  Interval success, tracking, settled;
+  Interval success;         ///< pooled over episodes (Wilson)
+  Interval seed_success;    ///< mean of the per-seed rates with the Student-t interval across seeds
+  Interval tracking, settled;  ///< two-level bootstrap (seeds, then episodes)
   double collisions_per_episode = 0.0, time_in_collision_s = 0.0, min_clearance_mm = 0.0, control_us = 0.0;
 };
-
-double Mean(const std::vector<double>& v) {
-  double s = 0.0;
-  int n = 0;
-  for (double x : v) {
-    if (std::isfinite(x)) {
-      s += x;
-      ++n;
-    }
-  }
-  return n > 0 ? s / n : NAN;
-}
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 std::vector<Pooled> Pool(const std::vector<ResultRow>& rows) {
   std::vector<Pooled> pooled;
@@ -61,31 +45,35 @@ std::vector<Pooled> Pool(const std::vector<ResultRow>& rows) {
     int successes = 0;
     for (const EpisodeRecord& e : r.episodes) successes += e.metrics.success ? 1 : 0;
     it->seeds.push_back(r.train_seed);
-    it->seed_success.push_back(r.episodes.empty() ? NAN : static_cast<double>(successes) / r.episodes.size());
+    it->seed_success_rates.push_back(r.episodes.empty() ? NAN : static_cast<double>(successes) / r.episodes.size());
   }
-  std::uint64_t bootstrap_seed = 1;
   for (Pooled& p : pooled) {
-    std::vector<double> tracking, settled, collisions, in_collision, clearance, control;
+    std::vector<std::vector<double>> tracking, settled;
+    std::vector<double> collisions, in_collision, clearance, control;
     for (const ResultRow& r : rows) {
       if (r.method != p.method || r.condition != p.condition) continue;
+      tracking.emplace_back();
+      settled.emplace_back();
       for (const EpisodeRecord& e : r.episodes) {
         ++p.episodes;
         p.successes += e.metrics.success ? 1 : 0;
-        tracking.push_back(e.metrics.mean_tracking_error_mm);
-        settled.push_back(e.metrics.settled_tracking_error_mm);
+        tracking.back().push_back(e.metrics.mean_tracking_error_mm);
+        settled.back().push_back(e.metrics.settled_tracking_error_mm);
         collisions.push_back(e.metrics.collisions);
         in_collision.push_back(e.metrics.time_in_collision_s);
         clearance.push_back(std::isfinite(e.metrics.min_clearance_m) ? 1000.0 * e.metrics.min_clearance_m : NAN);
         control.push_back(e.control_step_us);
       }
     }
+    const std::uint64_t seed = LabelSeed(p.method + "|" + p.condition);
     p.success = WilsonInterval(p.successes, p.episodes);
-    p.tracking = BootstrapMeanInterval(tracking, bootstrap_seed++);
-    p.settled = BootstrapMeanInterval(settled, bootstrap_seed++);
-    p.collisions_per_episode = Mean(collisions);
-    p.time_in_collision_s = Mean(in_collision);
-    p.min_clearance_mm = Mean(clearance);
-    p.control_us = Median(control);
+    p.seed_success = SeedMeanInterval(p.seed_success_rates);
+    p.tracking = HierarchicalBootstrapMeanInterval(tracking, seed);
+    p.settled = HierarchicalBootstrapMeanInterval(settled, seed + 1);
+    p.collisions_per_episode = FiniteMean(collisions);
+    p.time_in_collision_s = FiniteMean(in_collision);
+    p.min_clearance_mm = FiniteMean(clearance);
+    p.control_us = FiniteMedian(control);
   }
   return pooled;
 }
@@ -142,17 +130,19 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
     }
     const double n = static_cast<double>(r.episodes.size());
     csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition, r.train_seed, r.episodes.size(),
-                       Num(n > 0 ? successes / n : NAN, "{:.4f}"), Num(Mean(tracking), "{:.2f}"),
-                       Num(Mean(settled), "{:.2f}"), Num(Mean(collisions), "{:.3f}"), Num(Mean(in_collision), "{:.3f}"),
-                       Num(Mean(clearance), "{:.1f}"), Num(Median(control), "{:.2f}"));
+                       Num(n > 0 ? successes / n : NAN, "{:.4f}"), Num(FiniteMean(tracking), "{:.2f}"),
+                       Num(FiniteMean(settled), "{:.2f}"), Num(FiniteMean(collisions), "{:.3f}"), Num(FiniteMean(in_collision), "{:.3f}"),
+                       Num(FiniteMean(clearance), "{:.1f}"), Num(FiniteMedian(control), "{:.2f}"));
   }
   std::ofstream summary = Open(out / "summary.csv");
-  summary << "method,condition,train_seeds,episodes,success_rate,success_low,success_high,tracking_mm,tracking_low,"
+  summary << "method,condition,train_seeds,episodes,success_rate,success_low,success_high,seed_success_low,"
+             "seed_success_high,tracking_mm,tracking_low,"
              "tracking_high,settled_tracking_mm,settled_low,settled_high,collisions_per_episode,control_step_us\n";
   for (const Pooled& p : Pool(rows)) {
-    summary << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", p.method, p.condition, p.seeds.size(),
-                           p.episodes, Num(p.success.value, "{:.4f}"), Num(p.success.low, "{:.4f}"),
-                           Num(p.success.high, "{:.4f}"), Num(p.tracking.value, "{:.2f}"), Num(p.tracking.low, "{:.2f}"),
+    summary << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", p.method, p.condition,
+                           p.seeds.size(), p.episodes, Num(p.success.value, "{:.4f}"), Num(p.success.low, "{:.4f}"),
+                           Num(p.success.high, "{:.4f}"), Num(p.seed_success.low, "{:.4f}"),
+                           Num(p.seed_success.high, "{:.4f}"), Num(p.tracking.value, "{:.2f}"), Num(p.tracking.low, "{:.2f}"),
                            Num(p.tracking.high, "{:.2f}"), Num(p.settled.value, "{:.2f}"), Num(p.settled.low, "{:.2f}"),
                            Num(p.settled.high, "{:.2f}"), Num(p.collisions_per_episode, "{:.3f}"),
                            Num(p.control_us, "{:.2f}"));
@@ -165,21 +155,23 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
   md << fmt::format("Command: `{}`  \nWall clock: {:.1f} min on this machine ({} hardware threads).\n\n",
                     text.command, text.wall_seconds / 60.0, std::thread::hardware_concurrency());
   md << text.setup << "\n\n";
-  md << "Success = no collision event in the episode. Rates: pooled over the training seeds' episodes with the 95 % "
-        "Wilson interval; per-seed rates in brackets. Means: 95 % percentile-bootstrap interval over episodes. "
+  md << "Success = no collision event in the episode. *success*: pooled over the training seeds' episodes with the "
+        "95 % Wilson interval (it treats episodes as independent; every seed replays the same episodes); *across "
+        "seeds*: the mean of the per-seed rates with the 95 % Student-t interval over seeds (the spread between "
+        "training runs; wide with 3 seeds). Means: 95 % two-level bootstrap (training seeds, then episodes). "
         "Tracking = mean end-effector–target distance over the episode; settled = over t ≥ 1 s.\n\n";
-  md << "| method | condition | seeds | episodes | success [95 % CI] | per seed | tracking mm [CI] | settled mm [CI] "
-        "| collisions / ep | min clearance mm | step µs | paper success | paper tracking |\n";
-  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  md << "| method | condition | seeds | episodes | success [95 % CI] | across seeds [95 % t] | per seed | tracking mm "
+        "[CI] | settled mm [CI] | collisions / ep | min clearance mm | step µs | paper success | paper tracking |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Pooled& p : Pool(rows)) {
     std::string per_seed;
-    for (double s : p.seed_success) per_seed += (per_seed.empty() ? "" : " / ") + Num(100.0 * s, "{:.0f}");
+    for (double s : p.seed_success_rates) per_seed += (per_seed.empty() ? "" : " / ") + Num(100.0 * s, "{:.0f}");
     PaperValue paper;
     if (auto it = text.paper.find({p.method, p.condition}); it != text.paper.end()) paper = it->second;
     const bool untrained = p.seeds.size() == 1 && p.seeds[0] == 0;
-    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", p.method, p.condition,
-                      untrained ? "–" : std::to_string(p.seeds.size()), p.episodes, Pct(p.success),
-                      untrained ? "–" : per_seed, Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", p.method,
+                      p.condition, untrained ? "–" : std::to_string(p.seeds.size()), p.episodes, Pct(p.success),
+                      untrained || p.seeds.size() < 2 ? "–" : Pct(p.seed_success), untrained ? "–" : per_seed, Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
                       Num(p.min_clearance_mm, "{:.0f}"), Num(p.control_us, "{:.1f}"),
                       paper.success.empty() ? "–" : paper.success, paper.tracking.empty() ? "–" : paper.tracking);
   }

@@ -4,7 +4,7 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,12 +12,11 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rl/torch/trainer.h"
-
-extern char** environ;
 
 namespace rmpmarl::experiments {
 namespace fs = std::filesystem;
@@ -75,6 +74,74 @@ bool RunFinished(const RunnerOptions& options, const std::string& id) {
   return fs::exists(RunPolicy(options, id)) && fs::exists(RunDirectory(options, id) / "final.ckpt");
 }
 
+namespace {
+
+/// the training config a run is trained with (its train.yaml).
+rl::TrainConfig RunConfig(const TrainingRun& r, const RunnerOptions& options) {
+  const fs::path dir = fs::absolute(RunDirectory(options, r.id));
+  rl::TrainConfig config = rl::LoadTrainConfig(r.base_config);
+  config.seed = r.seed;
+  if (r.total_updates > 0) config.total_updates = r.total_updates;
+  config.snapshot_updates = r.snapshot_updates;
+  config.output_dir = dir.string();
+  config.name = r.id;
+  config.checkpoint_every = std::min(config.checkpoint_every, config.total_updates);
+  if (!r.init_from.empty()) {
+    config.init_actor_from = (fs::absolute(RunDirectory(options, r.init_from)) / "final.ckpt").string();
+  }
+  if (!r.task_overrides.empty()) {
+    if (!config.task.overrides_yaml.empty()) {
+      throw InputError(fmt::format("training run {}: {} already has task overrides", r.id, r.base_config));
+    }
+    config.task.overrides_yaml = r.task_overrides;
+  }
+  return config;
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// a finished run with every snapshot, trained with exactly the config it would get now (else InputError: reusing
+/// it would report a different method than the one asked for).
+bool ReusableRun(const TrainingRun& r, const RunnerOptions& options) {
+  if (!RunFinished(options, r.id)) return false;
+  const fs::path dir = RunDirectory(options, r.id);
+  const std::string expected = rl::ToYaml(RunConfig(r, options));
+  if (ReadText(dir / "train.yaml") != expected) {
+    throw InputError(fmt::format("training run {} in {} was trained with a different config than this experiment "
+                                 "asks for (compare its train.yaml with:\n{}); move or delete the directory to "
+                                 "retrain it", r.id, dir.string(), expected));
+  }
+  for (int u : r.snapshot_updates) {
+    if (!fs::exists(RunPolicy(options, r.id, u))) {
+      throw InputError(fmt::format("training run {} finished without its snapshot {}; delete {} to retrain it", r.id,
+                                   RunPolicy(options, r.id, u).string(), dir.string()));
+    }
+  }
+  return true;
+}
+
+/// kills and reaps the children still running when TrainAll leaves by an exception.
+struct ChildGuard {
+  std::vector<pid_t>* pids;
+  ~ChildGuard() {
+    for (pid_t pid : *pids) kill(pid, SIGTERM);
+    for (pid_t pid : *pids) waitpid(pid, nullptr, 0);
+  }
+};
+
+std::string DescribeStatus(int status) {
+  if (WIFEXITED(status)) return fmt::format("exit status {}", WEXITSTATUS(status));
+  if (WIFSIGNALED(status)) return fmt::format("killed by signal {}", WTERMSIG(status));
+  return fmt::format("wait status {}", status);
+}
+
+}  // namespace
+
 void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options) {
   if (options.jobs < 1) throw InputError(fmt::format("jobs: expected >= 1, got {}", options.jobs));
   const fs::path cli = options.cli.empty() ? SelfExecutable() : options.cli;
@@ -90,7 +157,7 @@ void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options
   }
   std::vector<const TrainingRun*> pending;
   for (const TrainingRun& r : runs) {
-    if (RunFinished(options, r.id)) {
+    if (ReusableRun(r, options)) {
       fmt::print("  run {}: finished before, reused ({})\n", r.id, RunDirectory(options, r.id).string());
     } else {
       pending.push_back(&r);
@@ -98,11 +165,9 @@ void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options
   }
   std::fflush(stdout);
   std::vector<Running> running;
+  std::vector<pid_t> children;  // of `running`, for the guard
+  const ChildGuard guard{&children};
   auto last_progress = std::chrono::steady_clock::now();
-  const auto kill_all = [&running] {
-    for (const Running& c : running) kill(c.pid, SIGTERM);
-    for (const Running& c : running) waitpid(c.pid, nullptr, 0);
-  };
 
   while (!pending.empty() || !running.empty()) {
     // start what is ready
@@ -114,43 +179,33 @@ void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options
       }
       const fs::path dir = fs::absolute(RunDirectory(options, r.id));
       fs::create_directories(dir);
-      rl::TrainConfig config = rl::LoadTrainConfig(r.base_config);
-      config.seed = r.seed;
-      if (r.total_updates > 0) config.total_updates = r.total_updates;
-      config.snapshot_updates = r.snapshot_updates;
-      config.output_dir = dir.string();
-      config.name = r.id;
-      config.checkpoint_every = std::min(config.checkpoint_every, config.total_updates);
-      if (!r.init_from.empty()) config.init_actor_from = (fs::absolute(RunDirectory(options, r.init_from)) /
-                                                          "final.ckpt").string();
-      if (!r.task_overrides.empty()) {
-        if (!config.task.overrides_yaml.empty()) {
-          throw InputError(fmt::format("training run {}: {} already has task overrides", r.id, r.base_config));
-        }
-        config.task.overrides_yaml = r.task_overrides;
-      }
+      const rl::TrainConfig config = RunConfig(r, options);
       const fs::path yaml = dir / "train.yaml";
       std::ofstream(yaml, std::ios::trunc) << rl::ToYaml(config);
       const bool resume = fs::exists(dir / "checkpoint.ckpt");
       const int first = resume ? LastLoggedUpdate(dir) : 0;
 
-      posix_spawn_file_actions_t actions;
-      posix_spawn_file_actions_init(&actions);
-      const std::string log = (dir / "train.log").string();
-      posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-      posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
       std::vector<std::string> args = {cli.string(), "train", yaml.string()};
       if (resume) args.push_back("--resume");
       std::vector<char*> argv;
       for (std::string& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
-      pid_t pid = -1;
-      const int rc = posix_spawn(&pid, cli.c_str(), &actions, nullptr, argv.data(), environ);
-      posix_spawn_file_actions_destroy(&actions);
-      if (rc != 0) {
-        kill_all();
-        throw InputError(fmt::format("cannot start {} for training run {}: {}", cli.string(), r.id, strerror(rc)));
+      const std::string log = (dir / "train.log").string();
+      const pid_t parent = getpid();
+      const pid_t pid = fork();
+      if (pid < 0) throw InputError(fmt::format("cannot start training run {}: fork failed", r.id));
+      if (pid == 0) {  // the child: dies with the experiment (no orphan keeps writing the run), output to the log
+        prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (getppid() != parent) _exit(127);
+        const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+        if (fd < 0) _exit(126);
+        dup2(fd, STDOUT_FILENO);
+        dup2(fd, STDERR_FILENO);
+        close(fd);
+        execv(cli.c_str(), argv.data());
+        _exit(127);
       }
+      children.push_back(pid);
       fmt::print("  run {}: {} {} updates{} (log {})\n", r.id, resume ? "resuming at update " +
                  std::to_string(first) + " of" : "training", config.total_updates,
                  r.init_from.empty() ? "" : ", actor from " + r.init_from, log);
@@ -173,12 +228,11 @@ void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options
       }
       const fs::path dir = RunDirectory(options, it->run->id);
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->start).count();
+      std::erase(children, it->pid);
       if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0) || !RunFinished(options, it->run->id)) {
-        const std::string id = it->run->id;
-        running.erase(it);
-        kill_all();
-        throw InputError(fmt::format("training run {} failed (exit status {}); the end of {}:\n{}", id, status,
-                                     (dir / "train.log").string(), LogTail(dir / "train.log", 15)));
+        throw InputError(fmt::format("training run {} failed ({}); the end of {}:\n{}", it->run->id,
+                                     DescribeStatus(status), (dir / "train.log").string(),
+                                     LogTail(dir / "train.log", 15)));
       }
       fmt::print("  run {}: done in {}\n", it->run->id, Duration(elapsed));
       std::fflush(stdout);

@@ -23,6 +23,7 @@
 #include <utility>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/common/random.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/math/geometry.h"
 
@@ -39,14 +40,6 @@ constexpr int kStatsCapacity = 4096;   // planning_times_s entries reserved up f
 // throws InputError "RrtOptions.<field>: expected <expected>, got <got>" unless ok (and got is a number).
 void Require(bool ok, std::string_view field, std::string_view expected, double got) {
   if (!ok || std::isnan(got)) throw InputError(fmt::format("RrtOptions.{}: expected {}, got {}", field, expected, got));
-}
-
-// SplitMix64 finaliser (Steele, Lea & Flood, OOPSLA 2014): decorrelates the per-plan sampler seeds.
-std::uint64_t SplitMix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
 }
 
 // OMPL's uniform sampler with an instance seed (ompl::RNG::setLocalSeed) instead of one drawn from the process-wide

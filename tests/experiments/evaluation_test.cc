@@ -164,5 +164,41 @@ TEST(StatisticsTest, BootstrapIntervalCoversTheMeanAndShrinksWithTheSample) {
   EXPECT_EQ(BootstrapMeanInterval(small, 9).low, BootstrapMeanInterval(small, 9).low);  // seeded
 }
 
+TEST(StatisticsTest, SeedIntervalUsesStudentT) {
+  // {0.8, 0.6, 0.7}: mean 0.7, s = 0.1, t(0.975, 2) = 4.303 → half width 4.303 · 0.1 / √3 = 0.2484
+  const Interval i = SeedMeanInterval({0.8, 0.6, 0.7});
+  EXPECT_NEAR(i.value, 0.7, 1e-12);
+  EXPECT_NEAR(i.high - i.value, 0.24844, 1e-4);
+  EXPECT_NEAR(i.value - i.low, 0.24844, 1e-4);
+  EXPECT_TRUE(std::isnan(SeedMeanInterval({0.5}).low));
+  EXPECT_EQ(FiniteMedian({4.0, 1.0, NAN, 3.0, 2.0}), 2.5);
+  EXPECT_EQ(FiniteMedian({3.0, 1.0, 2.0}), 2.0);
+  EXPECT_EQ(LabelSeed("a|b"), LabelSeed("a|b"));
+  EXPECT_NE(LabelSeed("a|b"), LabelSeed("a|c"));
+}
+
+// seeds that disagree: the two-level bootstrap carries the spread between groups, the pooled one does not
+TEST(StatisticsTest, HierarchicalBootstrapCarriesTheSpreadBetweenSeeds) {
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::vector<std::vector<double>> groups(3);
+  std::vector<double> pooled;
+  const double centres[] = {10.0, 14.0, 18.0};
+  for (int g = 0; g < 3; ++g) {
+    for (int k = 0; k < 100; ++k) {
+      groups[g].push_back(centres[g] + noise(rng));
+      pooled.push_back(groups[g].back());
+    }
+  }
+  const Interval flat = BootstrapMeanInterval(pooled, 3), nested = HierarchicalBootstrapMeanInterval(groups, 3);
+  EXPECT_NEAR(nested.value, flat.value, 1e-12);
+  EXPECT_GT(nested.high - nested.low, 5.0 * (flat.high - flat.low));
+  EXPECT_LE(nested.low, 12.0);
+  EXPECT_GE(nested.high, 16.0);
+  // one group: the plain bootstrap
+  const Interval single = HierarchicalBootstrapMeanInterval({groups[0]}, 3);
+  EXPECT_EQ(single.low, BootstrapMeanInterval(groups[0], 3).low);
+}
+
 }  // namespace
 }  // namespace rmpmarl::experiments

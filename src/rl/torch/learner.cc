@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/common/random.h"
 #include "rmpmarl/rl/torch/networks.h"
 #include "rmpmarl/rl/torch/ppo.h"
 
@@ -34,14 +35,6 @@ torch::Tensor ZerosLike(const torch::Tensor& batch_source) {
 }
 
 at::Generator MakeGenerator(std::uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
-
-// splitmix64: independent seeds for the init and sampling generators.
-std::uint64_t Mix(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
 
 // bfloat16 CPU autocast for the forward passes inside its scope (PpoOptions::bf16_autocast); a no-op when off.
 class Bf16Autocast {
@@ -404,14 +397,14 @@ Ppo::Ppo(const EnvSpec& spec, const NetworkOptions& network, const PpoOptions& o
       obs_norm_(spec.local_obs_dim),
       state_norm_(spec.global_state_dim),
       value_norm_(1),
-      generator_(MakeGenerator(Mix(seed ^ 0x5A3D1E))) {
+      generator_(MakeGenerator(SplitMix64(seed ^ 0x5A3D1E))) {
   if (spec.local_obs_dim < 1 || spec.global_state_dim < 1 || spec.num_agents < 1) {
     throw InputError(fmt::format("env spec of task {}: expected positive obs/state dims and agents, got {}/{}/{}",
                                  spec.task, spec.local_obs_dim, spec.global_state_dim, spec.num_agents));
   }
   actor_ = Actor(spec.local_obs_dim, layout_, network);
   critic_ = Critic(spec.global_state_dim, network);
-  at::Generator init = MakeGenerator(Mix(seed));
+  at::Generator init = MakeGenerator(SplitMix64(seed));
   InitMlp(actor_->mlp(), network.actor_output_gain(), init);
   InitMlp(critic_->mlp(), 1.0, init);
   std::vector<torch::optim::OptimizerParamGroup> groups;

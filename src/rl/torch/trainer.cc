@@ -638,11 +638,12 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
       }
       tb->Write(last.env_steps, scalars);
     }
-    if (files && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
+    // the snapshot first: a process killed between the two resumes from the previous checkpoint and re-exports it
     if (files && std::find(config.snapshot_updates.begin(), config.snapshot_updates.end(), u) !=
                      config.snapshot_updates.end()) {
       trainer.ExportPolicy(fmt::format("{}/policy-u{}.rmpp", out, u));
     }
+    if (files && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
     if (options.on_update) options.on_update(last);
     if (config.progress) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
