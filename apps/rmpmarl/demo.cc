@@ -38,27 +38,12 @@ struct DemoArgs {
   std::string task = "reach-avoid";  // the task the trained policy runs on
 };
 
-// a camera looking at a workspace from the front-left, far enough to see the whole reach.
-sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args);
-
-// a camera looking at the workspace from the front-left, far enough to see the whole reach.
-sim::RenderOptions CameraFor(const sim::Scenario& scenario, const DemoArgs& args) {
-  return CameraFor(scenario.workspace(), args);
+sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
+  return sim::CameraForWorkspace(ws, args.width, args.height);
 }
 
-sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
-  sim::RenderOptions options;
-  options.width = args.width;
-  options.height = args.height;
-  options.lookat = 0.5 * (ws.box.center() + Eigen::Vector3d(0.0, 0.0, ws.p_WS.z()));
-  if (ws.planar) options.lookat.z() = ws.box.center().z();
-  options.distance = 1.9 * std::max(ws.reach, 0.4);
-  options.draw_ground = !ws.planar;
-  // MuJoCo's azimuth is the camera heading in degrees; look along `front` from a point front-left of the robot
-  const double front_deg = std::atan2(ws.front.y(), ws.front.x()) * 180.0 / M_PI;
-  options.azimuth = front_deg + 180.0 - 40.0;
-  options.elevation = ws.planar ? -70.0 : -20.0;
-  return options;
+sim::RenderOptions CameraFor(const sim::Scenario& scenario, const DemoArgs& args) {
+  return CameraFor(scenario.workspace(), args);
 }
 
 void RunDemo(const DemoArgs& args) {

@@ -180,7 +180,7 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
             learned("marl-rmp", "marl-rmp")};
   }
-  if (experiment == "fig5") return {learned("marl-rmp", "marl-rmp"), rmpflow, basic};
+  if (experiment == "fig5") return {learned("marl-rmp", "marl-rmp"), rmpflow, basic, basic_ttc};
   throw InputError(fmt::format("unknown experiment \"{}\" (known: table3, table4, fig3, fig5, cluttered)", experiment));
 }
 
@@ -275,6 +275,11 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   RunnerOptions runner{o.runs, o.cli, o.jobs, 30.0};
   EvalProtocol protocol{.episodes = 0, .eval_seed = o.eval_seed, .jobs = o.jobs};
   auto episodes = [&](int full) { return o.episodes > 0 ? o.episodes : (o.quick ? 2 : full); };
+  std::vector<TrainingRun> runs;
+  auto train = [&] {
+    runs = RunsFor(RecipeKeys(entries), o.seeds, budgets);
+    TrainAll(runs, runner);
+  };
 
   ReportText text;
   text.command = o.command_line;
@@ -293,7 +298,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     // The paper's budgets 5K / 10K / 15K: 15K is our shipped pre-training budget (1200 updates × 16 envs × 128
     // steps = 2.46 M env steps); 5K and 10K are the snapshots after 1/3 and 2/3 of it.
     const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
-    TrainAll(RunsFor(RecipeKeys(entries), o.seeds, budgets), runner);
+    train();
     protocol.episodes = episodes(100);
     const rl::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
     const std::vector<std::string> names = {"5K", "10K", "15K"};
@@ -324,7 +329,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     for (const auto& [c, v] : hrl) text.paper[{"HRL-RMP", c}] = {v.first, v.second + " mm"};
     for (const auto& [c, v] : ppo) text.paper[{"PPO", c}] = {v.first, v.second + " mm"};
   } else if (o.name == "table4" || o.name == "cluttered") {
-    TrainAll(RunsFor(RecipeKeys(entries), o.seeds, budgets), runner);
+    train();
     if (o.name == "table4") {
       protocol.episodes = episodes(40);
       for (double v : {0.2, 0.6, 1.2, 1.8, 2.8}) {
@@ -362,7 +367,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
           "qualitatively only. {} episodes per seed.\n\n{}", protocol.episodes, training_note);
     }
   } else if (o.name == "fig3") {
-    TrainAll(RunsFor(RecipeKeys(entries), o.seeds, budgets), runner);
+    train();
     std::vector<LearnedRuns> learned;
     for (const Entry& e : entries) {
       const Recipe& r = FindRecipe(e.recipe);
@@ -383,7 +388,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
         "The table below the curves evaluates each final policy on {} held-out reach-avoid episodes per seed.\n\n{}",
         budgets.panda, protocol.episodes, training_note);
   } else if (o.name == "fig5") {
-    TrainAll(RunsFor(RecipeKeys(entries), o.seeds, budgets), runner);
+    train();
     protocol.episodes = episodes(30);
     std::vector<std::string> arms = kinematics::ShippedRobotNames();
     if (o.quick) arms.resize(std::min<size_t>(arms.size(), 2));
@@ -407,6 +412,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
       RenderFig5Frames(arms, task, final_policy(FindRecipe("marl-rmp"), 1), o.eval_seed, o.out, &text.notes);
     }
   }
+  if (!runs.empty()) text.notes += "\n## Training runs\n\n" + DescribeRuns(runs, runner);
   WriteResultFiles(rows, o.out);
   text.plots = o.plots ? MakePlots(o.name, o.out) : std::vector<std::string>{};
   text.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

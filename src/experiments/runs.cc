@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <map>
@@ -60,6 +61,48 @@ std::string LogTail(const fs::path& log, int lines) {
 }
 
 }  // namespace
+
+std::string DescribeRuns(const std::vector<TrainingRun>& runs, const RunnerOptions& options) {
+  std::string md = "| training run | updates | env steps | window success | window return | wall clock |\n"
+                   "|---|---|---|---|---|---|\n";
+  double total = 0.0;
+  for (const TrainingRun& r : runs) {
+    std::ifstream in(RunDirectory(options, r.id) / "metrics.csv");
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> header;
+    {
+      std::stringstream ss(line);
+      for (std::string f; std::getline(ss, f, ',');) header.push_back(f);
+    }
+    const auto column = [&](const char* name) {
+      return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+    };
+    const size_t c_seconds = column("seconds"), c_steps = column("env_steps"), c_success = column("success_rate"),
+                 c_return = column("mean_return");
+    double seconds = 0.0;
+    std::vector<std::string> last;
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+      if (f.size() != header.size()) continue;
+      seconds += std::stod(f[c_seconds]);
+      last = f;
+    }
+    total += seconds;
+    if (last.empty()) {
+      md += fmt::format("| {} | – | – | – | – | – |\n", r.id);
+      continue;
+    }
+    md += fmt::format("| {} | {} | {:.2f} M | {:.0f} % | {:.0f} | {:.1f} min |\n", r.id, last[0],
+                      std::stod(last[c_steps]) * 1e-6, 100.0 * std::stod(last[c_success]), std::stod(last[c_return]),
+                      seconds / 60.0);
+  }
+  md += fmt::format("\nTraining total: {:.1f} core-minutes ({:.1f} min of wall clock at {} processes at once).\n",
+                    total / 60.0, total / 60.0 / options.jobs, options.jobs);
+  return md;
+}
 
 fs::path SelfExecutable() { return fs::read_symlink("/proc/self/exe"); }
 

@@ -1,6 +1,8 @@
 // Offscreen MuJoCo rendering through EGL, and MP4 / PNG video output.
 #include "rmpmarl/sim/render.h"
 
+#include "rmpmarl/sim/scenario.h"
+
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <GL/gl.h>
@@ -304,6 +306,21 @@ void WritePng(const std::filesystem::path& path, const std::vector<std::uint8_t>
   std::ofstream file(path, std::ios::binary);
   if (!file) throw InputError(fmt::format("{}: cannot write PNG", path.string()));
   file.write(png.data(), static_cast<std::streamsize>(png.size()));
+}
+
+RenderOptions CameraForWorkspace(const Workspace& ws, int width, int height) {
+  RenderOptions options;
+  options.width = width;
+  options.height = height;
+  options.lookat = 0.5 * (ws.box.center() + Eigen::Vector3d(0.0, 0.0, ws.p_WS.z()));
+  if (ws.planar) options.lookat.z() = ws.box.center().z();
+  options.distance = 1.9 * std::max(ws.reach, 0.4);
+  options.draw_ground = !ws.planar;
+  // MuJoCo's azimuth is the camera heading in degrees; look along `front` from a point front-left of the robot
+  const double front_deg = std::atan2(ws.front.y(), ws.front.x()) * 180.0 / M_PI;
+  options.azimuth = front_deg + 180.0 - 40.0;
+  options.elevation = ws.planar ? -70.0 : -20.0;
+  return options;
 }
 
 }  // namespace rmpmarl::sim

@@ -41,6 +41,10 @@ bool RunFinished(const RunnerOptions& options, const std::string& id);
 /// a run that failed, or a dependency that is not in `runs`.
 void TrainAll(const std::vector<TrainingRun>& runs, const RunnerOptions& options);
 
+/// a markdown table of the runs: updates, env steps, final training-window success and return, and the training
+/// wall clock of each (the sum of its metrics.csv update times, resumes included), with the total.
+std::string DescribeRuns(const std::vector<TrainingRun>& runs, const RunnerOptions& options);
+
 /// the path of this process's executable (/proc/self/exe).
 std::filesystem::path SelfExecutable();
 

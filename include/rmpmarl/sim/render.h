@@ -25,6 +25,12 @@ struct RenderOptions {
   bool draw_ground = true;                                     ///< a visual-only ground plane at z = 0
 };
 
+struct Workspace;
+
+/// a camera looking at a robot's workspace from the front-left, far enough to see the whole reach (top-down-ish for
+/// a planar arm), for images of width × height.
+RenderOptions CameraForWorkspace(const Workspace& workspace, int width, int height);
+
 /// An EGL context + MuJoCo render context for one model. Not thread-safe; use from the thread that created it.
 class OffscreenRenderer {
  public:
