@@ -183,6 +183,15 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
           if (step.terminated || step.truncated) break;
         }
         r.metrics = step.metrics;
+        if (const auto* rrt = dynamic_cast<const planning::RrtPolicy*>(env->external_policy()); rrt != nullptr) {
+          const planning::RrtStats& st = rrt->stats();
+          r.plans = st.plans_attempted;
+          r.plans_succeeded = st.plans_succeeded;
+          for (double t : st.planning_times_s) {
+            r.planning_ms_mean += 1000.0 * t / st.planning_times_s.size();
+            r.planning_ms_max = std::max(r.planning_ms_max, 1000.0 * t);
+          }
+        }
         r.control_step_us = act_us / steps + step.metrics.mean_control_us;
       }
     } catch (...) {

@@ -108,7 +108,7 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
   std::ofstream episodes = Open(out / "episodes.csv");
   episodes << "method,condition,train_seed,episode,episode_seed,variant,setting,success,collisions,"
               "time_in_collision_s,tracking_mm,settled_tracking_mm,final_tracking_mm,min_clearance_mm,length,"
-              "return,control_step_us\n";
+              "return,control_step_us,plans,plans_succeeded,planning_ms_mean,planning_ms_max\n";
   for (const ResultRow& r : rows) {
     std::vector<double> tracking, settled, collisions, in_collision, clearance, control;
     int successes = 0;
@@ -121,12 +121,13 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
       in_collision.push_back(m.time_in_collision_s);
       clearance.push_back(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN);
       control.push_back(e.control_step_us);
-      episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition,
+      episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition,
                               r.train_seed, e.index, e.episode_seed, e.variant, e.setting, m.success ? 1 : 0,
                               m.collisions, Num(m.time_in_collision_s, "{:.3f}"), Num(m.mean_tracking_error_mm, "{:.2f}"),
                               Num(m.settled_tracking_error_mm, "{:.2f}"), Num(m.final_tracking_error_mm, "{:.2f}"),
                               Num(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN, "{:.1f}"),
-                              m.length, Num(m.episode_return, "{:.2f}"), Num(e.control_step_us, "{:.2f}"));
+                              m.length, Num(m.episode_return, "{:.2f}"), Num(e.control_step_us, "{:.2f}"), e.plans,
+                              e.plans_succeeded, Num(e.planning_ms_mean, "{:.3f}"), Num(e.planning_ms_max, "{:.3f}"));
     }
     const double n = static_cast<double>(r.episodes.size());
     csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition, r.train_seed, r.episodes.size(),
@@ -174,6 +175,29 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
                       untrained || p.seeds.size() < 2 ? "–" : Pct(p.seed_success), untrained ? "–" : per_seed, Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
                       Num(p.min_clearance_mm, "{:.0f}"), Num(p.control_us, "{:.1f}"),
                       paper.success.empty() ? "–" : paper.success, paper.tracking.empty() ? "–" : paper.tracking);
+  }
+  // planning statistics of planner rows (RRT)
+  std::string planners;
+  for (const Pooled& p : Pool(rows)) {
+    long plans = 0, succeeded = 0;
+    double sum_ms = 0.0, max_ms = 0.0;
+    for (const ResultRow& r : rows) {
+      if (r.method != p.method || r.condition != p.condition) continue;
+      for (const EpisodeRecord& e : r.episodes) {
+        plans += e.plans;
+        succeeded += e.plans_succeeded;
+        sum_ms += e.planning_ms_mean * e.plans;
+        max_ms = std::max(max_ms, e.planning_ms_max);
+      }
+    }
+    if (plans == 0) continue;
+    planners += fmt::format("| {} | {} | {:.1f} | {:.0f} % | {:.2f} ms | {:.1f} ms |\n", p.method, p.condition,
+                            static_cast<double>(plans) / p.episodes, 100.0 * succeeded / plans, sum_ms / plans, max_ms);
+  }
+  if (!planners.empty()) {
+    md << "\nPlanning (wall clock of each replan: IK + RRT-Connect + shortcut; the simulation waits for it):\n\n"
+          "| method | condition | replans / episode | found a path | mean | max |\n|---|---|---|---|---|---|\n"
+       << planners;
   }
   md << "\n" << text.notes << "\n";
   if (!text.plots.empty()) {

@@ -60,6 +60,9 @@ struct EpisodeRecord {
   /// wall time per control step of the whole method: the policy's forward pass (learned methods) plus the env's
   /// controller (basic layer / RMPflow / RRT) [µs]
   double control_step_us = 0.0;
+  /// planners (RRT): replans in the episode, how many found a path, and their wall times [ms] (0 otherwise)
+  int plans = 0, plans_succeeded = 0;
+  double planning_ms_mean = 0.0, planning_ms_max = 0.0;
 };
 
 /// seed of episode i of evaluation seed S: splitmix64 of (S, i), forced ≥ 2^32 so that it never equals a training

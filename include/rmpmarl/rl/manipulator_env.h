@@ -129,6 +129,10 @@ class ManipulatorEnv final : public Env {
   /// the scenario setting of the current episode (line-crossing: index into the speeds).
   int scenario_setting() const { return setting_; }
   const OptionMachine& option_machine(int agent) const { return options_[agent]; }
+  /// the external controller's policy of the current episode (nullptr when the agents act).
+  const sim::AccelerationPolicy* external_policy() const {
+    return external_controller_ != nullptr ? &external_controller_->policy() : nullptr;
+  }
   const StepInfo& last_step() const { return info_; }
   /// the metrics of the running episode so far.
   const EpisodeMetrics& metrics() const { return metrics_; }
