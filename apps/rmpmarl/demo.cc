@@ -264,14 +264,14 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--scenario", args.scenario, "scenario: " + scenarios)->capture_default_str();
   cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--video", args.video, "write an MP4 here (PNG frames when ffmpeg is absent)");
-  cmd->add_option("--fps", args.fps, "video frame rate")->check(CLI::PositiveNumber)->capture_default_str();
-  cmd->add_option("--width", args.width, "video width [px]")->capture_default_str();
-  cmd->add_option("--height", args.height, "video height [px]")->capture_default_str();
-  cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]");
-  cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]");
-  cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles");
+  cmd->add_option("--fps", args.fps, "video frame rate")->check(CLI::Range(1.0, 240.0))->capture_default_str();
+  cmd->add_option("--width", args.width, "video width [px]")->check(CLI::Range(16, 4096))->capture_default_str();
+  cmd->add_option("--height", args.height, "video height [px]")->check(CLI::Range(16, 4096))->capture_default_str();
+  cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
+  cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
+  cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
   cmd->add_option("--policy", args.policy,
                   "rmpflow: RMPflow alone on --scenario; a .rmpp file: those per-joint agents and RMPflow on the same "
                   "task episode (default: the shipped models/policies/marl-rmp.rmpp vs RMPflow when it exists)");

@@ -33,13 +33,23 @@ std::string TrainConfigPath(const std::string& name) {
   return (rl::TaskConfigDirectory().parent_path() / "train" / (name + ".yaml")).string();
 }
 
-/// The basic layer as first implemented (issue 9's ablation "v0"): the collision RMPs alone in the collision option
-/// and composite phase b, and W_i from every warning contact including the robot's own links.
-void BasicLayerV0(rl::TaskConfig& task) {
-  task.options.collision_target_weight = 0.0;
-  task.options.warnings = rl::OptionWarnings::kAll;
-}
-const char* kBasicLayerV0Yaml = "options: {collision_target_weight: 0, warnings: all}";
+/// A variant of the basic layer under the agents (an ablation): task overrides for training and the same change
+/// applied to the evaluation task.
+struct LayerVariant {
+  const char* yaml;                   ///< merged into the training task's overrides
+  void (*apply)(rl::TaskConfig& task);
+};
+
+/// the basic layer as first implemented ("v0", issue 9): the collision RMPs alone in the collision option and
+/// composite phase b, and W_i from every warning contact including the robot's own links.
+const LayerVariant kLayerV0{"options: {collision_target_weight: 0, warnings: all}", [](rl::TaskConfig& task) {
+                              task.options.collision_target_weight = 0.0;
+                              task.options.warnings = rl::OptionWarnings::kAll;
+                            }};
+/// the basic layer integrated at 2 ms substeps (5 evaluations per 10 ms control step, as RMPflow's controller)
+/// instead of one evaluation per control step.
+const LayerVariant kLayer2ms{"controller: {max_substep: 0.002}",
+                             [](rl::TaskConfig& task) { task.controller.max_substep = 0.002; }};
 
 /// A learned method: a training recipe, seeds 1..N.
 struct Recipe {
@@ -49,7 +59,7 @@ struct Recipe {
   rl::InterfaceMode interface;
   std::string init_prefix;  ///< pre-training run prefix ("" none)
   bool experiment_slots;    ///< trained with kObstacleSlots (the reach-avoid methods)
-  bool layer_v0 = false;    ///< trained and evaluated with BasicLayerV0 (ablation)
+  const LayerVariant* layer = nullptr;  ///< trained and evaluated on this basic-layer variant (ablation)
 };
 
 const std::vector<Recipe>& Recipes() {
@@ -67,11 +77,13 @@ const std::vector<Recipe>& Recipes() {
       {"marl-ppo", "MARL-PPO", "marl-ppo", "marl-ppo-reach-avoid", InterfaceMode::kPerJointDirect, "marl-ppo-2link",
        true},
       {"marl-rmp", "MARL-RMP", "marl-rmp", "mappo-reach-avoid", InterfaceMode::kPerJointRmp, "hrl-rmp-2link", true},
-      // ablation: the same recipes on the first basic layer (BasicLayerV0)
+      // ablations: the same recipes on other basic layers
       {"hrl-rmp-v0", "HRL-RMP (v0 basic layer)", "hrl-rmp-2link-v0", "pretrain-2link", InterfaceMode::kPerJointRmp,
-       "", false, true},
+       "", false, &kLayerV0},
       {"marl-rmp-v0", "MARL-RMP (v0 basic layer)", "marl-rmp-v0", "mappo-reach-avoid", InterfaceMode::kPerJointRmp,
-       "hrl-rmp-2link-v0", true, true},
+       "hrl-rmp-2link-v0", true, &kLayerV0},
+      {"marl-rmp-2ms", "MARL-RMP (2 ms basic layer)", "marl-rmp-2ms", "mappo-reach-avoid",
+       InterfaceMode::kPerJointRmp, "hrl-rmp-2link", true, &kLayer2ms},
   };
   return recipes;
 }
@@ -119,7 +131,7 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
     run.init_from = init;
     std::vector<std::string> overrides;
     if (r.experiment_slots) overrides.push_back(fmt::format("observation: {{max_obstacles: {}}}", kObstacleSlots));
-    if (r.layer_v0) overrides.push_back(kBasicLayerV0Yaml);
+    if (r.layer != nullptr) overrides.push_back(r.layer->yaml);
     if (!overrides.empty()) run.task_overrides = fmt::format("{{{}}}", fmt::join(overrides, ", "));
     runs.push_back(run);
     added.insert(id);
@@ -164,8 +176,11 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   const Entry basic = fixed("basic", Method::FixedOption("basic layer (target option)", 0));
   const Entry basic_ttc = fixed("basic-ttc", Method::FixedOption("basic layer (target-then-collision)", 2));
   Method ttc_v0 = Method::FixedOption("basic layer v0 (target-then-collision)", 2);
-  ttc_v0.adjust_task = BasicLayerV0;
+  ttc_v0.adjust_task = kLayerV0.apply;
   const Entry basic_ttc_v0 = fixed("basic-ttc-v0", ttc_v0);
+  Method ttc_2ms = Method::FixedOption("basic layer 2 ms (target-then-collision)", 2);
+  ttc_2ms.adjust_task = kLayer2ms.apply;
+  const Entry basic_ttc_2ms = fixed("basic-ttc-2ms", ttc_2ms);
   const Entry rmpflow = fixed("rmpflow", Method::Rmpflow());
   const Entry rrt = fixed("rrt", Method::Rrt());
   if (experiment == "table3") {
@@ -174,7 +189,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   }
   if (experiment == "table4" || experiment == "cluttered") {
     return {learned("ppo", "ppo"), learned("mappo", "mappo"), learned("marl-ppo", "marl-ppo"), rmpflow, rrt,
-            learned("marl-rmp", "marl-rmp"), basic, basic_ttc, learned("marl-rmp-v0", "marl-rmp-v0"), basic_ttc_v0};
+            learned("marl-rmp", "marl-rmp"), basic, basic_ttc, learned("marl-rmp-v0", "marl-rmp-v0"), basic_ttc_v0,
+            learned("marl-rmp-2ms", "marl-rmp-2ms"), basic_ttc_2ms};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
@@ -237,7 +253,7 @@ void AddJobs(const std::vector<Entry>& entries, const std::string& condition, co
     const Recipe& r = FindRecipe(e.recipe);
     for (int s = 1; s <= seeds; ++s) {
       Method m = Method::Policy(e.label, policy(r, s).string(), r.interface);
-      if (r.layer_v0) m.adjust_task = BasicLayerV0;
+      if (r.layer != nullptr) m.adjust_task = r.layer->apply;
       jobs->push_back({m, condition, s, task});
     }
   }

@@ -57,4 +57,14 @@ TEST(CliTest, MissingArgumentsIsAUsageError) {
   EXPECT_NE(r.output.find("required"), std::string::npos) << r.output;
 }
 
+// values no user means are refused at once with the allowed range, instead of running for minutes
+TEST(CliTest, DemoRefusesUnreasonableSizesWithTheAllowedRange) {
+  for (const char* args : {"demo --obstacles 100000", "demo --duration 1e9", "demo --width 100000",
+                           "demo --fps 0", "demo --obstacle-speed 1000"}) {
+    const CommandResult r = RunCli(args);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_NE(r.output.find("not in range"), std::string::npos) << args << ": " << r.output;
+  }
+}
+
 }  // namespace
