@@ -139,8 +139,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
       } else {
         planning::RrtOptions rrt = method.rrt;
         const double period = spec.control_dt;
-        const int substeps = static_cast<int>(std::ceil(period / external.options.max_substep - 1e-9));
-        rrt.evaluation_period = period / substeps;
+        rrt.evaluation_period = period / sim::ControlSubsteps(period, external.options);
         external.make_policy = [rrt](const kinematics::Robot& robot) {
           return std::make_unique<planning::RrtPolicy>(robot, rrt);
         };

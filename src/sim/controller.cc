@@ -31,6 +31,10 @@ void RmpflowAccelerationPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>
 
 int RmpflowAccelerationPolicy::nq() const { return policy_.tree().robot().model.nq(); }
 
+int ControlSubsteps(double period, const ControllerOptions& options) {
+  return std::max(1, static_cast<int>(std::ceil(period / options.max_substep - 1e-9)));
+}
+
 void ValidateControllerOptions(const ControllerOptions& o, double physics_timestep) {
   if (!std::isfinite(o.control_rate) || !(o.control_rate > 0.0)) {
     throw InputError(fmt::format("ControllerOptions.control_rate: expected a finite rate > 0 Hz, got {}",
@@ -74,7 +78,7 @@ ReactiveController::ReactiveController(const WorldModel& model, std::unique_ptr<
   ValidateControllerOptions(options_, timestep);
   physics_steps_ = static_cast<int>(std::lround(1.0 / (options_.control_rate * timestep)));
   period_ = physics_steps_ * timestep;
-  substeps_ = std::max(1, static_cast<int>(std::ceil(period_ / options_.max_substep - 1e-9)));
+  substeps_ = ControlSubsteps(period_, options_);
   lower_ = model.lower_limits();
   upper_ = model.upper_limits();
   v_max_.resize(nq);

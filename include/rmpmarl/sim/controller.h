@@ -87,6 +87,10 @@ struct ControllerOptions {
   double resync_threshold = 0.25;
 };
 
+/// the substeps per control step of `period` [s]: ceil(period / max_substep), at least 1 (the controller's rule; a
+/// policy that keeps its own clock, e.g. the RRT replanner, uses period / ControlSubsteps as its evaluation period).
+int ControlSubsteps(double period, const ControllerOptions& options);
+
 /// throws InputError (expected vs got) unless the options are valid for a world with the given physics timestep.
 void ValidateControllerOptions(const ControllerOptions& options, double physics_timestep);
 
