@@ -38,6 +38,8 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   cmd->add_option("--out", *out, "output directory (default results/NAME)");
   cmd->add_option("--runs", *runs, "training runs directory, shared by experiments (default: beside --out, runs/)");
   cmd->add_flag("--no-plots", [options](std::int64_t) { options->plots = false; }, "skip the PNG plots");
+  cmd->add_flag("--shipped", options->shipped,
+                "evaluation only: learned methods from the policies shipped in models/policies/ (others left out)");
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
   cmd->callback([options, out, runs, methods, command_line] {

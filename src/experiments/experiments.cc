@@ -97,6 +97,13 @@ const Recipe& FindRecipe(const std::string& key) {
 
 std::string RunId(const std::string& prefix, int seed) { return fmt::format("{}-seed{}", prefix, seed); }
 
+/// the shipped policy of a recipe (models/policies/, written by scripts/ship-policies; may not exist).
+fs::path ShippedPolicy(const std::string& recipe) {
+  const fs::path dir = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies";
+  if (recipe == "hrl-rmp") return dir / "hrl-rmp-2link.rmpp";
+  return dir / (recipe + ".rmpp");
+}
+
 /// budgets in updates: full runs use the shipped budgets; --quick a few updates.
 struct Budgets {
   int pretrain = 1200;  ///< two-link pre-training (the paper's 15K, see table3)
@@ -279,7 +286,17 @@ std::vector<std::string> ExperimentMethods(const std::string& name) {
 
 fs::path RunExperiment(const ExperimentOptions& options) {
   ExperimentOptions o = options;
-  const std::vector<Entry> entries = Selected(o);  // validates the name and methods
+  std::vector<Entry> entries = Selected(o);  // validates the name and methods
+  if (o.shipped) {
+    if (o.name == "fig3") throw InputError("--shipped: fig3 plots training curves, it needs the training runs");
+    o.seeds = 1;
+    std::erase_if(entries, [](const Entry& e) {
+      const bool missing = e.learned && !fs::exists(ShippedPolicy(e.recipe));
+      if (missing) fmt::print("--shipped: {} has no shipped policy ({}); left out\n", e.label,
+                              ShippedPolicy(e.recipe).string());
+      return missing;
+    });
+  }
   if (o.seeds < 1) throw InputError(fmt::format("--seeds: expected >= 1, got {}", o.seeds));
   if (o.jobs < 1) throw InputError(fmt::format("--jobs: expected >= 1, got {}", o.jobs));
   if (o.episodes < 0) throw InputError(fmt::format("--episodes: expected >= 1 (0: the default), got {}", o.episodes));
@@ -293,6 +310,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   auto episodes = [&](int full) { return o.episodes > 0 ? o.episodes : (o.quick ? 2 : full); };
   std::vector<TrainingRun> runs;
   auto train = [&] {
+    if (o.shipped) return;
     runs = RunsFor(RecipeKeys(entries), o.seeds, budgets);
     TrainAll(runs, runner);
   };
@@ -301,12 +319,19 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   text.command = o.command_line;
   std::vector<ResultRow> rows;
   std::vector<Job> jobs;
-  auto final_policy = [&](const Recipe& r, int s) { return RunPolicy(runner, RunId(r.run_prefix, s)); };
-  const std::string training_note = fmt::format(
-      "Training: every learned method with training seeds 1..{} (shipped configs in configs/train/, one process per "
-      "core), runs kept in `{}` and reused by every experiment. Evaluation: deterministic actions, evaluation seed {} "
-      "(episode i is seeded with splitmix64(seed, i) ≥ 2^32, never a training seed), the same episodes for every "
-      "method and training seed.", o.seeds, o.runs.string(), o.eval_seed);
+  auto final_policy = [&](const Recipe& r, int s) {
+    return o.shipped ? ShippedPolicy(r.key) : RunPolicy(runner, RunId(r.run_prefix, s));
+  };
+  const std::string training_note =
+      (o.shipped ? std::string("Learned methods: the policies shipped in models/policies/ (training seed 1, see the "
+                               "YAML beside each), evaluated only (`--shipped`); learned methods without a shipped "
+                               "policy are left out.")
+                 : fmt::format("Training: every learned method with training seeds 1..{} (shipped configs in "
+                               "configs/train/, one process per core), runs kept in `{}` and reused by every "
+                               "experiment.", o.seeds, o.runs.string())) +
+      fmt::format(" Evaluation: deterministic actions, evaluation seed {} (episode i is seeded with splitmix64(seed, "
+                  "i) ≥ 2^32, never a training seed), the same episodes for every method and training seed.",
+                  o.eval_seed);
 
   fmt::print("experiment {}{}: output {}, runs {}\n", o.name, o.quick ? " (quick)" : "", o.out.string(),
              o.runs.string());
@@ -319,6 +344,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     const rl::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
     const std::vector<std::string> names = {"5K", "10K", "15K"};
     for (int b = 0; b < 3; ++b) {
+      if (o.shipped && b < 2) continue;  // the shipped policy is the full budget's
       AddJobs(entries, names[b], task, o.seeds, [&](const Recipe& r, int s) {
         return b == 2 ? final_policy(r, s) : RunPolicy(runner, RunId(r.run_prefix, s), at[b]);
       }, &jobs);

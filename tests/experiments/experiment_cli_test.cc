@@ -52,4 +52,22 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   fs::remove(dir.string() + ".log");
 }
 
+// --shipped: the shipped MARL-RMP against RMPflow with no training at all
+TEST(ExperimentCliTest, ShippedPoliciesAreEvaluatedWithoutTraining) {
+  const fs::path dir = fs::temp_directory_path() / ("rmpmarl_table4_shipped_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string command = std::string(RMPMARL_CLI_PATH) + " experiment table4 --shipped --episodes 1 "
+                              "--methods marl-rmp,rmpflow,marl-ppo --no-plots --out " + (dir / "table4").string() +
+                              " --runs " + (dir / "runs").string() + " > " + (dir.string() + ".log") + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << Read(dir.string() + ".log");
+  const std::string report = Read(dir / "table4" / "report.md");
+  EXPECT_NE(report.find("| MARL-RMP | 2.8 m/s |"), std::string::npos);
+  EXPECT_NE(report.find("| RMPflow | 2.8 m/s |"), std::string::npos);
+  EXPECT_EQ(report.find("| MARL-PPO |"), std::string::npos);  // no shipped policy: left out, and said so
+  EXPECT_NE(Read(dir.string() + ".log").find("MARL-PPO has no shipped policy"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "runs"));  // nothing trained
+  fs::remove_all(dir);
+  fs::remove(dir.string() + ".log");
+}
+
 }  // namespace

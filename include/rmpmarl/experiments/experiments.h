@@ -27,6 +27,9 @@ struct ExperimentOptions {
   std::string command_line;            ///< how it was invoked (written into the report)
   std::filesystem::path cli;           ///< the rmpmarl executable for training (empty: this process)
   bool plots = true;                   ///< run scripts/plot_experiment.py (needs python3-matplotlib)
+  /// evaluation only: learned methods with a shipped policy (models/policies/) are evaluated from it as their only
+  /// "seed", the others are left out, nothing is trained (fig3, which plots training, refuses)
+  bool shipped = false;
 };
 
 /// table3, table4, fig3, fig5, cluttered.
