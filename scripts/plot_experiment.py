@@ -39,8 +39,9 @@ def success_by_condition(out, title, png):
     rows = read(os.path.join(out, "summary.csv"))
     methods = ordered(r["method"] for r in rows)
     conditions = ordered(r["condition"] for r in rows)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(11, 5))
     x = list(range(len(conditions)))
+    colors = plt.cm.tab20.colors
     for k, m in enumerate(methods):
         mine = {r["condition"]: r for r in rows if r["method"] == m}
         ys, lo, hi, xs = [], [], [], []
@@ -53,14 +54,16 @@ def success_by_condition(out, title, png):
             ys.append(y)
             lo.append(y - 100 * num(r["success_low"]))
             hi.append(100 * num(r["success_high"]) - y)
-        ax.errorbar(xs, ys, yerr=[lo, hi], marker="o", capsize=3, label=m)
+        ax.errorbar(xs, ys, yerr=[lo, hi], marker="os^Dv<>p"[k % 8], capsize=3, label=m,
+                    color=colors[(2 * k) % 20 if k < 10 else (2 * k + 1) % 20],
+                    linestyle="-" if k < 10 else "--")
     ax.set_xticks(x)
     ax.set_xticklabels(conditions)
     ax.set_ylabel("success rate [%] (95 % Wilson interval)")
     ax.set_ylim(-2, 102)
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(os.path.join(out, png), dpi=110)
     plt.close(fig)
