@@ -164,7 +164,8 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
   md << "| method | condition | seeds | episodes | success [95 % CI] | across seeds [95 % t] | per seed | tracking mm "
         "[CI] | settled mm [CI] | collisions / ep | min clearance mm | step µs | paper success | paper tracking |\n";
   md << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
-  for (const Pooled& p : Pool(rows)) {
+  const std::vector<Pooled> pooled = Pool(rows);  // the bootstraps once, for both tables
+  for (const Pooled& p : pooled) {
     std::string per_seed;
     for (double s : p.seed_success_rates) per_seed += (per_seed.empty() ? "" : " / ") + Num(100.0 * s, "{:.0f}");
     PaperValue paper;
@@ -172,13 +173,14 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
     const bool untrained = p.seeds.size() == 1 && p.seeds[0] == 0;
     md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", p.method,
                       p.condition, untrained ? "–" : std::to_string(p.seeds.size()), p.episodes, Pct(p.success),
-                      untrained || p.seeds.size() < 2 ? "–" : Pct(p.seed_success), untrained ? "–" : per_seed, Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
+                      untrained || p.seeds.size() < 2 ? "–" : Pct(p.seed_success), untrained ? "–" : per_seed,
+                      Mm(p.tracking), Mm(p.settled), Num(p.collisions_per_episode, "{:.2f}"),
                       Num(p.min_clearance_mm, "{:.0f}"), Num(p.control_us, "{:.1f}"),
                       paper.success.empty() ? "–" : paper.success, paper.tracking.empty() ? "–" : paper.tracking);
   }
   // planning statistics of planner rows (RRT)
   std::string planners;
-  for (const Pooled& p : Pool(rows)) {
+  for (const Pooled& p : pooled) {
     long plans = 0, succeeded = 0;
     double sum_ms = 0.0, max_ms = 0.0;
     for (const ResultRow& r : rows) {
