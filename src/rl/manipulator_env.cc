@@ -276,6 +276,9 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context, Exter
   external_.options.control_rate = config_.episode.control_rate;
   sim::ValidateControllerOptions(external_.options, config_.episode.physics_timestep);
   external_controllers_.resize(context_->num_variants());
+  // the agents' basic layer is never stepped when a baseline drives the robot: not reset every episode either
+  controller_.reset();
+  policy_ = nullptr;
 }
 
 ManipulatorEnv::~ManipulatorEnv() = default;
