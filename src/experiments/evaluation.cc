@@ -123,8 +123,13 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
   }
   std::vector<float> fixed(static_cast<size_t>(A) * as, 0.0f);
   if (method.kind == MethodKind::kFixedOption) {
-    for (int a = 0; a < A; ++a) fixed[static_cast<size_t>(a) * as + rl::RmpActionLayout::kOption] =
-        static_cast<float>(method.fixed_option);
+    for (int a = 0; a < A; ++a) {
+      float* u = fixed.data() + static_cast<size_t>(a) * as;
+      u[rl::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
+      for (int k = 0; k < rl::RmpActionLayout::kNumContinuous; ++k) {
+        u[rl::RmpActionLayout::kTargetAccelScale + k] = method.fixed_parameters[k];
+      }
+    }
   }
 
   auto make_env = [&]() -> std::unique_ptr<rl::ManipulatorEnv> {
@@ -133,8 +138,13 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
       external.options = sim::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
       const int max_obstacles = context->num_obstacles();
       if (method.kind == MethodKind::kRmpflow) {
-        external.make_policy = [max_obstacles](const kinematics::Robot& robot) {
-          return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, max_obstacles);
+        external.make_policy = [max_obstacles, adjust = method.adjust_rmpflow](const kinematics::Robot& robot) {
+          rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name));
+          if (adjust) {
+            adjust(options);
+            rmp::ValidateRmpflowOptions(options, "RMPflow options adjusted by the experiment");
+          }
+          return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, options, max_obstacles);
         };
       } else {
         planning::RrtOptions rrt = method.rrt;

@@ -397,6 +397,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
     case InterfaceMode::kPerJointRmp: {
       q_cmd_before_ = controller_->q_cmd();
       const double g = config_.options.gain_range;
+      const double length_exponent = config_.options.collision_length_exponent;
       for (int i = 0; i < nq_; ++i) {
         const float* u = actions + i * size;
         const OptionSelection sel = options_[i].Begin(DecodeOptionIndex(u[RmpActionLayout::kOption], a.num_options),
@@ -411,6 +412,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
         w.target_metric_scale = target_weight * GainScale(u[RmpActionLayout::kTargetMetricScale], g);
         w.collision_accel_scale = GainScale(u[RmpActionLayout::kCollisionAccelScale], g);
         w.collision_metric_scale = GainScale(u[RmpActionLayout::kCollisionMetricScale], g);
+        w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);
         terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
       }
       control_us_sum_ += controller_->Step(*world_, scene_).compute_us;

@@ -141,7 +141,8 @@ void ReadScenario(const Reader& r, const YAML::Node& node, TaskKind task, Scenar
       sim::CrossingOptions& c = s->crossing;
       ReadSection(r, node, key,
                   {Int(r, "num_obstacles", &c.num_obstacles), Num(r, "obstacle_side", &c.obstacle_side),
-                   Num(r, "obstacle_speed", &c.obstacle_speed), Num(r, "target_speed", &c.target_speed),
+                   Num(r, "obstacle_speed", &c.obstacle_speed), Num(r, "obstacle_speed_max", &c.obstacle_speed_max),
+                   Num(r, "target_speed", &c.target_speed),
                    Num(r, "min_base_distance", &c.min_base_distance), Num(r, "spawn_margin", &c.spawn_margin),
                    Workspace(r, &c.workspace)});
       break;
@@ -433,6 +434,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                   }},
                  Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range),
                  Num(r, "collision_target_weight", &o.collision_target_weight),
+                 Num(r, "collision_length_exponent", &o.collision_length_exponent),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -540,6 +542,9 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(std::isfinite(c.options.collision_target_weight) && c.options.collision_target_weight >= 0.0 &&
             c.options.collision_target_weight <= 1.0,
         "options.collision_target_weight", "a weight in [0, 1]", c.options.collision_target_weight);
+  check(std::isfinite(c.options.collision_length_exponent) && c.options.collision_length_exponent >= 0.0 &&
+            c.options.collision_length_exponent <= 4.0,
+        "options.collision_length_exponent", "an exponent in [0, 4]", c.options.collision_length_exponent);
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);
@@ -614,8 +619,12 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
             "an integer in [0, 4] (the paper's up to four cubes)", s.num_obstacles);
       check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
             s.obstacle_side);
-      check(std::isfinite(s.obstacle_speed) && s.obstacle_speed >= 0.0, "scenario.obstacle_speed", "a speed >= 0",
-            s.obstacle_speed);
+      check(std::isfinite(s.obstacle_speed) && s.obstacle_speed >= 0.0 && s.obstacle_speed <= 10.0,
+            "scenario.obstacle_speed", "a speed in [0, 10] m/s", s.obstacle_speed);
+      check(std::isfinite(s.obstacle_speed_max) &&
+                (s.obstacle_speed_max == 0.0 || (s.obstacle_speed_max > s.obstacle_speed && s.obstacle_speed_max <= 10.0)),
+            "scenario.obstacle_speed_max", "0 (fixed speed) or a top speed in (obstacle_speed, 10] m/s",
+            s.obstacle_speed_max);
       check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
             s.target_speed);
       check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",

@@ -12,6 +12,15 @@
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rmp {
+
+Rmp1 EvalScaledCollisionRmp(const CollisionRmpParams& params, double x, double xd, double length_scale) {
+  RMPMARL_DASSERT(length_scale > 0.0, "EvalScaledCollisionRmp: length_scale must be > 0");
+  if (length_scale == 1.0) return EvalCollisionRmp(params, x, xd);
+  CollisionRmpParams p = params;
+  p.repulsion_std_dev *= length_scale;  // l_p of eq (8)
+  p.damping_std_dev *= length_scale;    // l_d of eq (8)
+  return EvalCollisionRmp(p, x, xd);
+}
 using kinematics::CalcPointJdotQdotAtWorldPoint;
 using kinematics::CalcPointVelocityAtWorldPoint;
 using kinematics::CalcPointJacobianColumn;
@@ -58,7 +67,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
         if (res.distance > r) continue;
         const Eigen::Vector3d n = res.gradient_norm * res.n_W;
         const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
-        const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
+        const Rmp1 rmp = EvalScaledCollisionRmp(params.collision, res.distance, xd, weights.collision_length_scale);
         const double m = weights.collision_metric_scale * rmp.m;
         const double f = m * weights.collision_accel_scale * rmp.a;
         const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
@@ -140,7 +149,10 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
         const JointLayerWeights& w = weights[dof];
         if (!w.use_collision) continue;
         const double m = w.collision_metric_scale * rmp.m;
-        const double f = m * w.collision_accel_scale * rmp.a;
+        const double a = w.collision_length_scale == 1.0
+                             ? rmp.a
+                             : EvalScaledCollisionRmp(params.collision, res.distance, xd, w.collision_length_scale).a;
+        const double f = m * w.collision_accel_scale * a;
         const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
         results[dof].force += j * (f - m * jdqd);
         results[dof].metric += j * m * j;

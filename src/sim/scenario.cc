@@ -471,6 +471,8 @@ CrossingScenario::CrossingScenario(const kinematics::Robot& robot, const Crossin
           options.obstacle_side);
   Require(std::isfinite(options.obstacle_speed) && options.obstacle_speed >= 0.0, w + ".obstacle_speed", ">= 0",
           options.obstacle_speed);
+  Require(std::isfinite(options.obstacle_speed_max) && options.obstacle_speed_max >= 0.0,
+          w + ".obstacle_speed_max", ">= 0", options.obstacle_speed_max);
   Require(std::isfinite(options.target_speed) && options.target_speed >= 0.0, w + ".target_speed", ">= 0",
           options.target_speed);
   Require(std::isfinite(options.min_base_distance) && options.min_base_distance >= 0.0,
@@ -491,7 +493,10 @@ void CrossingScenario::DrawPath(int j, std::mt19937_64& rng) {
     o.p_start = path.p_start;
     o.direction = d;
     o.path_length = path.length;
-    o.speed = options_.obstacle_speed;
+    // a speed is drawn only for a range, so fixed-speed scenes keep their random streams
+    o.speed = options_.obstacle_speed_max > options_.obstacle_speed
+                  ? Uniform(rng, options_.obstacle_speed, options_.obstacle_speed_max)
+                  : options_.obstacle_speed;
     o.s = 0.0;
     o.wrap = 0.0;
     return;

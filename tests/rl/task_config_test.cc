@@ -183,7 +183,7 @@ task: line-crossing
 robot: ur5e
 interface: per-joint-direct
 episode: {max_steps: 77, terminate_on_collision: true}
-options: {termination: fixed, horizon: 3}
+options: {termination: fixed, horizon: 3, collision_length_exponent: 0.5}
 reward: {distance_weight: 0.5, joint_reach_weights: [1, 2, 3, 4, 5, 6]}
 scenario: {speeds: [1.2], num_obstacles: 3}
 rmp: {collision_rmp: {metric_scalar: 2}}
@@ -195,6 +195,7 @@ rmp: {collision_rmp: {metric_scalar: 2}}
   EXPECT_TRUE(c.episode.terminate_on_collision);
   EXPECT_EQ(c.options.termination, OptionTermination::kFixed);
   EXPECT_EQ(c.options.horizon, 3);
+  EXPECT_EQ(c.options.collision_length_exponent, 0.5);
   EXPECT_EQ(c.reward.distance_weight, 0.5);
   EXPECT_EQ(c.reward.joint_reach_weights.size(), 6u);
   EXPECT_EQ(c.scenario.line_speeds, std::vector<double>{1.2});
@@ -253,6 +254,10 @@ TEST(TaskConfigTest, BadValuesSayExpectedAndGot) {
       {"task: reach-avoid\noptions: {gain_range: 0.5}\n", "'options.gain_range'", "got 0.5"},
       {"task: reach-avoid\noptions: {collision_target_weight: 2}\n", "'options.collision_target_weight'", "got 2"},
       {"task: reach-avoid\noptions: {warnings: some}\n", "'options.warnings'", "got 'some'"},
+      {"task: reach-avoid\noptions: {collision_length_exponent: -1}\n", "'options.collision_length_exponent'",
+       "got -1"},
+      {"task: reach-avoid\nscenario: {obstacle_speed: 0.5, obstacle_speed_max: 0.4}\n",
+       "'scenario.obstacle_speed_max'", "got 0.4"},
       {"task: reach-avoid\ninterface: joint\n", "'interface'", "got 'joint'"},
       {"task: reach-avoid\nrobot: r2d2\n", "'robot'", "got 'r2d2'"},
       {"task: pretrain-2link\nrobot: panda\n", "'robot'", "got 'panda'"},

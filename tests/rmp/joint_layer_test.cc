@@ -152,6 +152,57 @@ TEST(JointLayerTest, AllJointsAtOnceEqualsOneJointAtATime) {
   }
 }
 
+TEST(JointLayerTest, CollisionLengthScaleEqualsScaledRmpLengthScales) {
+  // s_l multiplies l_p and l_d of eq (8): the layer with weights s_l must equal the scalar formula on parameters
+  // whose repulsion_std_dev and damping_std_dev are multiplied by s_l (and s_l = 1), one joint and all at once
+  std::mt19937_64 rng(43);
+  const kinematics::Robot robot = testing::LoadArm();
+  kinematics::Data kin(robot.model);
+  const int nq = robot.model.nq();
+  int compared = 0, changed = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    Scene scene;
+    for (int k = 0; k < 4; ++k) {
+      scene.obstacles.push_back(Obstacle::MakeSphere(RandomVector3(rng, -0.5, 0.5) + Eigen::Vector3d(0, 0, 0.4),
+                                                     Uniform(rng, 0.05, 0.2), RandomVector3(rng, -2.0, 2.0)));
+    }
+    scene.p_WT = RandomVector3(rng, -0.5, 0.5);
+    BasicRmpParams params;
+    params.collision.metric_modulation_radius = 0.35;
+    const Eigen::VectorXd q = RandomConfiguration(robot.model, rng);
+    const Eigen::VectorXd qd = RandomVelocity(robot.model, rng);
+    kinematics::CalcVelocityKinematics(robot.model, q, qd, &kin);
+    std::vector<JointLayerWeights> weights(nq);
+    for (JointLayerWeights& w : weights) {
+      w.use_target = rng() % 3 == 0;
+      w.collision_accel_scale = Uniform(rng, 0.25, 4.0);
+      w.collision_length_scale = rng() % 4 == 0 ? 1.0 : Uniform(rng, 0.3, 3.0);
+    }
+    std::vector<JointLayerResult> all(nq);
+    EvaluateJointLayers(robot, kin, scene, params, weights, all);
+    for (int dof = 0; dof < nq; ++dof) {
+      BasicRmpParams scaled = params;
+      scaled.collision.repulsion_std_dev *= weights[dof].collision_length_scale;
+      scaled.collision.damping_std_dev *= weights[dof].collision_length_scale;
+      JointLayerWeights unit = weights[dof];
+      unit.collision_length_scale = 1.0;
+      const JointLayerResult expected = ScalarFormula(robot, q, qd, dof, scene, scaled, unit);
+      const JointLayerResult one = EvaluateJointLayer(robot, kin, dof, scene, params, weights[dof]);
+      const double tol = 1e-8 * (1.0 + std::abs(expected.qdd));
+      EXPECT_NEAR(one.qdd, expected.qdd, tol);
+      EXPECT_NEAR(all[dof].qdd, expected.qdd, tol);
+      EXPECT_EQ(one.collision_terms, expected.collision_terms);
+      ++compared;
+      const JointLayerResult plain = ScalarFormula(robot, q, qd, dof, scene, params, unit);
+      if (expected.collision_terms > 0 && std::abs(plain.qdd - expected.qdd) > 1e-6 * (1.0 + std::abs(plain.qdd))) {
+        ++changed;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 40 * nq);
+  EXPECT_GT(changed, 20);  // the scale acts (it is not silently ignored)
+}
+
 TEST(JointLayerTest, PlanarArmTargetOnlyByHand) {
   // planar2 at q = (0, π/2), q̇ = 0: end effector at (0.5, 0.5, 0); joint 2's column is ẑ × (0, 0.5, 0) = (−0.5, 0, 0)
   const kinematics::Robot robot = kinematics::MakePlanar2();

@@ -192,6 +192,43 @@ TEST(ScenarioTest, CrossingPathsStartOutsideReachPassTheWorkspaceAndMissTheBase)
   }
 }
 
+TEST(ScenarioTest, CrossingSpeedRangeDrawsEveryPathsSpeedInTheRange) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  CrossingOptions o;
+  o.num_obstacles = 2;
+  o.obstacle_speed = 0.2;
+  o.obstacle_speed_max = 2.8;
+  CrossingScenario scenario(robot, o);
+  World world(std::make_shared<const WorldModel>(robot, scenario.scene_spec()));
+  std::vector<double> speeds;
+  for (std::uint64_t seed = 0; seed < 40; ++seed) {
+    scenario.Reset(seed, world);
+    for (const ObstacleState& s : scenario.obstacles()) speeds.push_back(s.speed);
+  }
+  // new paths during an episode draw new speeds too
+  for (int step = 0; step < 5000; ++step) scenario.Advance(0.002, kNoContacts, world);
+  for (const ObstacleState& s : scenario.obstacles()) speeds.push_back(s.speed);
+  double lo = 1e9, hi = 0.0, sum = 0.0;
+  for (double v : speeds) {
+    EXPECT_GE(v, 0.2);
+    EXPECT_LE(v, 2.8);
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+    sum += v;
+  }
+  // 82 draws of U(0.2, 2.8): the extremes are near the ends and the mean near 1.5 (sd of the mean 0.08)
+  EXPECT_LT(lo, 0.5);
+  EXPECT_GT(hi, 2.5);
+  EXPECT_NEAR(sum / speeds.size(), 1.5, 0.3);
+  // obstacle_speed_max 0: every cube at obstacle_speed
+  o.obstacle_speed_max = 0.0;
+  CrossingScenario fixed(robot, o);
+  fixed.Reset(3, world);
+  for (const ObstacleState& s : fixed.obstacles()) EXPECT_EQ(s.speed, 0.2);
+  o.obstacle_speed_max = -1.0;
+  EXPECT_THROW(CrossingScenario(robot, o), InputError);
+}
+
 TEST(ScenarioTest, LineCrossingMovesInFormationAndStopsOnlyTheHitObstacle) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("iiwa14");
   LineCrossingScenario scenario(robot, {.speed = 1.2});

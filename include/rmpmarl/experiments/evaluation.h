@@ -6,14 +6,17 @@
 /// state, target path and obstacle paths are identical (tests/experiments/evaluation_test.cc proves it).
 ///
 ///   const auto records = experiments::EvaluateMethod(experiments::Method::Rmpflow(), task, {.episodes = 50});
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "rmpmarl/planning/rrt.h"
+#include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/env.h"
 #include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/rmp/rmpflow.h"
 
 namespace rmpmarl::experiments {
 
@@ -32,6 +35,11 @@ struct Method {
   std::string policy_path;                                  ///< kPolicy: the .rmpp file
   rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
   int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (rl::RmpOption order)
+  /// kFixedOption: the raw continuous parameters u of every joint (rl::RmpActionLayout order: target accel, target
+  /// metric, collision accel, collision metric); 0 = unit scales
+  std::array<float, rl::RmpActionLayout::kNumContinuous> fixed_parameters{};
+  /// kRmpflow: changes to the robot's RMPflow config (configs/rmpflow) for this method (e.g. tuned gains); empty: none
+  std::function<void(rmp::RmpflowOptions&)> adjust_rmpflow;
   planning::RrtOptions rrt;                                 ///< kRrt
   /// changes to the task this method is evaluated on (e.g. the basic-layer settings it was trained with); empty: none
   std::function<void(rl::TaskConfig&)> adjust_task;

@@ -88,6 +88,10 @@ struct OptionConfig {
   /// (obstacle receding or beyond the warning distance) and an arm inside the warning band returns to tracking
   /// instead of stalling. 0: the collision RMPs alone. In [0, 1].
   double collision_target_weight = 1e-4;
+  /// e: the collision RMPs' acceleration length scales l_p, l_d (eq 8) are multiplied by s_a^e, where s_a is the
+  /// agent's collision accel scale, so one learned parameter sets how strongly AND how far ahead the arm evades
+  /// (0: gains only, the length scales stay as configured). In [0, 4].
+  double collision_length_exponent = 0.0;
   OptionWarnings warnings = OptionWarnings::kObstacles;
 };
 

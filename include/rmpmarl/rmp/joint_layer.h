@@ -34,7 +34,14 @@ struct JointLayerWeights {
   double target_metric_scale = 1.0;      ///< s_m of the target RMP (scales its metric), ≥ 0
   double collision_accel_scale = 1.0;    ///< s_a of the collision RMPs
   double collision_metric_scale = 1.0;   ///< s_m of the collision RMPs, ≥ 0
+  /// s_l: multiplies the length scales l_p and l_d of the collision RMPs' acceleration (eq 8: repulsion_std_dev,
+  /// damping_std_dev), i.e. how far ahead repulsion and damping reach; > 0 (1: the configured RMP)
+  double collision_length_scale = 1.0;
 };
+
+/// the collision RMP (eqs 8–9) with its acceleration length scales l_p, l_d multiplied by `length_scale` (the metric
+/// is unchanged).
+Rmp1 EvalScaledCollisionRmp(const CollisionRmpParams& params, double x, double xd, double length_scale);
 
 /// Result of the basic layer at one joint.
 struct JointLayerResult {

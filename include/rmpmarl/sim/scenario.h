@@ -207,6 +207,9 @@ struct CrossingOptions {
   int num_obstacles = 4;            ///< the paper's red, green, yellow and blue cubes
   double obstacle_side = 0.1;       ///< cube side [m]
   double obstacle_speed = 0.3;      ///< [m/s]
+  /// > obstacle_speed: every path's speed is drawn from U[obstacle_speed, obstacle_speed_max] (domain randomisation
+  /// of the training scene); otherwise every cube moves at obstacle_speed and no speed is drawn [m/s]
+  double obstacle_speed_max = 0.0;
   double target_speed = 0.1;        ///< [m/s], random direction, reflected in the workspace box
   double min_base_distance = 0.3;   ///< every path passes at least this far from the base z axis (horizontally) [m]
   double spawn_margin = 0.3;        ///< paths start and end this far outside the horizontal reach [m]
