@@ -126,6 +126,10 @@ const std::vector<Recipe>& Recipes() {
        &kLayerV2, "scenario: {obstacle_speed: [0.0, 2.0]}"},
       {"marl-rmp-v2", "MARL-RMP (v2)", "marl-rmp-v2", "mappo-reach-avoid", InterfaceMode::kPerJointRmp,
        "hrl-rmp-2link-v2", true, &kLayerV2, "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}"},
+      // ablation: the same with eq (14)'s collision penalty phi 75 -> 300 in training (success = no collision)
+      {"marl-rmp-v2-p300", "MARL-RMP (v2, collision penalty 300)", "marl-rmp-v2-p300", "mappo-reach-avoid",
+       InterfaceMode::kPerJointRmp, "hrl-rmp-2link-v2", true, &kLayerV2,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, reward: {collision_penalty: 300}"},
   };
   return recipes;
 }
@@ -282,7 +286,7 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
     return {learned("ppo", "ppo"), learned("mappo", "mappo"), learned("marl-ppo", "marl-ppo"), rmpflow, rrt,
             learned("marl-rmp", "marl-rmp"), basic, basic_ttc, learned("marl-rmp-v0", "marl-rmp-v0"), basic_ttc_v0,
             learned("marl-rmp-2ms", "marl-rmp-2ms"), basic_ttc_2ms, learned("marl-rmp-v2", "marl-rmp-v2"),
-            basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned};
+            basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned, learned("marl-rmp-v2-p300", "marl-rmp-v2-p300")};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
