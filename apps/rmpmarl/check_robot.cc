@@ -1,11 +1,16 @@
-// `rmpmarl check-robot`: loads a URDF + collision YAML, validates them and prints joints, limits, capsules, end effector.
+// `rmpmarl check-robot`: loads a URDF + collision YAML (or fits one in memory), validates them and prints joints,
+// limits, capsules, end effector; checks the home posture for overlapping capsules and builds the MuJoCo world.
 #include <fmt/core.h>
 
 #include <cmath>
 
 #include "commands.h"
+#include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/rmp/rmpflow.h"
+#include "rmpmarl/sim/world.h"
 
 namespace rmpmarl::apps {
 namespace {
@@ -36,17 +41,77 @@ void PrintRobot(const kinematics::Robot& robot) {
   const Eigen::Vector3d p_WE = data.X_WL[robot.end_effector.link] * p_LE;
   fmt::print("  end effector at q = 0: [{:.4f} {:.4f} {:.4f}] m\n", p_WE.x(), p_WE.y(), p_WE.z());
   fmt::print("  self-collision exclusions: {} pairs (parent–child pairs included)\n", robot.excluded_pairs.size());
-  fmt::print("\nOK\n");
+}
+
+// the home posture (the settings' home, else mid-range) within limits and free of overlapping capsules; the MuJoCo
+// world compiles. Throws InputError naming every overlapping pair with its distance.
+void CheckHomeAndWorld(const kinematics::Robot& robot) {
+  const kinematics::Model& model = robot.model;
+  const auto settings = rmp::RmpflowConfigPath(robot);
+  const rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(robot);
+  Eigen::VectorXd home(model.nq());
+  std::string from = robot.home.size() > 0 ? "found in memory" : settings.string();
+  if (!options.home.empty()) {
+    if (static_cast<int>(options.home.size()) != model.nq()) {
+      throw InputError(fmt::format("{}: home: expected {} values for robot '{}', got {}", settings.string(), model.nq(),
+                                   robot.name, options.home.size()));
+    }
+    for (int i = 0; i < model.nq(); ++i) home[i] = options.home[i];
+  } else {
+    from = "mid-range (no home in " + settings.string() + ")";
+    for (int i = 0; i < model.nq(); ++i) {
+      const auto& l = model.limits()[i];
+      home[i] = std::isfinite(l.lower) && std::isfinite(l.upper) ? 0.5 * (l.lower + l.upper) : 0.0;
+    }
+  }
+  std::string values;
+  for (int i = 0; i < model.nq(); ++i) values += fmt::format("{}{:.3f}", i ? " " : "", home[i]);
+  fmt::print("  home posture: [{}] ({})\n", values, from);
+  for (int i = 0; i < model.nq(); ++i) {
+    if (home[i] < model.limits()[i].lower || home[i] > model.limits()[i].upper) {
+      throw InputError(fmt::format("home[{}] ({}) = {} is outside [{}, {}] ({})", i, model.dof_name(i), home[i],
+                                   model.limits()[i].lower, model.limits()[i].upper, from));
+    }
+  }
+  fmt::print("  manipulability at home: {:.4g}\n", kinematics::Manipulability(robot, home));
+  const auto overlapping = kinematics::SelfCollisionPairsWithin(robot, home, 0.0);
+  if (!overlapping.empty()) {
+    std::string pairs;
+    for (const auto& p : overlapping) {
+      pairs += fmt::format("\n  {} – {}: {:.1f} mm", model.link(p.link_a).name, model.link(p.link_b).name,
+                           1000 * p.distance);
+    }
+    throw InputError(fmt::format("{} capsule pair(s) of non-excluded links overlap at the home posture (add them to "
+                                 "self_collision_exclude, shrink the capsules or change home):{}", overlapping.size(),
+                                 pairs));
+  }
+  const kinematics::ClosestPair closest = kinematics::ClosestSelfCollisionPair(robot, home);
+  if (closest.link_a >= 0) {
+    fmt::print("  closest checked pair at home: {} – {}, {:.1f} mm\n", model.link(closest.link_a).name,
+               model.link(closest.link_b).name, 1000 * closest.distance);
+  }
+  const sim::WorldModel world(robot);
+  fmt::print("  MuJoCo world: compiles ({} bodies, {} geoms)\n", world.mj_model()->nbody, world.mj_model()->ngeom);
 }
 
 }  // namespace
 
 void RegisterCheckRobot(CLI::App& app) {
-  auto* cmd = app.add_subcommand("check-robot", "Validate a robot description (URDF + collision YAML) and print it");
+  auto* cmd = app.add_subcommand("check-robot", "Validate a robot description (URDF + collision YAML, or capsules "
+                                                "fitted in memory) and print it");
   static std::string urdf, collision;
+  static std::vector<std::string> package_paths;
   cmd->add_option("urdf", urdf, "robot URDF file")->required();
-  cmd->add_option("collision", collision, "collision YAML beside the URDF (capsules, end effector)")->required();
-  cmd->callback([] { PrintRobot(kinematics::LoadRobot(urdf, collision)); });
+  cmd->add_option("collision", collision, "collision YAML (default: <stem>.collision.yaml beside the URDF, else "
+                                          "capsules fitted in memory as setup-robot does)");
+  cmd->add_option("--package-path", package_paths, "directory holding the packages of package:// meshes");
+  cmd->callback([] {
+    const UserRobot user = LoadUserRobot(urdf, collision, package_paths);
+    if (user.setup) PrintLinkFits(*user.setup);
+    PrintRobot(user.robot);
+    CheckHomeAndWorld(user.robot);
+    fmt::print("\nOK\n");
+  });
 }
 
 }  // namespace rmpmarl::apps

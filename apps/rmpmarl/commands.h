@@ -1,11 +1,31 @@
 #pragma once
 // Each subcommand lives in its own file and registers itself on the CLI11 app.
 #include <CLI/CLI.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rmpmarl/kinematics/robot_setup.h"
 
 namespace rmpmarl::apps {
 
 /// `rmpmarl check-robot URDF COLLISION_YAML`: validates a robot description and prints it.
 void RegisterCheckRobot(CLI::App& app);
+
+/// `rmpmarl setup-robot URDF [--out DIR] ...`: collision YAML + per-robot settings from the URDF alone.
+void RegisterSetupRobot(CLI::App& app);
+
+/// A user's robot (check-robot, demo): loaded from its collision YAML, or fitted in memory (`setup` then set).
+struct UserRobot {
+  kinematics::Robot robot;
+  std::optional<kinematics::RobotSetup> setup;
+};
+/// `collision` when given, else <urdf stem>.collision.yaml beside the URDF when it exists, else kinematics::SetupRobot
+/// in memory (saying so on stdout; the home found goes into robot.home).
+UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
+                        const std::vector<std::string>& package_paths = {});
+/// prints setup-robot's per-link table (capsule, stick-out, source) and warnings.
+void PrintLinkFits(const kinematics::RobotSetup& setup);
 
 /// `rmpmarl robots`: sweeps every shipped robot in its MuJoCo world and prints a table.
 void RegisterRobots(CLI::App& app);

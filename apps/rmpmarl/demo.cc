@@ -48,7 +48,7 @@ sim::RenderOptions CameraFor(const sim::Scenario& scenario, const DemoArgs& args
 
 void RunDemo(const DemoArgs& args) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const kinematics::Robot robot = !args.urdf.empty() ? kinematics::LoadRobot(args.urdf, args.collision)
+  const kinematics::Robot robot = !args.urdf.empty() ? LoadUserRobot(args.urdf, args.collision).robot
                                                      : kinematics::LoadShippedRobot(args.robot);
   sim::ScenarioOverrides overrides;
   overrides.obstacle_speed = args.obstacle_speed;
@@ -57,8 +57,8 @@ void RunDemo(const DemoArgs& args) {
   std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario(args.scenario, robot, overrides);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   sim::World world(world_model);
-  const auto config_path = rmp::RmpflowConfigPath(robot.name);
-  auto policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(config_path),
+  const auto config_path = rmp::RmpflowConfigPath(robot);
+  auto policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(robot),
                                                                  scenario->num_obstacles());
   sim::ReactiveController controller(*world_model, std::move(policy));
 
@@ -91,7 +91,7 @@ void RunDemo(const DemoArgs& args) {
   fmt::print("rmpmarl demo: {} ({} dof), scenario '{}' ({} obstacles), policy {}, seed {}, {:.1f} s simulated\n",
              robot.name, robot.model.nq(), scenario->name(), scenario->num_obstacles(), controller.policy().name(),
              args.seed, episode.duration);
-  fmt::print("  RMPflow parameters: {}\n", config_path.string());
+  fmt::print("  RMPflow parameters: {}{}\n", config_path.string(), robot.home.size() > 0 ? " (home found in memory)" : "");
   const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, on_frame);
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("none within 15 cm"); };
@@ -259,8 +259,9 @@ void RegisterDemo(CLI::App& app) {
   for (const auto& n : kinematics::ShippedRobotNames()) robots += (robots.empty() ? "" : ", ") + n;
   for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
   cmd->add_option("--robot", args.robot, "shipped robot: " + robots)->capture_default_str();
-  cmd->add_option("--urdf", args.urdf, "your robot's URDF (with --collision) instead of --robot");
-  cmd->add_option("--collision", args.collision, "collision YAML beside --urdf");
+  cmd->add_option("--urdf", args.urdf, "your robot's URDF instead of --robot (its collision YAML: --collision, else "
+                                      "<stem>.collision.yaml beside it, else capsules fitted in memory)");
+  cmd->add_option("--collision", args.collision, "collision YAML of --urdf (rmpmarl setup-robot writes one)");
   cmd->add_option("--scenario", args.scenario, "scenario: " + scenarios)->capture_default_str();
   cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
@@ -277,9 +278,7 @@ void RegisterDemo(CLI::App& app) {
                   "task episode (default: the shipped models/policies/marl-rmp.rmpp vs RMPflow when it exists)");
   cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
   cmd->callback([] {
-    if (args.urdf.empty() != args.collision.empty()) {
-      throw InputError("--urdf and --collision go together: expected both or neither");
-    }
+    if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
     const bool custom_robot = !args.urdf.empty();
     std::optional<std::string> policy;
     if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;

@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   CLI::App app{"rmpmarl — reactive motion generation for robot manipulators (RMPs + hierarchical multi-agent RL)"};
   app.require_subcommand(1);
   rmpmarl::apps::RegisterCheckRobot(app);
+  rmpmarl::apps::RegisterSetupRobot(app);
   rmpmarl::apps::RegisterRobots(app);
   rmpmarl::apps::RegisterDemo(app);
 #ifdef RMPMARL_HAS_TORCH

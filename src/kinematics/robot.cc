@@ -161,6 +161,17 @@ Robot LoadRobot(const std::filesystem::path& urdf_path, const std::filesystem::p
   robot.urdf_path = urdf_path;
   robot.collision_path = collision_path;
   ParseCollisionYaml(collision_path, &robot);
+  std::error_code ec;
+  const std::filesystem::path shipped_urdf = ModelsDirectory() / "robots" / robot.name / (robot.name + ".urdf");
+  robot.shipped = std::filesystem::equivalent(urdf_path, shipped_urdf, ec);
+  const std::string settings = urdf_path.stem().string() + ".rmpflow.yaml";
+  for (const std::filesystem::path& dir : {collision_path.parent_path(), urdf_path.parent_path()}) {
+    const std::filesystem::path candidate = (dir.empty() ? std::filesystem::path(".") : dir) / settings;
+    if (!robot.shipped && std::filesystem::is_regular_file(candidate, ec)) {
+      robot.settings_path = candidate;
+      break;
+    }
+  }
   return robot;
 }
 
@@ -219,6 +230,7 @@ Robot MakePlanar2(const Planar2Options& options) {
   const DofLimits dof{-options.joint_limit, options.joint_limit, options.velocity_limit, 10.0};
   Robot robot;
   robot.name = "planar2";
+  robot.shipped = true;
   robot.model = Model("planar2", std::move(links), {dof, dof});
   robot.capsules = {
       {1, Eigen::Vector3d::Zero(), Eigen::Vector3d(options.link1_length, 0.0, 0.0), options.link_radius},

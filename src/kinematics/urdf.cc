@@ -13,6 +13,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/kinematics/urdf_geometry.h"
 
 namespace rmpmarl::kinematics {
 namespace {
@@ -41,9 +42,18 @@ Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
 
 bool Finite(double v) { return std::isfinite(v); }
 
-}  // namespace
+// true when the text is a xacro macro file (the xacro namespace or a xacro element) rather than plain URDF.
+bool LooksLikeXacro(const std::string& xml) {
+  return xml.find("xmlns:xacro") != std::string::npos || xml.find("<xacro:") != std::string::npos;
+}
 
-Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
+// parses URDF text with urdfdom, its console_bridge messages captured into the InputError.
+urdf::ModelInterfaceSharedPtr ParseWithUrdfdom(const std::string& urdf_xml, const std::string& source) {
+  if (LooksLikeXacro(urdf_xml)) {
+    throw InputError(fmt::format("{}: this is a xacro file, not plain URDF: expand it with ROS's xacro first "
+                                 "(`xacro {} > robot.urdf`, from ros-<distro>-xacro or `pip install xacro`) and pass "
+                                 "the .urdf", source, source));
+  }
   urdf::ModelInterfaceSharedPtr urdf_model;
   std::string messages;
   {
@@ -61,6 +71,13 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
   if (!urdf_model) {
     throw InputError(fmt::format("{}: not a valid URDF: {}", source, messages.empty() ? "parse failed" : messages));
   }
+  return urdf_model;
+}
+
+}  // namespace
+
+Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
+  const urdf::ModelInterfaceSharedPtr urdf_model = ParseWithUrdfdom(urdf_xml, source);
   const urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) throw InputError(fmt::format("{}: URDF has no root link", source));
 
@@ -148,6 +165,77 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
                                  urdf_model->links_.size(), root->name, links.size()));
   }
   return Model(urdf_model->getName(), std::move(links), std::move(limits));
+}
+
+std::string_view ShapeKindName(ShapeKind kind) {
+  switch (kind) {
+    case ShapeKind::kSphere: return "sphere";
+    case ShapeKind::kBox: return "box";
+    case ShapeKind::kCylinder: return "cylinder";
+    case ShapeKind::kMesh: return "mesh";
+  }
+  return "unknown";
+}
+
+std::vector<LinkShape> ParseUrdfShapes(const std::string& urdf_xml, const Model& model, const std::string& source) {
+  const urdf::ModelInterfaceSharedPtr urdf_model = ParseWithUrdfdom(urdf_xml, source);
+  std::vector<LinkShape> shapes;
+  for (int k = 0; k < model.num_links(); ++k) {
+    const urdf::LinkConstSharedPtr link = urdf_model->getLink(model.link(k).name);
+    if (!link) continue;
+    const bool visual = link->collision_array.empty();
+    std::vector<std::pair<urdf::Pose, urdf::GeometrySharedPtr>> elements;
+    if (!visual) {
+      for (const auto& c : link->collision_array) elements.emplace_back(c->origin, c->geometry);
+    } else {
+      for (const auto& v : link->visual_array) elements.emplace_back(v->origin, v->geometry);
+    }
+    for (const auto& [origin, geometry] : elements) {
+      if (!geometry) continue;
+      LinkShape shape;
+      shape.link = k;
+      shape.visual = visual;
+      shape.X_LG = ToIsometry(origin);
+      const std::string what = fmt::format("{}: link '{}' <{}>", source, link->name, visual ? "visual" : "collision");
+      if (!shape.X_LG.matrix().allFinite()) throw InputError(what + ": <origin> must be finite numbers");
+      auto positive = [&what](double v, const char* key) {
+        if (!(Finite(v) && v > 0.0)) throw InputError(fmt::format("{}: {} must be a positive number, got {}", what, key, v));
+        return v;
+      };
+      switch (geometry->type) {
+        case urdf::Geometry::SPHERE:
+          shape.kind = ShapeKind::kSphere;
+          shape.radius = positive(static_cast<const urdf::Sphere&>(*geometry).radius, "sphere radius");
+          break;
+        case urdf::Geometry::BOX: {
+          const auto& box = static_cast<const urdf::Box&>(*geometry);
+          shape.kind = ShapeKind::kBox;
+          shape.size = Eigen::Vector3d(positive(box.dim.x, "box size x"), positive(box.dim.y, "box size y"),
+                                       positive(box.dim.z, "box size z"));
+          break;
+        }
+        case urdf::Geometry::CYLINDER: {
+          const auto& cylinder = static_cast<const urdf::Cylinder&>(*geometry);
+          shape.kind = ShapeKind::kCylinder;
+          shape.radius = positive(cylinder.radius, "cylinder radius");
+          shape.length = positive(cylinder.length, "cylinder length");
+          break;
+        }
+        case urdf::Geometry::MESH: {
+          const auto& mesh = static_cast<const urdf::Mesh&>(*geometry);
+          shape.kind = ShapeKind::kMesh;
+          shape.mesh_uri = mesh.filename;
+          shape.mesh_scale = Eigen::Vector3d(mesh.scale.x, mesh.scale.y, mesh.scale.z);
+          if (!shape.mesh_scale.allFinite() || shape.mesh_scale.cwiseAbs().minCoeff() == 0.0) {
+            throw InputError(what + ": <mesh scale> must be finite and non-zero");
+          }
+          break;
+        }
+      }
+      shapes.push_back(shape);
+    }
+  }
+  return shapes;
 }
 
 Model LoadUrdfModel(const std::filesystem::path& urdf_path) {

@@ -166,4 +166,16 @@ std::filesystem::path RmpflowConfigPath(const std::string& robot_name) {
   return std::filesystem::exists(specific) ? specific : dir / "default.yaml";
 }
 
+std::filesystem::path RmpflowConfigPath(const kinematics::Robot& robot) {
+  if (!robot.settings_path.empty()) return robot.settings_path;
+  if (robot.shipped) return RmpflowConfigPath(robot.name);
+  return RmpflowConfigDirectory() / "default.yaml";
+}
+
+RmpflowOptions LoadRmpflowOptions(const kinematics::Robot& robot) {
+  RmpflowOptions options = LoadRmpflowOptions(RmpflowConfigPath(robot));
+  if (robot.home.size() > 0) options.home.assign(robot.home.data(), robot.home.data() + robot.home.size());
+  return options;
+}
+
 }  // namespace rmpmarl::rmp

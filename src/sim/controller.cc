@@ -21,7 +21,7 @@ RmpflowAccelerationPolicy::RmpflowAccelerationPolicy(const kinematics::Robot& ro
     : policy_(robot, options, max_obstacles) {}
 
 RmpflowAccelerationPolicy::RmpflowAccelerationPolicy(const kinematics::Robot& robot, int max_obstacles)
-    : policy_(robot, rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name)), max_obstacles) {}
+    : policy_(robot, rmp::LoadRmpflowOptions(robot), max_obstacles) {}
 
 void RmpflowAccelerationPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
                                          const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene,

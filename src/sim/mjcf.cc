@@ -93,9 +93,9 @@ void WriteBody(const Robot& robot, const WorldOptions& options, const ServoGains
   const kinematics::Link& link = model.link(k);
   const std::string pad(2 * depth, ' ');
   if (k == 0) {
-    *out += fmt::format("{}<body name=\"{}\" pos=\"0 0 0\">\n", pad, Xml(link.name));
+    *out += fmt::format("{}<body name=\"{}\" pos=\"0 0 0\">\n", pad, Xml(MjcfNames::LinkBody(robot, k)));
   } else {
-    *out += fmt::format("{}<body name=\"{}\" pos=\"{}\" quat=\"{}\">\n", pad, Xml(link.name),
+    *out += fmt::format("{}<body name=\"{}\" pos=\"{}\" quat=\"{}\">\n", pad, Xml(MjcfNames::LinkBody(robot, k)),
                         Vec(link.X_PJ.translation()), Quat(link.X_PJ.linear()));
   }
   if (k != 0 && link.joint_type != JointType::kFixed) {
@@ -155,6 +155,12 @@ ObstacleSpec ObstacleSpec::Sphere(double radius, const Eigen::Vector3d& p_WO) {
   spec.radius = radius;
   spec.X_WO = Eigen::Isometry3d(Eigen::Translation3d(p_WO));
   return spec;
+}
+
+std::string MjcfNames::LinkBody(const Robot& robot, int link) {
+  const std::string& name = robot.model.link(link).name;
+  const bool reserved = name == "world" || name.starts_with("scene/") || name.starts_with("link/");
+  return reserved ? "link/" + name : name;
 }
 
 std::string MjcfNames::CapsuleGeom(const Robot& robot, int capsule) {
@@ -305,8 +311,8 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
   if (!robot.excluded_pairs.empty() || !pairs.empty()) {
     out += "  <contact>\n";
     for (const auto& [i, j] : robot.excluded_pairs) {
-      out += fmt::format("    <exclude body1=\"{}\" body2=\"{}\"/>\n", Xml(model.link(i).name),
-                         Xml(model.link(j).name));
+      out += fmt::format("    <exclude body1=\"{}\" body2=\"{}\"/>\n", Xml(MjcfNames::LinkBody(robot, i)),
+                         Xml(MjcfNames::LinkBody(robot, j)));
     }
     for (const auto& [g1, g2] : pairs) {
       out += fmt::format("    <pair geom1=\"{}\" geom2=\"{}\" condim=\"1\" margin=\"{}\" gap=\"{}\"/>\n", Xml(g1),

@@ -166,8 +166,8 @@ Workspace MakeWorkspace(const kinematics::Robot& robot, const Eigen::VectorXd& q
 
 Eigen::VectorXd ReadyConfiguration(const kinematics::Robot& robot) {
   const kinematics::Model& m = robot.model;
-  const std::filesystem::path path = rmp::RmpflowConfigPath(robot.name);
-  const rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(path);
+  const std::filesystem::path path = rmp::RmpflowConfigPath(robot);
+  const rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(robot);
   Eigen::VectorXd q(m.nq());
   if (!options.home.empty()) {
     if (static_cast<int>(options.home.size()) != m.nq()) {

@@ -97,7 +97,7 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
     upper_[i] = continuous ? inf : model.limits()[i].upper;
   }
   link_body_.resize(model.num_links());
-  for (int k = 0; k < model.num_links(); ++k) link_body_[k] = IdOf(m, mjOBJ_BODY, model.link(k).name);
+  for (int k = 0; k < model.num_links(); ++k) link_body_[k] = IdOf(m, mjOBJ_BODY, MjcfNames::LinkBody(robot_, k));
 
   geom_info_.assign(m->ngeom, GeomInfo{});
   std::vector<char> assigned(m->ngeom, 0);

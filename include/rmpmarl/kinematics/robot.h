@@ -35,6 +35,15 @@ struct Robot {
   std::vector<std::pair<int, int>> excluded_pairs;
   std::filesystem::path urdf_path;
   std::filesystem::path collision_path;
+  /// per-robot settings (an RMPflow config: home posture, overrides) of a user's robot: <urdf stem>.rmpflow.yaml
+  /// beside the collision YAML or the URDF when present; empty for the shipped robots, whose settings are
+  /// configs/rmpflow/<name>.yaml (see rmp::RmpflowConfigPath(const Robot&)).
+  std::filesystem::path settings_path;
+  /// home posture found in memory (rmpmarl demo with no YAML: kinematics::SetupRobot); empty otherwise. It replaces
+  /// the settings' home when set.
+  Eigen::VectorXd home;
+  /// true for a robot loaded from models/robots/<name>/ (or built in code): its settings are looked up by name.
+  bool shipped = false;
 
   /// true when links i and j are excluded from self-collision checks.
   bool IsExcludedPair(int i, int j) const;
@@ -47,6 +56,8 @@ Model LoadUrdfModel(const std::filesystem::path& urdf_path);
 Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source);
 
 /// loads a robot from its URDF and collision YAML; validates both and throws InputError naming file and key.
+/// Sets settings_path to <urdf stem>.rmpflow.yaml beside the collision YAML or the URDF when one exists, and
+/// `shipped` when the URDF is a shipped robot's.
 Robot LoadRobot(const std::filesystem::path& urdf_path, const std::filesystem::path& collision_path);
 
 /// directory of the shipped robot models (source tree, or the installed share directory).

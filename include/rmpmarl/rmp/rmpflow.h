@@ -55,6 +55,14 @@ std::filesystem::path RmpflowConfigDirectory();
 /// configs/rmpflow/<robot_name>.yaml when it exists, else configs/rmpflow/default.yaml.
 std::filesystem::path RmpflowConfigPath(const std::string& robot_name);
 
+/// the settings of this robot: robot.settings_path (a user's <urdf stem>.rmpflow.yaml) when set; for a shipped robot
+/// RmpflowConfigPath(robot.name); for any other robot configs/rmpflow/default.yaml — a user's URDF is never matched
+/// to a shipped config by its robot name.
+std::filesystem::path RmpflowConfigPath(const kinematics::Robot& robot);
+
+/// LoadRmpflowOptions(RmpflowConfigPath(robot)), with robot.home (a home found in memory) replacing `home` when set.
+RmpflowOptions LoadRmpflowOptions(const kinematics::Robot& robot);
+
 /// Diagnostics of the last evaluation.
 struct RmpflowDiagnostics {
   double min_obstacle_distance = 0.0;  ///< min signed capsule–obstacle distance among evaluated pairs (+inf: none)

@@ -41,7 +41,8 @@ class RmpflowAccelerationPolicy final : public AccelerationPolicy {
  public:
   /// RMPflow for `robot` with slots for up to `max_obstacles` obstacles. Throws InputError (bad options).
   RmpflowAccelerationPolicy(const kinematics::Robot& robot, const rmp::RmpflowOptions& options, int max_obstacles);
-  /// the same with the robot's shipped parameters: LoadRmpflowOptions(RmpflowConfigPath(robot.name)).
+  /// the same with the robot's own parameters: rmp::LoadRmpflowOptions(robot) (configs/rmpflow/<name>.yaml for a
+  /// shipped robot, <urdf stem>.rmpflow.yaml beside a user's URDF, else default.yaml).
   RmpflowAccelerationPolicy(const kinematics::Robot& robot, int max_obstacles);
 
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,

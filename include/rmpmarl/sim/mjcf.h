@@ -85,6 +85,9 @@ struct ServoGains {
 
 /// Names the MJCF gives to MuJoCo elements (robot bodies and joints keep their URDF names).
 struct MjcfNames {
+  /// body of link k: the link's name, except a name MuJoCo reserves ("world", the world body) or one taken by the
+  /// scene, which becomes "link/<name>".
+  static std::string LinkBody(const kinematics::Robot& robot, int link);
   static std::string CapsuleGeom(const kinematics::Robot& robot, int capsule);  ///< "<link>/capsule<c>"
   static std::string Actuator(const kinematics::Robot& robot, int dof);         ///< "<joint>/servo"
   static std::string ObstacleBody(int obstacle);                               ///< "scene/obstacle<j>"

@@ -1,0 +1,109 @@
+#pragma once
+/// A robot description made from a URDF alone (as MoveIt's Setup Assistant does for MoveIt): capsules fitted to each
+/// link's own geometry, the end effector, self-collision exclusions found by seeded sampling and a home posture.
+/// `rmpmarl setup-robot` writes the result as <urdf stem>.collision.yaml + <urdf stem>.rmpflow.yaml; `check-robot`
+/// and `demo --urdf` use it in memory when there is no YAML. See docs/robot-description.md.
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rmpmarl/kinematics/robot.h"
+
+namespace rmpmarl::kinematics {
+
+/// Options of FitRobot and SetupRobot.
+struct RobotSetupOptions {
+  std::vector<std::filesystem::path> package_paths;  ///< where package:// meshes are looked up (then ROS_PACKAGE_PATH)
+  std::uint64_t seed = 1;                              ///< seed of the configuration samples
+  int samples = 10000;                                 ///< configuration samples for the exclusions and the home search
+  /// pairs never closer than this in every sample are excluded [m]; the default is sim::WorldOptions::warning_margin.
+  double warning_distance = 0.15;
+  double always_in_contact = 0.99;  ///< pairs in contact in at least this share of samples are excluded
+  double fallback_radius = 0.04;    ///< capsule radius between joint origins when a mesh is missing [m]
+  std::optional<Eigen::VectorXd> home;  ///< the home posture to use instead of searching for one
+  std::string end_effector;             ///< end-effector link; "" picks the tip of the longest revolute chain
+};
+
+/// What was done for one link.
+struct LinkFit {
+  int link = -1;
+  std::string source;              ///< e.g. "collision mesh meshes/link1.stl (1204 vertices)", "frame only"
+  std::vector<int> capsules;       ///< indices into Robot::capsules
+  double stick_out = 0.0;          ///< largest distance from the capsule surface to the link's geometry [m]
+  bool fallback = false;           ///< geometry missing: a capsule between the joint origins
+};
+
+/// Why a link pair is excluded from self-collision checks.
+enum class ExclusionReason { kAdjacent, kAlwaysInContact, kNeverClose, kContactAtHome };
+
+/// name as written in the collision YAML comments ("adjacent", "always in contact", ...).
+std::string_view ExclusionReasonName(ExclusionReason reason);
+
+/// A link pair excluded from self-collision checks, with the sampling statistics behind it.
+struct Exclusion {
+  int link_a = -1, link_b = -1;    ///< link_a < link_b
+  ExclusionReason reason = ExclusionReason::kAdjacent;
+  double contact_share = 0.0;      ///< share of samples in which the capsules overlap
+  double min_distance = 0.0;       ///< smallest capsule distance over the samples [m] (negative: overlap)
+};
+
+/// Self-collision statistics of every pair of links with capsules over seeded configuration samples.
+struct PairStatistics {
+  int link_a = -1, link_b = -1;
+  int contacts = 0;                ///< samples with the capsules overlapping
+  double min_distance = 0.0;       ///< over the samples [m]
+};
+
+/// The generated description.
+struct RobotSetup {
+  Robot robot;                     ///< capsules, end effector and every exclusion (adjacent ones included)
+  std::vector<LinkFit> links;      ///< one per link, in model order
+  std::vector<std::string> warnings;
+  std::vector<Exclusion> exclusions;  ///< beyond parent–child pairs: what the YAML lists, with reasons
+  Eigen::VectorXd home;            ///< home posture (empty before SetupRobot's home search)
+  double home_manipulability = 0.0;   ///< √det(J Jᵀ) of the end effector's 6-D Jacobian at home
+  double home_min_distance = 0.0;     ///< smallest capsule distance of non-excluded pairs at home [m]
+  int samples = 0;
+};
+
+/// capsules fitted to every link's <collision> (else <visual>) geometry and the end effector; no sampling.
+/// Adjacent pairs (parent–child, frame-only links skipped) are excluded. Throws InputError.
+RobotSetup FitRobot(const std::filesystem::path& urdf_path, const RobotSetupOptions& options = {});
+
+/// distance statistics of every non-adjacent pair of links with capsules over options.samples configurations drawn
+/// uniformly within the joint limits from options.seed (continuous joints in [−π, π]); identical for a seed.
+std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotSetupOptions& options);
+
+/// FitRobot, then exclusions from SampleSelfCollision (always in contact, never within warning_distance), the home
+/// posture (options.home, else the best-conditioned collision-free sample near mid-range, refined locally) and the
+/// pairs touching at home. Throws InputError when options.home is invalid.
+RobotSetup SetupRobot(const std::filesystem::path& urdf_path, const RobotSetupOptions& options = {});
+
+/// √det(J Jᵀ) of the 6 x nq end-effector Jacobian (√det(Jᵀ J) when nq < 6) at q.
+double Manipulability(const Robot& robot, const Eigen::VectorXd& q);
+
+/// smallest capsule distance between non-excluded link pairs at q, and the pair (links) that attains it
+/// (-1, -1 and +inf when there is no such pair).
+struct ClosestPair {
+  int link_a = -1, link_b = -1;
+  double distance = 0.0;
+};
+ClosestPair ClosestSelfCollisionPair(const Robot& robot, const Eigen::VectorXd& q);
+
+/// every non-excluded link pair closer than `distance` at q, closest first.
+std::vector<ClosestPair> SelfCollisionPairsWithin(const Robot& robot, const Eigen::VectorXd& q, double distance);
+
+/// the collision YAML (docs/robot-description.md) of a setup, with comments saying where each capsule came from.
+std::string CollisionYamlText(const RobotSetup& setup);
+
+/// the per-robot settings (an RMPflow config: home posture, overrides) of a setup.
+std::string SettingsYamlText(const RobotSetup& setup);
+
+/// <stem>.collision.yaml and <stem>.rmpflow.yaml for a URDF <stem>.urdf, in `dir`.
+std::filesystem::path CollisionYamlPathFor(const std::filesystem::path& urdf_path, const std::filesystem::path& dir);
+std::filesystem::path SettingsPathFor(const std::filesystem::path& urdf_path, const std::filesystem::path& dir);
+
+}  // namespace rmpmarl::kinematics

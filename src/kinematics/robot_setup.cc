@@ -1,0 +1,666 @@
+// A robot description from a URDF alone: fitted capsules, end effector, sampled self-collision exclusions, home
+// posture; see robot_setup.h and docs/robot-description.md.
+#include "rmpmarl/kinematics/robot_setup.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/common/random.h"
+#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::kinematics {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kPi = 3.14159265358979323846;
+
+// a stream of uniform doubles in [0, 1) from SplitMix64: identical on every platform for a seed.
+class UniformStream {
+ public:
+  explicit UniformStream(std::uint64_t seed) : state_(SplitMix64(seed)) {}
+  double Next() {
+    state_ = SplitMix64(state_);
+    return static_cast<double>(state_ >> 11) * 0x1.0p-53;
+  }
+  double Normal() {  // Box–Muller
+    const double u1 = std::max(Next(), 1e-300), u2 = Next();
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+double Lower(const DofLimits& l) { return std::isfinite(l.lower) ? l.lower : -kPi; }
+double Upper(const DofLimits& l) { return std::isfinite(l.upper) ? l.upper : kPi; }
+
+Eigen::VectorXd MidRange(const Model& model) {
+  Eigen::VectorXd q(model.nq());
+  for (int i = 0; i < model.nq(); ++i) q[i] = 0.5 * (Lower(model.limits()[i]) + Upper(model.limits()[i]));
+  return q;
+}
+
+Eigen::VectorXd RandomConfiguration(const Model& model, UniformStream& u) {
+  Eigen::VectorXd q(model.nq());
+  for (int i = 0; i < model.nq(); ++i) {
+    const DofLimits& l = model.limits()[i];
+    q[i] = Lower(l) + (Upper(l) - Lower(l)) * u.Next();
+  }
+  return q;
+}
+
+// points on a Fibonacci sphere of radius r around c.
+void AppendSpherePoints(const Eigen::Vector3d& c, double r, int n, std::vector<Eigen::Vector3d>* out) {
+  const double golden = kPi * (3.0 - std::sqrt(5.0));
+  for (int k = 0; k < n; ++k) {
+    const double z = 1.0 - 2.0 * (k + 0.5) / n;
+    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+    out->push_back(c + r * Eigen::Vector3d(rho * std::cos(golden * k), rho * std::sin(golden * k), z));
+  }
+}
+
+// points on the surface of a capsule (rings along the segment and two hemispheres), for the stick-out measure.
+std::vector<Eigen::Vector3d> CapsuleSurfacePoints(const math::Capsule& c) {
+  std::vector<Eigen::Vector3d> p;
+  const Eigen::Vector3d ab = c.p_WB - c.p_WA;
+  const double len = ab.norm();
+  const Eigen::Vector3d u = len > 1e-12 ? Eigen::Vector3d(ab / len) : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d e1 = u.unitOrthogonal(), e2 = u.cross(e1);
+  constexpr int kAround = 24;
+  const int along = std::max(2, static_cast<int>(std::ceil(len / std::max(0.25 * c.radius, 1e-3))));
+  for (int k = 0; k <= along; ++k) {
+    for (int j = 0; j < kAround; ++j) {
+      const double a = 2.0 * kPi * j / kAround;
+      p.push_back(c.p_WA + ab * k / along + c.radius * (std::cos(a) * e1 + std::sin(a) * e2));
+    }
+  }
+  std::vector<Eigen::Vector3d> cap;
+  AppendSpherePoints(Eigen::Vector3d::Zero(), c.radius, 300, &cap);
+  for (const Eigen::Vector3d& q : cap) p.push_back((q.dot(u) >= 0.0 ? c.p_WB : c.p_WA) + q);
+  return p;
+}
+
+// distance from p_L to a primitive shape (0 inside), exact.
+double PrimitiveDistance(const LinkShape& shape, const Eigen::Vector3d& p_L) {
+  const Eigen::Vector3d p = shape.X_LG.inverse() * p_L;
+  switch (shape.kind) {
+    case ShapeKind::kSphere: return std::max(0.0, p.norm() - shape.radius);
+    case ShapeKind::kBox: return (p.cwiseAbs() - 0.5 * shape.size).cwiseMax(0.0).norm();
+    case ShapeKind::kCylinder:
+      return std::hypot(std::max(0.0, p.head<2>().norm() - shape.radius), std::max(0.0, std::abs(p.z()) - 0.5 * shape.length));
+    case ShapeKind::kMesh: break;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+// the geometry of one link prepared for fitting: balls to cover, its primitives and points on its mesh surfaces.
+struct LinkGeometry {
+  std::vector<Ball> balls;
+  std::vector<LinkShape> primitives;    // distances to these are exact
+  std::vector<Eigen::Vector3d> surface; // mesh surface samples
+  std::optional<math::Capsule> closed_form;  // single primitive: its exact smallest capsule
+  std::string source;
+  bool missing = false;
+};
+
+math::Capsule Transformed(const Eigen::Isometry3d& X, const math::Capsule& c) { return {X * c.p_WA, X * c.p_WB, c.radius}; }
+
+// adds one shape to the link's geometry; a missing or unreadable mesh sets `missing` and a warning.
+void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetupOptions& options,
+              const std::string& link_name, LinkGeometry* g, std::vector<std::string>* warnings) {
+  const Eigen::Isometry3d& X = shape.X_LG;
+  const std::string element = shape.visual ? "visual" : "collision";
+  switch (shape.kind) {
+    case ShapeKind::kSphere: {
+      g->balls.push_back({X.translation(), shape.radius});
+      g->primitives.push_back(shape);
+      g->closed_form = Transformed(X, CapsuleCoveringSphere(shape.radius));
+      g->source = fmt::format("{} sphere r={:.3f}", element, shape.radius);
+      break;
+    }
+    case ShapeKind::kBox: {
+      const Eigen::Vector3d h = 0.5 * shape.size;
+      for (int corner = 0; corner < 8; ++corner) {
+        g->balls.push_back({X * Eigen::Vector3d((corner & 1 ? 1 : -1) * h.x(), (corner & 2 ? 1 : -1) * h.y(),
+                                                (corner & 4 ? 1 : -1) * h.z()), 0.0});
+      }
+      g->primitives.push_back(shape);
+      g->closed_form = Transformed(X, CapsuleCoveringBox(shape.size));
+      g->source = fmt::format("{} box {:.3f} x {:.3f} x {:.3f}", element, shape.size.x(), shape.size.y(),
+                              shape.size.z());
+      break;
+    }
+    case ShapeKind::kCylinder: {
+      constexpr int kRim = 32;
+      const double r_out = shape.radius / std::cos(kPi / kRim);  // the circumscribed polygon covers the circle
+      for (int k = 0; k < kRim; ++k) {
+        const double a = 2.0 * kPi * k / kRim;
+        for (double z : {-0.5 * shape.length, 0.5 * shape.length}) {
+          g->balls.push_back({X * Eigen::Vector3d(r_out * std::cos(a), r_out * std::sin(a), z), 0.0});
+        }
+      }
+      g->primitives.push_back(shape);
+      g->closed_form = Transformed(X, CapsuleCoveringCylinder(shape.radius, shape.length));
+      g->source = fmt::format("{} cylinder r={:.3f} l={:.3f}", element, shape.radius, shape.length);
+      break;
+    }
+    case ShapeKind::kMesh: {
+      std::string tried;
+      const fs::path path = ResolveMeshUri(shape.mesh_uri, urdf_path, options.package_paths, &tried);
+      g->source = fmt::format("{} mesh {}", element, shape.mesh_uri);
+      if (path.empty()) {
+        warnings->push_back(fmt::format("link '{}': mesh '{}' not found (looked in: {}); using a capsule between the "
+                                        "joint origins", link_name, shape.mesh_uri, tried));
+        g->missing = true;
+        return;
+      }
+      TriangleMesh mesh;
+      try {
+        mesh = ReadMesh(path, shape.mesh_scale);
+      } catch (const InputError& e) {
+        warnings->push_back(fmt::format("link '{}': {}; using a capsule between the joint origins", link_name,
+                                        e.what()));
+        g->missing = true;
+        return;
+      }
+      const Eigen::Matrix3Xd p_L = X * mesh.p_M;
+      for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->balls.push_back({p_L.col(i), 0.0});
+      // surface: the vertices, centroids and edge midpoints of the triangles, at most ~15000 points
+      const Eigen::Index stride = std::max<Eigen::Index>(1, p_L.cols() / 3000);
+      for (Eigen::Index i = 0; i < p_L.cols(); i += stride) g->surface.push_back(p_L.col(i));
+      const size_t tstride = std::max<size_t>(1, mesh.triangles.size() / 3000);
+      for (size_t t = 0; t < mesh.triangles.size(); t += tstride) {
+        const Eigen::Vector3i& tri = mesh.triangles[t];
+        g->surface.push_back((p_L.col(tri[0]) + p_L.col(tri[1]) + p_L.col(tri[2])) / 3.0);
+        for (int e = 0; e < 3; ++e) g->surface.push_back(0.5 * (p_L.col(tri[e]) + p_L.col(tri[(e + 1) % 3])));
+      }
+      g->source += fmt::format(" ({} vertices)", p_L.cols());
+      break;
+    }
+  }
+}
+
+// largest distance from the capsule surface to the link's geometry (exact for primitives, to the nearest surface
+// sample for meshes).
+double StickOut(const math::Capsule& c, const LinkGeometry& g) {
+  double worst = 0.0;
+  for (const Eigen::Vector3d& p : CapsuleSurfacePoints(c)) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const LinkShape& shape : g.primitives) nearest = std::min(nearest, PrimitiveDistance(shape, p));
+    for (const Eigen::Vector3d& s : g.surface) nearest = std::min(nearest, (p - s).norm());
+    worst = std::max(worst, nearest);
+  }
+  return worst;
+}
+
+// the end-effector link: options.end_effector, else the tip of the longest revolute chain, moved on along fixed
+// joints to a tool frame when one is named like one (tcp, tool0, ee, flange, hand).
+int PickEndEffector(const Model& model, const std::string& requested) {
+  if (!requested.empty()) return model.LinkIndex(requested);
+  auto revolute_count = [&](int k) {
+    int n = 0;
+    for (int i : model.link_dofs(k)) n += model.link(model.dof_link(i)).joint_type != JointType::kPrismatic;
+    return n;
+  };
+  int tip = 0;
+  for (int k = 0; k < model.num_links(); ++k) {
+    if (revolute_count(k) > revolute_count(tip)) tip = k;
+  }
+  // the link carrying the last revolute joint (not a prismatic finger below it)
+  while (tip > 0 && model.link(tip).joint_type == JointType::kFixed && revolute_count(model.link(tip).parent) ==
+                                                                            revolute_count(tip)) {
+    tip = model.link(tip).parent;
+  }
+  // fixed descendants of the tip, best tool-frame name first
+  std::vector<int> fixed_below = {tip};
+  for (int k = tip + 1; k < model.num_links(); ++k) {
+    const int p = model.link(k).parent;
+    if (model.link(k).joint_type == JointType::kFixed && std::find(fixed_below.begin(), fixed_below.end(), p) !=
+                                                              fixed_below.end()) {
+      fixed_below.push_back(k);
+    }
+  }
+  for (const char* key : {"tcp", "tool0", "tool", "end_effector", "_ee", "ee_", "flange", "hand"}) {
+    for (int k : fixed_below) {
+      std::string name = model.link(k).name;
+      std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+      if (name.find(key) != std::string::npos || (std::string(key) == "_ee" && name == "ee")) return k;
+    }
+  }
+  return tip;
+}
+
+// the nearest proper ancestor of link k that carries a capsule, or -1.
+int NearestAncestorWithCapsule(const Model& model, const std::vector<int>& capsule_count, int k) {
+  for (int a = model.link(k).parent; a >= 0; a = model.link(a).parent) {
+    if (capsule_count[a] > 0) return a;
+  }
+  return -1;
+}
+
+void SortUnique(std::vector<std::pair<int, int>>* pairs) {
+  std::sort(pairs->begin(), pairs->end());
+  pairs->erase(std::unique(pairs->begin(), pairs->end()), pairs->end());
+}
+
+// world capsules of every robot capsule at the current data.
+void WorldCapsules(const Robot& robot, const Data& data, std::vector<math::Capsule>* out) {
+  out->resize(robot.capsules.size());
+  for (size_t c = 0; c < robot.capsules.size(); ++c) {
+    const LinkCapsule& cap = robot.capsules[c];
+    (*out)[c] = {data.X_WL[cap.link] * cap.p_LA, data.X_WL[cap.link] * cap.p_LB, cap.radius};
+  }
+}
+
+double CapsuleDistance(const math::Capsule& a, const math::Capsule& b) {
+  return math::ClosestPointsSegmentSegment(a.p_WA, a.p_WB, b.p_WA, b.p_WB).distance - a.radius - b.radius;
+}
+
+// capsule indices per link.
+std::vector<std::vector<int>> CapsulesPerLink(const Robot& robot) {
+  std::vector<std::vector<int>> per_link(robot.model.num_links());
+  for (size_t c = 0; c < robot.capsules.size(); ++c) per_link[robot.capsules[c].link].push_back(static_cast<int>(c));
+  return per_link;
+}
+
+// smallest distance between the capsules of links a and b.
+double LinkPairDistance(const std::vector<std::vector<int>>& per_link, const std::vector<math::Capsule>& world, int a,
+                        int b) {
+  double d = std::numeric_limits<double>::infinity();
+  for (int i : per_link[a]) {
+    for (int j : per_link[b]) d = std::min(d, CapsuleDistance(world[i], world[j]));
+  }
+  return d;
+}
+
+std::string Vec(const Eigen::Vector3d& v) {
+  auto num = [](double x) {
+    std::string s = fmt::format("{:.4f}", x);
+    return s == "-0.0000" ? std::string("0.0000") : s;
+  };
+  return fmt::format("[{}, {}, {}]", num(v.x()), num(v.y()), num(v.z()));
+}
+
+}  // namespace
+
+std::string_view ExclusionReasonName(ExclusionReason reason) {
+  switch (reason) {
+    case ExclusionReason::kAdjacent: return "adjacent";
+    case ExclusionReason::kAlwaysInContact: return "always in contact";
+    case ExclusionReason::kNeverClose: return "never close";
+    case ExclusionReason::kContactAtHome: return "in contact at home";
+  }
+  return "unknown";
+}
+
+RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options) {
+  std::ifstream file(urdf_path);
+  if (!file) throw InputError(fmt::format("{}: cannot open URDF file (missing or unreadable)", urdf_path.string()));
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  const std::string xml = buffer.str();
+  const std::string source = urdf_path.string();
+  if (!(options.fallback_radius > 0.0)) {
+    throw InputError(fmt::format("setup: fallback_radius: expected > 0, got {}", options.fallback_radius));
+  }
+
+  RobotSetup setup;
+  Robot& robot = setup.robot;
+  robot.model = ParseUrdfModel(xml, source);
+  robot.name = robot.model.name();
+  robot.urdf_path = urdf_path;
+  const Model& model = robot.model;
+  const std::vector<LinkShape> shapes = ParseUrdfShapes(xml, model, source);
+  if (!MeshReadingAvailable() &&
+      std::any_of(shapes.begin(), shapes.end(), [](const LinkShape& s) { return s.kind == ShapeKind::kMesh; })) {
+    setup.warnings.push_back("rmpmarl was built without assimp: mesh links get capsules between joint origins "
+                             "(install libassimp-dev and rebuild)");
+  }
+
+  for (int k = 0; k < model.num_links(); ++k) {
+    LinkFit fit;
+    fit.link = k;
+    LinkGeometry g;
+    int num_shapes = 0;
+    std::string sources;
+    for (const LinkShape& shape : shapes) {
+      if (shape.link != k) continue;
+      ++num_shapes;
+      AddShape(shape, urdf_path, options, model.link(k).name, &g, &setup.warnings);
+      sources += (sources.empty() ? "" : " + ") + g.source;
+    }
+    if (num_shapes == 0) {
+      fit.source = "frame only (no geometry)";
+      setup.links.push_back(fit);
+      continue;
+    }
+    math::Capsule capsule;
+    if (g.missing) {
+      // a capsule between the link origin and its children's joint origins
+      std::vector<Ball> balls = {{Eigen::Vector3d::Zero(), options.fallback_radius}};
+      for (int c = k + 1; c < model.num_links(); ++c) {
+        if (model.link(c).parent == k) balls.push_back({model.link(c).X_PJ.translation(), options.fallback_radius});
+      }
+      capsule = FitCapsuleToBalls(balls);
+      fit.fallback = true;
+      fit.source = fmt::format("{}: MISSING, capsule between joint origins (r={:.3f})", sources,
+                               options.fallback_radius);
+      fit.stick_out = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      capsule = num_shapes == 1 && g.closed_form ? *g.closed_form : FitCapsuleToBalls(g.balls);
+      fit.source = num_shapes == 1 && g.closed_form ? sources + " (closed form)" : sources;
+      fit.stick_out = StickOut(capsule, g);
+    }
+    fit.capsules.push_back(static_cast<int>(robot.capsules.size()));
+    robot.capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
+    setup.links.push_back(fit);
+  }
+  if (robot.capsules.empty()) {
+    throw InputError(fmt::format("{}: no link has <collision> or <visual> geometry: nothing to fit capsules to (write "
+                                 "a collision YAML by hand, docs/robot-description.md)", source));
+  }
+  robot.end_effector.link = PickEndEffector(model, options.end_effector);
+
+  // adjacent pairs: parent–child, and a link with the nearest ancestor that carries a capsule (frame-only links
+  // in between, as MoveIt's adjacency skips links without geometry)
+  std::vector<int> capsule_count(model.num_links(), 0);
+  for (const LinkCapsule& c : robot.capsules) ++capsule_count[c.link];
+  for (int k = 1; k < model.num_links(); ++k) {
+    robot.excluded_pairs.emplace_back(std::min(k, model.link(k).parent), std::max(k, model.link(k).parent));
+    if (capsule_count[k] == 0) continue;
+    const int a = NearestAncestorWithCapsule(model, capsule_count, k);
+    if (a >= 0 && a != model.link(k).parent) {
+      robot.excluded_pairs.emplace_back(std::min(a, k), std::max(a, k));
+      setup.exclusions.push_back({std::min(a, k), std::max(a, k), ExclusionReason::kAdjacent, 0.0, 0.0});
+    }
+  }
+  SortUnique(&robot.excluded_pairs);
+  return setup;
+}
+
+std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotSetupOptions& options) {
+  if (options.samples < 1 || options.samples > 10'000'000) {
+    throw InputError(fmt::format("setup: samples: expected 1 to 10000000, got {}", options.samples));
+  }
+  const Model& model = robot.model;
+  const std::vector<std::vector<int>> per_link = CapsulesPerLink(robot);
+  std::vector<PairStatistics> stats;
+  for (int a = 0; a < model.num_links(); ++a) {
+    for (int b = a + 1; b < model.num_links(); ++b) {
+      if (per_link[a].empty() || per_link[b].empty() || robot.IsExcludedPair(a, b)) continue;
+      stats.push_back({a, b, 0, std::numeric_limits<double>::infinity()});
+    }
+  }
+  Data data(model);
+  std::vector<math::Capsule> world;
+  UniformStream u(options.seed);
+  for (int s = 0; s < options.samples; ++s) {
+    CalcForwardKinematics(model, RandomConfiguration(model, u), &data);
+    WorldCapsules(robot, data, &world);
+    for (PairStatistics& p : stats) {
+      const double d = LinkPairDistance(per_link, world, p.link_a, p.link_b);
+      p.contacts += d < 0.0;
+      p.min_distance = std::min(p.min_distance, d);
+    }
+  }
+  return stats;
+}
+
+double Manipulability(const Robot& robot, const Eigen::VectorXd& q) {
+  const Model& model = robot.model;
+  Data data(model);
+  CalcForwardKinematics(model, q, &data);
+  const int ee = robot.end_effector.link;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(6, model.nq());
+  Eigen::Matrix3Xd J_v(3, model.nq());
+  CalcPointJacobian(model, data, ee, robot.end_effector.X_LE.translation(), J_v);
+  J.topRows<3>() = J_v;
+  for (int i : model.link_dofs(ee)) {
+    if (model.link(model.dof_link(i)).joint_type != JointType::kPrismatic) J.block<3, 1>(3, i) = data.axis_W.col(i);
+  }
+  const Eigen::MatrixXd G = model.nq() >= 6 ? Eigen::MatrixXd(J * J.transpose()) : Eigen::MatrixXd(J.transpose() * J);
+  return std::sqrt(std::max(0.0, G.determinant()));
+}
+
+std::vector<ClosestPair> SelfCollisionPairsWithin(const Robot& robot, const Eigen::VectorXd& q, double distance) {
+  const Model& model = robot.model;
+  Data data(model);
+  CalcForwardKinematics(model, q, &data);
+  std::vector<math::Capsule> world;
+  WorldCapsules(robot, data, &world);
+  const std::vector<std::vector<int>> per_link = CapsulesPerLink(robot);
+  std::vector<ClosestPair> pairs;
+  for (int a = 0; a < model.num_links(); ++a) {
+    for (int b = a + 1; b < model.num_links(); ++b) {
+      if (per_link[a].empty() || per_link[b].empty() || robot.IsExcludedPair(a, b)) continue;
+      const double d = LinkPairDistance(per_link, world, a, b);
+      if (d < distance) pairs.push_back({a, b, d});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const ClosestPair& x, const ClosestPair& y) { return x.distance < y.distance; });
+  return pairs;
+}
+
+ClosestPair ClosestSelfCollisionPair(const Robot& robot, const Eigen::VectorXd& q) {
+  const auto pairs = SelfCollisionPairsWithin(robot, q, std::numeric_limits<double>::infinity());
+  if (pairs.empty()) return {-1, -1, std::numeric_limits<double>::infinity()};
+  return pairs.front();
+}
+
+namespace {
+
+// lowest z of the capsules of links that some dof moves, at q (the floor test of a home candidate).
+double LowestMovingCapsule(const Robot& robot, const Data& data) {
+  double z = std::numeric_limits<double>::infinity();
+  for (const LinkCapsule& c : robot.capsules) {
+    if (robot.model.link_dofs(c.link).empty()) continue;
+    z = std::min({z, (data.X_WL[c.link] * c.p_LA).z() - c.radius, (data.X_WL[c.link] * c.p_LB).z() - c.radius});
+  }
+  return z;
+}
+
+// the home search's score: log manipulability minus a penalty on the distance from mid-range (each joint's offset in
+// units of its half range, squared, averaged); −inf when infeasible.
+struct HomeScorer {
+  const Robot& robot;
+  Eigen::VectorXd lo, hi, mid, half;
+  double min_clearance;
+  double min_floor;
+  mutable Data data;
+
+  HomeScorer(const Robot& r, double clearance, double floor)
+      : robot(r), min_clearance(clearance), min_floor(floor), data(r.model) {
+    const Model& m = r.model;
+    lo.resize(m.nq());
+    hi.resize(m.nq());
+    for (int i = 0; i < m.nq(); ++i) {
+      const double l = Lower(m.limits()[i]), u = Upper(m.limits()[i]);
+      lo[i] = l + 0.1 * (u - l);  // keep 10 % of each range free for the controller
+      hi[i] = u - 0.1 * (u - l);
+    }
+    mid = 0.5 * (lo + hi);
+    half = (0.5 * (hi - lo)).cwiseMax(1e-9);
+  }
+
+  double operator()(const Eigen::VectorXd& q) const {
+    for (int i = 0; i < q.size(); ++i) {
+      if (q[i] < lo[i] || q[i] > hi[i]) return -std::numeric_limits<double>::infinity();
+    }
+    CalcForwardKinematics(robot.model, q, &data);
+    if (LowestMovingCapsule(robot, data) < min_floor) return -std::numeric_limits<double>::infinity();
+    if (ClosestSelfCollisionPair(robot, q).distance < min_clearance) return -std::numeric_limits<double>::infinity();
+    const double w = Manipulability(robot, q);
+    if (!(w > 0.0)) return -std::numeric_limits<double>::infinity();
+    const double spread = ((q - mid).cwiseQuotient(half)).squaredNorm() / std::max<Eigen::Index>(q.size(), 1);
+    return std::log(w) - 2.0 * spread;
+  }
+};
+
+}  // namespace
+
+RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& options) {
+  RobotSetup setup = FitRobot(urdf_path, options);
+  Robot& robot = setup.robot;
+  const Model& model = robot.model;
+  setup.samples = options.samples;
+  if (options.home) {
+    const Eigen::VectorXd& q = *options.home;
+    if (q.size() != model.nq() || !q.allFinite()) {
+      throw InputError(fmt::format("--home: expected {} finite joint positions ({}), got {}", model.nq(),
+                                   [&] {
+                                     std::string s;
+                                     for (int i = 0; i < model.nq(); ++i) s += (i ? ", " : "") + model.dof_name(i);
+                                     return s;
+                                   }(),
+                                   q.size()));
+    }
+    for (int i = 0; i < model.nq(); ++i) {
+      if (q[i] < model.limits()[i].lower || q[i] > model.limits()[i].upper) {
+        throw InputError(fmt::format("--home[{}] ({}): expected a value within [{}, {}], got {}", i, model.dof_name(i),
+                                     model.limits()[i].lower, model.limits()[i].upper, q[i]));
+      }
+    }
+  }
+
+  // sampled exclusions
+  const std::vector<PairStatistics> stats = SampleSelfCollision(robot, options);
+  for (const PairStatistics& p : stats) {
+    const double share = static_cast<double>(p.contacts) / options.samples;
+    if (share >= options.always_in_contact) {
+      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kAlwaysInContact, share, p.min_distance});
+    } else if (p.min_distance > options.warning_distance) {
+      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kNeverClose, share, p.min_distance});
+    }
+  }
+  for (const Exclusion& e : setup.exclusions) robot.excluded_pairs.emplace_back(e.link_a, e.link_b);
+  SortUnique(&robot.excluded_pairs);
+
+  // home: given, else the best sample by HomeScorer (clearance 2 cm, capsules above z = 5 cm; relaxed step by step
+  // when nothing qualifies), refined by a seeded local search
+  if (options.home) {
+    setup.home = *options.home;
+  } else {
+    const Eigen::VectorXd mid = MidRange(model);
+    setup.home = mid;
+    bool found = false;
+    for (const auto& [clearance, floor] : std::vector<std::pair<double, double>>{
+             {0.02, 0.05}, {0.0, 0.0}, {0.0, -std::numeric_limits<double>::infinity()}}) {
+      const HomeScorer score(robot, clearance, floor);
+      UniformStream u(SplitMix64(options.seed) ^ 0x686f6d65ULL);
+      Eigen::VectorXd best = mid;
+      double best_score = score(mid);
+      const int candidates = std::max(1, std::min(options.samples, 4000));
+      for (int s = 0; s < candidates; ++s) {
+        const Eigen::VectorXd q = RandomConfiguration(model, u);
+        const double v = score(q);
+        if (v > best_score) {
+          best_score = v;
+          best = q;
+        }
+      }
+      if (!std::isfinite(best_score)) continue;
+      double step = 0.2;
+      for (int it = 0; it < 600; ++it) {
+        if (it % 150 == 149) step *= 0.5;
+        Eigen::VectorXd q = best;
+        for (int i = 0; i < q.size(); ++i) q[i] += step * score.half[i] * u.Normal();
+        const double v = score(q);
+        if (v > best_score) {
+          best_score = v;
+          best = q;
+        }
+      }
+      setup.home = best;
+      found = true;
+      break;
+    }
+    if (!found) setup.warnings.push_back("no collision-free home posture found among the samples: using mid-range");
+  }
+  // pairs in contact at home are excluded (only possible with --home or when the search failed)
+  for (const ClosestPair& p : SelfCollisionPairsWithin(robot, setup.home, 0.0)) {
+    setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kContactAtHome, 0.0, p.distance});
+    robot.excluded_pairs.emplace_back(p.link_a, p.link_b);
+  }
+  SortUnique(&robot.excluded_pairs);
+  setup.home_manipulability = Manipulability(robot, setup.home);
+  setup.home_min_distance = ClosestSelfCollisionPair(robot, setup.home).distance;
+  return setup;
+}
+
+std::string CollisionYamlText(const RobotSetup& setup) {
+  const Robot& robot = setup.robot;
+  const Model& model = robot.model;
+  std::string out;
+  out += fmt::format("# {}: collision capsules, end effector and self-collision exclusions, generated by\n"
+                     "# `rmpmarl setup-robot {}` (schema: docs/robot-description.md). Capsule end points a, b are in "
+                     "the link frames, metres.\n", robot.name, robot.urdf_path.filename().string());
+  out += fmt::format("robot: {}\n\nend_effector:\n  link: {}\n\ncapsules:\n", robot.name,
+                     model.link(robot.end_effector.link).name);
+  std::vector<std::string> bare;
+  for (const LinkFit& fit : setup.links) {
+    if (fit.capsules.empty()) {
+      bare.push_back(model.link(fit.link).name);
+      continue;
+    }
+    out += fmt::format("  # {}: {}{}\n", model.link(fit.link).name, fit.source,
+                       std::isfinite(fit.stick_out) ? fmt::format(", sticks out up to {:.1f} mm", 1000 * fit.stick_out)
+                                                    : std::string());
+    for (int c : fit.capsules) {
+      const LinkCapsule& cap = robot.capsules[c];
+      out += fmt::format("  - {{link: {}, a: {}, b: {}, radius: {:.4f}}}\n", model.link(cap.link).name,
+                         Vec(cap.p_LA), Vec(cap.p_LB), cap.radius);
+    }
+  }
+  if (!bare.empty()) {
+    out += "\nlinks_without_capsule:          # frame-only links (no <collision> or <visual> geometry)\n";
+    for (const std::string& n : bare) out += fmt::format("  - {}\n", n);
+  }
+  if (!setup.exclusions.empty()) {
+    out += fmt::format("\n# parent–child pairs are always excluded; sampled over {} configurations (seeded).\n",
+                       setup.samples);
+    out += "self_collision_exclude:\n";
+    for (const Exclusion& e : setup.exclusions) {
+      std::string why(ExclusionReasonName(e.reason));
+      if (e.reason == ExclusionReason::kAlwaysInContact) why += fmt::format(" ({:.1f} % of samples)", 100 * e.contact_share);
+      if (e.reason == ExclusionReason::kNeverClose) why += fmt::format(" (closest {:.0f} mm)", 1000 * e.min_distance);
+      if (e.reason == ExclusionReason::kContactAtHome) why += fmt::format(" ({:.1f} mm)", 1000 * e.min_distance);
+      out += fmt::format("  - [{}, {}]   # {}\n", model.link(e.link_a).name, model.link(e.link_b).name, why);
+    }
+  }
+  return out;
+}
+
+std::string SettingsYamlText(const RobotSetup& setup) {
+  const Model& model = setup.robot.model;
+  std::string out = fmt::format(
+      "# {}: per-robot settings (an RMPflow config: keys omitted keep configs/rmpflow/default.yaml's values), generated\n"
+      "# by `rmpmarl setup-robot`. Read from beside the URDF for this robot only.\n", setup.robot.name);
+  std::string joints, values;
+  for (int i = 0; i < model.nq(); ++i) joints += (i ? ", " : "") + model.dof_name(i);
+  for (int i = 0; i < setup.home.size(); ++i) values += fmt::format("{}{:.4f}", i ? ", " : "", setup.home[i]);
+  out += fmt::format("# home posture: the C-space target and the start of every scenario; joints {}.\n", joints);
+  out += fmt::format("# manipulability {:.4g}, closest non-excluded capsule pair {:.0f} mm.\n",
+                     setup.home_manipulability, 1000 * setup.home_min_distance);
+  out += fmt::format("home: [{}]\n", values);
+  return out;
+}
+
+fs::path CollisionYamlPathFor(const fs::path& urdf_path, const fs::path& dir) {
+  return dir / (urdf_path.stem().string() + ".collision.yaml");
+}
+
+fs::path SettingsPathFor(const fs::path& urdf_path, const fs::path& dir) {
+  return dir / (urdf_path.stem().string() + ".rmpflow.yaml");
+}
+
+}  // namespace rmpmarl::kinematics

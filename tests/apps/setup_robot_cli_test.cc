@@ -1,0 +1,124 @@
+// setup-robot, check-robot without a YAML, and demo --urdf without a YAML, from the outside.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+CommandResult RunRmpmarl(const std::string& args) {
+  const std::string command = std::string(RMPMARL_CLI_PATH) + " " + args + " 2>&1";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+// a world-rooted arm with primitive collision geometry and frame-only tool links.
+fs::path WriteArm(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_setup_cli_{}_{}", ::getpid(), name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "arm.urdf") << R"(<?xml version="1.0"?>
+<robot name="arm">
+  <link name="world"/>
+  <link name="base_link"><collision><origin xyz="0 0 0.05"/><geometry><cylinder radius="0.08" length="0.1"/></geometry></collision></link>
+  <link name="link1"><collision><origin xyz="0 0 0.1"/><geometry><box size="0.12 0.12 0.2"/></geometry></collision></link>
+  <link name="link2"><collision><origin xyz="0 0 0.15"/><geometry><cylinder radius="0.05" length="0.3"/></geometry></collision></link>
+  <link name="link3"><collision><origin xyz="0 0 0.125"/><geometry><cylinder radius="0.04" length="0.25"/></geometry></collision></link>
+  <link name="link4"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <link name="tool0"/>
+  <joint name="world_joint" type="fixed"><parent link="world"/><child link="base_link"/></joint>
+  <joint name="j1" type="revolute"><parent link="base_link"/><child link="link1"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="2" effort="10"/></joint>
+  <joint name="j2" type="revolute"><parent link="link1"/><child link="link2"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" velocity="2" effort="10"/></joint>
+  <joint name="j3" type="revolute"><parent link="link2"/><child link="link3"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-2.5" upper="2.5" velocity="2" effort="10"/></joint>
+  <joint name="j4" type="revolute"><parent link="link3"/><child link="link4"/><origin xyz="0 0 0.25"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" velocity="2" effort="10"/></joint>
+  <joint name="t" type="fixed"><parent link="link4"/><child link="tool0"/><origin xyz="0 0 0.06"/></joint>
+</robot>
+)";
+  return dir / "arm.urdf";
+}
+
+TEST(SetupRobotCli, CheckRobotWithoutYamlFitsInMemoryAndValidates) {
+  const fs::path urdf = WriteArm("check");
+  const CommandResult r = RunRmpmarl("check-robot " + urdf.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("fitted in memory"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("MuJoCo world: compiles"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+TEST(SetupRobotCli, SetupRobotWritesFilesThatCheckRobotAndDemoUse) {
+  const fs::path urdf = WriteArm("setup");
+  const fs::path out = urdf.parent_path() / "description";
+  const CommandResult r = RunRmpmarl(fmt::format("setup-robot {} --out {} --samples 2000 --seed 3", urdf.string(), out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* link : {"base_link", "link1", "link2", "link3", "link4", "tool0", "world"}) {
+    EXPECT_NE(r.output.find(link), std::string::npos) << link;
+  }
+  EXPECT_NE(r.output.find("sticks out"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(out / "arm.collision.yaml"));
+  EXPECT_TRUE(fs::exists(out / "arm.rmpflow.yaml"));
+  const CommandResult check = RunRmpmarl(fmt::format("check-robot {} {}", urdf.string(), (out / "arm.collision.yaml").string()));
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find("arm.rmpflow.yaml"), std::string::npos) << check.output;  // the robot's own home
+  const CommandResult demo = RunRmpmarl(fmt::format("demo --urdf {} --collision {} --duration 1", urdf.string(),
+                                             (out / "arm.collision.yaml").string()));
+  EXPECT_EQ(demo.exit_code, 0) << demo.output;
+  EXPECT_NE(demo.output.find("arm.rmpflow.yaml"), std::string::npos) << demo.output;
+}
+
+TEST(SetupRobotCli, CheckRobotNamesEveryPairOverlappingAtHome) {
+  const fs::path urdf = WriteArm("overlap");
+  std::ofstream(urdf.parent_path() / "arm.collision.yaml") << R"(robot: arm
+end_effector: {link: tool0}
+capsules:
+  - {link: base_link, a: [0, 0, 0], b: [0, 0, 0.1], radius: 0.08}
+  - {link: link1, a: [0, 0, 0], b: [0, 0, 0.2], radius: 0.06}
+  - {link: link2, a: [0, 0, 0], b: [0, 0, 0.3], radius: 0.2}
+  - {link: link3, a: [0, 0, 0], b: [0, 0, 0.25], radius: 0.04}
+  - {link: link4, a: [0, 0, 0], b: [0, 0, 0], radius: 0.05}
+links_without_capsule: [world, tool0]
+)";
+  const CommandResult r = RunRmpmarl("check-robot " + urdf.string());  // the YAML beside the URDF is found
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("overlap at the home posture"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("base_link – link2"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("link2 – link4"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" mm"), std::string::npos) << r.output;
+}
+
+TEST(SetupRobotCli, DemoWithoutYamlFitsInMemory) {
+  const fs::path urdf = WriteArm("demo");
+  const CommandResult r = RunRmpmarl("demo --urdf " + urdf.string() + " --duration 1");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("fitted in memory"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("home found in memory"), std::string::npos) << r.output;
+}
+
+TEST(SetupRobotCli, XacroIsRefusedWithTheExpansionHint) {
+  const fs::path dir = WriteArm("xacro").parent_path();
+  std::ofstream(dir / "arm.urdf.xacro") << "<robot name=\"arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\"/>\n";
+  const CommandResult r = RunRmpmarl("setup-robot " + (dir / "arm.urdf.xacro").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("expand it with ROS's xacro first"), std::string::npos) << r.output;
+}
+
+}  // namespace

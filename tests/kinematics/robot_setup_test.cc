@@ -1,0 +1,349 @@
+// A robot description from a URDF alone: capsules fitted to primitives and to a mesh the test writes itself (checked
+// against dense sampling), package:// resolution, the missing-mesh fallback, frame-only links, deterministic
+// exclusion sampling, the home posture, the YAML round trip, per-robot settings and the xacro message.
+#include "rmpmarl/kinematics/robot_setup.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/rmp/rmpflow.h"
+
+namespace rmpmarl::kinematics {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_setup_test_{}_{}", ::getpid(), name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+void Write(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  std::ofstream(path) << text;
+}
+
+// an ASCII STL of a box of full sizes `size` centred at `centre`, in millimetres (the URDF scales it by 0.001).
+std::string BoxStlMillimetres(const Eigen::Vector3d& size, const Eigen::Vector3d& centre) {
+  const Eigen::Vector3d h = 500.0 * size, c = 1000.0 * centre;
+  auto v = [&](int i) {
+    return Eigen::Vector3d(c.x() + (i & 1 ? h.x() : -h.x()), c.y() + (i & 2 ? h.y() : -h.y()),
+                           c.z() + (i & 4 ? h.z() : -h.z()));
+  };
+  const int faces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
+  std::string out = "solid box\n";
+  for (const auto& f : faces) {
+    for (const auto& tri : {std::array<int, 3>{f[0], f[1], f[2]}, std::array<int, 3>{f[0], f[2], f[3]}}) {
+      out += " facet normal 0 0 0\n  outer loop\n";
+      for (int i : tri) out += fmt::format("   vertex {} {} {}\n", v(i).x(), v(i).y(), v(i).z());
+      out += "  endloop\n endfacet\n";
+    }
+  }
+  return out + "endsolid box\n";
+}
+
+// a vendor-style arm: root `world`, primitives, a package:// mesh, a <visual>-only link and frame-only tool links.
+std::string ArmUrdf(const std::string& mesh_uri) {
+  return fmt::format(R"(<?xml version="1.0"?>
+<robot name="vendor_arm">
+  <link name="world"/>
+  <link name="base_link"><collision><origin xyz="0 0 0.05"/><geometry><cylinder radius="0.08" length="0.1"/></geometry></collision></link>
+  <link name="link1"><collision><origin xyz="0 0 0.1"/><geometry><box size="0.12 0.12 0.2"/></geometry></collision></link>
+  <link name="link2"><collision><origin xyz="0 0 0" rpy="0 0 0.3"/><geometry><mesh filename="{}" scale="0.001 0.001 0.001"/></geometry></collision></link>
+  <link name="link3"><visual><origin xyz="0 0 0.125"/><geometry><cylinder radius="0.04" length="0.25"/></geometry></visual></link>
+  <link name="link4"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <link name="flange"/>
+  <link name="tool0"/>
+  <joint name="world_joint" type="fixed"><parent link="world"/><child link="base_link"/></joint>
+  <joint name="j1" type="revolute"><parent link="base_link"/><child link="link1"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="2" effort="10"/></joint>
+  <joint name="j2" type="revolute"><parent link="link1"/><child link="link2"/><origin xyz="0 0 0.2"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" velocity="2" effort="10"/></joint>
+  <joint name="j3" type="revolute"><parent link="link2"/><child link="link3"/><origin xyz="0 0 0.3"/><axis xyz="0 1 0"/><limit lower="-2.5" upper="2.5" velocity="2" effort="10"/></joint>
+  <joint name="j4" type="revolute"><parent link="link3"/><child link="link4"/><origin xyz="0 0 0.25"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" velocity="2" effort="10"/></joint>
+  <joint name="f" type="fixed"><parent link="link4"/><child link="flange"/><origin xyz="0 0 0.05"/></joint>
+  <joint name="t" type="fixed"><parent link="flange"/><child link="tool0"/><origin xyz="0 0 0.01"/></joint>
+</robot>
+)", mesh_uri);
+}
+
+const Eigen::Vector3d kMeshSize(0.08, 0.06, 0.3), kMeshCentre(0.0, 0.0, 0.15);
+
+// writes the vendor layout <dir>/vendor_arm_description/{urdf/vendor_arm.urdf, meshes/link2.stl}.
+fs::path WriteVendorArm(const fs::path& dir, const std::string& mesh_uri, bool with_mesh = true) {
+  const fs::path package = dir / "vendor_arm_description";
+  if (with_mesh) Write(package / "meshes" / "link2.stl", BoxStlMillimetres(kMeshSize, kMeshCentre));
+  const fs::path urdf = package / "urdf" / "vendor_arm.urdf";
+  Write(urdf, ArmUrdf(mesh_uri));
+  return urdf;
+}
+
+const LinkFit& FitOf(const RobotSetup& setup, const std::string& link) {
+  return setup.links[setup.robot.model.LinkIndex(link)];
+}
+
+TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
+  if (!MeshReadingAvailable()) GTEST_SKIP() << "built without assimp";
+  const fs::path dir = TempDir("mesh");
+  const fs::path stl = dir / "box.stl";
+  Write(stl, BoxStlMillimetres(kMeshSize, kMeshCentre));
+  const TriangleMesh mesh = ReadMesh(stl, Eigen::Vector3d::Constant(0.001));
+  EXPECT_EQ(mesh.p_M.cols(), 8);  // identical vertices joined
+  EXPECT_EQ(mesh.triangles.size(), 12u);
+  EXPECT_NEAR(mesh.p_M.row(2).maxCoeff(), 0.3, 1e-9);
+
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const RobotSetup setup = FitRobot(urdf, {.package_paths = {dir}});
+  EXPECT_TRUE(setup.warnings.empty()) << setup.warnings.front();
+  const LinkFit& fit = FitOf(setup, "link2");
+  ASSERT_EQ(fit.capsules.size(), 1u);
+  EXPECT_FALSE(fit.fallback);
+  EXPECT_NE(fit.source.find("8 vertices"), std::string::npos) << fit.source;
+  const LinkCapsule& cap = setup.robot.capsules[fit.capsules[0]];
+  const math::Capsule c{cap.p_LA, cap.p_LB, cap.radius};
+  // dense samples of the box faces (rotated by the <origin rpy>) all inside, and the capsule as small as the
+  // closed-form cover of the same box within 1 %
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  double worst = -1.0;
+  constexpr int n = 30;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int a = 0; a <= n; ++a) {
+      for (int b = 0; b <= n; ++b) {
+        for (double sign : {-0.5, 0.5}) {
+          Eigen::Vector3d p;
+          const int i = (axis + 1) % 3, j = (axis + 2) % 3;
+          p[axis] = sign * kMeshSize[axis];
+          p[i] = (a / double(n) - 0.5) * kMeshSize[i];
+          p[j] = (b / double(n) - 0.5) * kMeshSize[j];
+          worst = std::max(worst, CapsuleSignedDistance(c, R * (p + kMeshCentre)));
+        }
+      }
+    }
+  }
+  EXPECT_LE(worst, 1e-9);
+  EXPECT_GE(worst, -0.01 * cap.radius) << "not tight";
+  EXPECT_LE(CapsuleVolume(c), 1.01 * CapsuleVolume(CapsuleCoveringBox(kMeshSize)));
+  EXPECT_GT(fit.stick_out, 0.0);
+  EXPECT_LT(fit.stick_out, 0.06);
+}
+
+TEST(RobotSetup, PrimitivesFrameOnlyLinksAndVisualFallback) {
+  const fs::path dir = TempDir("primitives");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const RobotSetup setup = FitRobot(urdf, {.package_paths = {dir}});
+  for (const char* frame : {"world", "flange", "tool0"}) {
+    EXPECT_TRUE(FitOf(setup, frame).capsules.empty()) << frame;
+    EXPECT_NE(FitOf(setup, frame).source.find("frame only"), std::string::npos);
+  }
+  EXPECT_NE(FitOf(setup, "link3").source.find("visual cylinder"), std::string::npos);
+  const LinkCapsule& sphere = setup.robot.capsules[FitOf(setup, "link4").capsules[0]];
+  EXPECT_DOUBLE_EQ(sphere.radius, 0.05);
+  EXPECT_NEAR(FitOf(setup, "link4").stick_out, 0.0, 1e-9);
+  // the cylinder's closed form, moved by the <origin>
+  const LinkCapsule& base = setup.robot.capsules[FitOf(setup, "base_link").capsules[0]];
+  const math::Capsule expected = CapsuleCoveringCylinder(0.08, 0.1);
+  EXPECT_NEAR(base.radius, expected.radius, 1e-12);
+  EXPECT_NEAR(base.p_LA.z(), expected.p_WA.z() + 0.05, 1e-12);
+  EXPECT_EQ(setup.robot.model.link(setup.robot.end_effector.link).name, "tool0");
+}
+
+TEST(RobotSetup, MissingMeshFallsBackToJointOriginsWithAWarningNamingTheFile) {
+  const fs::path dir = TempDir("missing");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/nowhere.stl", false);
+  const RobotSetup setup = FitRobot(urdf);
+  const LinkFit& fit = FitOf(setup, "link2");
+  EXPECT_TRUE(fit.fallback);
+  ASSERT_EQ(setup.warnings.size(), 1u);
+  EXPECT_NE(setup.warnings[0].find("nowhere.stl"), std::string::npos) << setup.warnings[0];
+  EXPECT_NE(setup.warnings[0].find("link2"), std::string::npos) << setup.warnings[0];
+  const LinkCapsule& cap = setup.robot.capsules[fit.capsules[0]];
+  // covers both joint origins (link2's own and link3's at z = 0.3) with the fallback radius
+  EXPECT_LE(CapsuleSignedDistance({cap.p_LA, cap.p_LB, cap.radius}, Eigen::Vector3d::Zero()), -0.04 + 1e-9);
+  EXPECT_LE(CapsuleSignedDistance({cap.p_LA, cap.p_LB, cap.radius}, Eigen::Vector3d(0, 0, 0.3)), -0.04 + 1e-9);
+}
+
+TEST(RobotSetup, PackageUrisResolveThroughPackagePathsAndTheUrdfsAncestors) {
+  const fs::path dir = TempDir("resolve");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const fs::path expected = dir / "vendor_arm_description" / "meshes" / "link2.stl";
+  EXPECT_TRUE(fs::equivalent(ResolveMeshUri("package://vendor_arm_description/meshes/link2.stl", urdf, {dir}), expected));
+  // no package path: found among the URDF's ancestors (vendor layout)
+  EXPECT_TRUE(fs::equivalent(ResolveMeshUri("package://vendor_arm_description/meshes/link2.stl", urdf, {}), expected));
+  EXPECT_TRUE(fs::equivalent(ResolveMeshUri("../meshes/link2.stl", urdf, {}), expected));
+  EXPECT_TRUE(fs::equivalent(ResolveMeshUri("file://" + expected.string(), urdf, {}), expected));
+  std::string tried;
+  EXPECT_TRUE(ResolveMeshUri("package://other_pkg/meshes/x.stl", urdf, {dir}, &tried).empty());
+  EXPECT_NE(tried.find("other_pkg"), std::string::npos) << tried;
+}
+
+TEST(RobotSetup, ExclusionSamplingIsDeterministicForASeed) {
+  const fs::path dir = TempDir("determinism");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const RobotSetup fit = FitRobot(urdf, {.package_paths = {dir}});
+  RobotSetupOptions options{.package_paths = {dir}, .seed = 42, .samples = 2000};
+  const auto a = SampleSelfCollision(fit.robot, options);
+  const auto b = SampleSelfCollision(fit.robot, options);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_FALSE(a.empty());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].contacts, b[i].contacts);
+    EXPECT_EQ(a[i].min_distance, b[i].min_distance);  // bit-identical
+  }
+  options.seed = 43;
+  const auto c = SampleSelfCollision(fit.robot, options);
+  bool differs = false;
+  for (size_t i = 0; i < a.size(); ++i) differs |= a[i].min_distance != c[i].min_distance;
+  EXPECT_TRUE(differs);
+  // the whole setup, written out, is identical for a seed
+  options.seed = 42;
+  EXPECT_EQ(CollisionYamlText(SetupRobot(urdf, options)), CollisionYamlText(SetupRobot(urdf, options)));
+  EXPECT_EQ(SettingsYamlText(SetupRobot(urdf, options)), SettingsYamlText(SetupRobot(urdf, options)));
+}
+
+TEST(RobotSetup, ExclusionsByReason) {
+  // two links welded side by side (always in contact) and a far-away link on the base (never close)
+  const fs::path dir = TempDir("reasons");
+  const fs::path urdf = dir / "r.urdf";
+  Write(urdf, R"(<?xml version="1.0"?>
+<robot name="r">
+  <link name="base"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <link name="far"><collision><geometry><sphere radius="0.05"/></geometry></collision></link>
+  <link name="arm"><collision><origin xyz="0.15 0 0"/><geometry><box size="0.3 0.04 0.04"/></geometry></collision></link>
+  <link name="frame"/>
+  <link name="twin"><collision><origin xyz="0.15 0 0"/><geometry><box size="0.3 0.04 0.04"/></geometry></collision></link>
+  <joint name="jf" type="fixed"><parent link="base"/><child link="far"/><origin xyz="3 0 0"/></joint>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <joint name="jframe" type="fixed"><parent link="arm"/><child link="frame"/><origin xyz="0 0 0"/></joint>
+  <joint name="jt" type="fixed"><parent link="frame"/><child link="twin"/><origin xyz="0 0.03 0"/></joint>
+</robot>
+)");
+  const RobotSetup setup = SetupRobot(urdf, {.samples = 500});
+  const Model& m = setup.robot.model;
+  auto reason_of = [&](const std::string& a, const std::string& b) -> std::optional<ExclusionReason> {
+    const int i = std::min(m.LinkIndex(a), m.LinkIndex(b)), j = std::max(m.LinkIndex(a), m.LinkIndex(b));
+    for (const Exclusion& e : setup.exclusions) {
+      if (e.link_a == i && e.link_b == j) return e.reason;
+    }
+    return std::nullopt;
+  };
+  EXPECT_EQ(reason_of("arm", "twin"), ExclusionReason::kAdjacent);  // across the frame-only link
+  EXPECT_EQ(reason_of("far", "arm"), ExclusionReason::kNeverClose);
+  EXPECT_EQ(reason_of("far", "twin"), ExclusionReason::kNeverClose);
+  EXPECT_TRUE(setup.robot.IsExcludedPair(m.LinkIndex("arm"), m.LinkIndex("twin")));
+  EXPECT_TRUE(setup.robot.IsExcludedPair(m.LinkIndex("base"), m.LinkIndex("arm")));  // parent–child
+}
+
+TEST(RobotSetup, HomeIsWithinLimitsCollisionFreeAndWellConditioned) {
+  const fs::path dir = TempDir("home");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 2000});
+  const Model& m = setup.robot.model;
+  ASSERT_EQ(setup.home.size(), m.nq());
+  for (int i = 0; i < m.nq(); ++i) {
+    EXPECT_GE(setup.home[i], m.limits()[i].lower);
+    EXPECT_LE(setup.home[i], m.limits()[i].upper);
+  }
+  EXPECT_GE(ClosestSelfCollisionPair(setup.robot, setup.home).distance, 0.02);
+  // mid-range is the straight-up singular posture of this arm
+  const double straight_up = Manipulability(setup.robot, Eigen::VectorXd::Zero(m.nq()));
+  EXPECT_GT(setup.home_manipulability, 1e-3);
+  EXPECT_LT(straight_up, 1e-4 * setup.home_manipulability);
+  EXPECT_NEAR(setup.home_manipulability, Manipulability(setup.robot, setup.home), 1e-12);
+}
+
+TEST(RobotSetup, HomeOverrideIsUsedAndChecked) {
+  const fs::path dir = TempDir("home_override");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  Eigen::VectorXd home(4);
+  home << 0.1, 0.2, 0.3, 0.4;
+  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = home});
+  EXPECT_EQ(setup.home, home);
+  Eigen::VectorXd bad = home;
+  bad[2] = 4.0;
+  try {
+    SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = bad});
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("j3"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = Eigen::VectorXd::Zero(3)}),
+               InputError);
+}
+
+TEST(RobotSetup, WrittenFilesLoadAndCarryTheRobotsOwnSettings) {
+  const fs::path dir = TempDir("roundtrip");
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 1000});
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  Write(CollisionYamlPathFor(urdf, out), CollisionYamlText(setup));
+  Write(SettingsPathFor(urdf, out), SettingsYamlText(setup));
+  const Robot robot = LoadRobot(urdf, CollisionYamlPathFor(urdf, out));
+  EXPECT_EQ(robot.capsules.size(), setup.robot.capsules.size());
+  EXPECT_EQ(robot.excluded_pairs, setup.robot.excluded_pairs);
+  EXPECT_EQ(robot.end_effector.link, setup.robot.end_effector.link);
+  for (size_t c = 0; c < robot.capsules.size(); ++c) {
+    EXPECT_NEAR(robot.capsules[c].radius, setup.robot.capsules[c].radius, 1e-4);
+    // rounded outwards? the YAML keeps 4 decimals: 0.05 mm, well inside any margin
+    EXPECT_LT((robot.capsules[c].p_LA - setup.robot.capsules[c].p_LA).norm(), 1e-4);
+  }
+  EXPECT_FALSE(robot.shipped);
+  EXPECT_EQ(robot.settings_path, SettingsPathFor(urdf, out));
+  EXPECT_EQ(rmp::RmpflowConfigPath(robot), SettingsPathFor(urdf, out));
+  const rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(robot);
+  ASSERT_EQ(options.home.size(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(options.home[i], setup.home[i], 1e-4);
+}
+
+TEST(RobotSetup, AUserUrdfNamedLikeAShippedRobotDoesNotInheritItsSettings) {
+  const fs::path dir = TempDir("panda_named");
+  const fs::path urdf = dir / "panda.urdf";
+  std::string text = ArmUrdf("package://vendor_arm_description/meshes/link2.stl");
+  text.replace(text.find("vendor_arm\">"), 11, "panda\">");
+  Write(urdf, text);
+  const RobotSetup setup = FitRobot(urdf);
+  EXPECT_EQ(setup.robot.name, "panda");
+  EXPECT_EQ(rmp::RmpflowConfigPath(setup.robot).filename(), "default.yaml");
+  EXPECT_EQ(rmp::RmpflowConfigPath(LoadShippedRobot("panda")).filename(), "panda.yaml");
+}
+
+TEST(RobotSetup, XacroIsRefusedWithAnExpansionHint) {
+  const fs::path dir = TempDir("xacro");
+  const fs::path path = dir / "arm.urdf.xacro";
+  Write(path, R"(<?xml version="1.0"?>
+<robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:include filename="$(find arm_description)/urdf/arm.xacro"/>
+  <xacro:arm prefix=""/>
+</robot>
+)");
+  for (auto load : {+[](const fs::path& p) { LoadUrdfModel(p); }, +[](const fs::path& p) { FitRobot(p); }}) {
+    try {
+      load(path);
+      FAIL() << "expected InputError";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("xacro file"), std::string::npos) << what;
+      EXPECT_NE(what.find("expand it with ROS's xacro first"), std::string::npos) << what;
+      EXPECT_NE(what.find("arm.urdf.xacro"), std::string::npos) << what;
+    }
+  }
+}
+
+TEST(RobotSetup, UrdfWithoutAnyGeometryIsRefusedClearly) {
+  try {
+    FitRobot(fs::path(RMPMARL_TEST_DATA_DIR) / "robots/tree/tree.urdf");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no link has <collision> or <visual> geometry"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace rmpmarl::kinematics
