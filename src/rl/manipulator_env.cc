@@ -400,8 +400,10 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
       const double length_exponent = config_.options.collision_length_exponent;
       for (int i = 0; i < nq_; ++i) {
         const float* u = actions + i * size;
-        const OptionSelection sel = options_[i].Begin(DecodeOptionIndex(u[RmpActionLayout::kOption], a.num_options),
-                                                      option_warning_[i] != 0);
+        const int chosen = config_.options.fixed_option >= 0
+                               ? config_.options.fixed_option
+                               : DecodeOptionIndex(u[RmpActionLayout::kOption], a.num_options);
+        const OptionSelection sel = options_[i].Begin(chosen, option_warning_[i] != 0);
         option_started[i] = sel.started ? 1.0f : 0.0f;
         rmp::JointLayerWeights& w = policy_->weights[i];
         // while the collision RMPs run, the target RMP keeps a small priority (options.collision_target_weight)

@@ -13,6 +13,7 @@
 #include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/agent_interface.h"
 
 namespace rmpmarl::rl {
 namespace {
@@ -435,6 +436,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range),
                  Num(r, "collision_target_weight", &o.collision_target_weight),
                  Num(r, "collision_length_exponent", &o.collision_length_exponent),
+                 Int(r, "fixed_option", &o.fixed_option),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -545,6 +547,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(std::isfinite(c.options.collision_length_exponent) && c.options.collision_length_exponent >= 0.0 &&
             c.options.collision_length_exponent <= 4.0,
         "options.collision_length_exponent", "an exponent in [0, 4]", c.options.collision_length_exponent);
+  check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
+        "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);

@@ -163,6 +163,25 @@ TEST(BasicLayerV2Test, LowerEndIsThePaperDefaultRmp) {
   }
 }
 
+// options.fixed_option: the action's option index is ignored, every joint runs the configured option
+TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
+  rl::TaskConfig c = V2("line-crossing");
+  c.scenario.line_speeds = {1.2};
+  c.episode.max_steps = 200;
+  rl::TaskConfig fixed = c;
+  fixed.options.fixed_option = 2;
+  const auto composite = EvaluateMethod(Method::FixedOption("composite", 2), c, {.episodes = 3, .eval_seed = 99});
+  const auto asks_target = EvaluateMethod(Method::FixedOption("target", 0), fixed, {.episodes = 3, .eval_seed = 99});
+  const auto target = EvaluateMethod(Method::FixedOption("target", 0), c, {.episodes = 3, .eval_seed = 99});
+  int differ = 0;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(asks_target[i].metrics.mean_tracking_error_mm, composite[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(asks_target[i].metrics.collisions, composite[i].metrics.collisions);
+    differ += target[i].metrics.mean_tracking_error_mm != composite[i].metrics.mean_tracking_error_mm;
+  }
+  EXPECT_GT(differ, 0);
+}
+
 // RMPflow's options can be adjusted per method: an identity adjustment changes nothing, the tuned collision gains
 // change the episodes
 TEST(BasicLayerV2Test, RmpflowAdjustmentIsApplied) {

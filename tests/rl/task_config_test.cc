@@ -256,6 +256,7 @@ TEST(TaskConfigTest, BadValuesSayExpectedAndGot) {
       {"task: reach-avoid\noptions: {warnings: some}\n", "'options.warnings'", "got 'some'"},
       {"task: reach-avoid\noptions: {collision_length_exponent: -1}\n", "'options.collision_length_exponent'",
        "got -1"},
+      {"task: reach-avoid\noptions: {fixed_option: 3}\n", "'options.fixed_option'", "got 3"},
       {"task: reach-avoid\nscenario: {obstacle_speed: 0.5, obstacle_speed_max: 0.4}\n",
        "'scenario.obstacle_speed_max'", "got 0.4"},
       {"task: reach-avoid\ninterface: joint\n", "'interface'", "got 'joint'"},

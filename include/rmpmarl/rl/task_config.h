@@ -92,6 +92,9 @@ struct OptionConfig {
   /// agent's collision accel scale, so one learned parameter sets how strongly AND how far ahead the arm evades
   /// (0: gains only, the length scales stay as configured). In [0, 4].
   double collision_length_exponent = 0.0;
+  /// ≥ 0: every joint always runs this option (0 target, 1 collision, 2 target-then-collision) and the action's option
+  /// index is ignored — the agents learn the RMP parameters only (an ablation of the option layer); −1: learned.
+  int fixed_option = -1;
   OptionWarnings warnings = OptionWarnings::kObstacles;
 };
 
