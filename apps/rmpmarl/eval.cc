@@ -34,9 +34,9 @@ void RegisterEval(CLI::App& app) {
   cmd->add_option("--task-config", args->task_config, "task YAML (default: the checkpoint's, else the shipped one)");
   cmd->add_option("--interface", args->interface, "interface mode (default: the checkpoint's)");
   cmd->add_option("--overrides", args->overrides, "YAML map of task overrides, e.g. '{episode: {max_steps: 200}}'");
-  cmd->add_option("--episodes", args->episodes, "episodes to run (default 100)");
-  cmd->add_option("--envs", args->envs, "parallel envs (default 8)");
-  cmd->add_option("--env-threads", args->env_threads, "env worker threads (default 1)");
+  cmd->add_option("--episodes", args->episodes, "episodes to run (default 100)")->check(CLI::Range(1, 1000000));
+  cmd->add_option("--envs", args->envs, "parallel envs (default 8)")->check(CLI::Range(1, 4096));
+  cmd->add_option("--env-threads", args->env_threads, "env worker threads (default 1)")->check(CLI::Range(1, 256));
   cmd->add_option("--seed", args->seed, "seed of the evaluation envs");
   cmd->add_flag("--stochastic", args->stochastic, "sample actions (default: deterministic modes)");
   cmd->callback([args] {

@@ -102,7 +102,7 @@ void RunRobotsTable(double duration) {
 void RegisterRobots(CLI::App& app) {
   auto* cmd = app.add_subcommand("robots", "Load every shipped robot, build its MuJoCo world, sweep its joints");
   static double duration = 4.0;
-  cmd->add_option("--duration", duration, "sweep duration per robot [s]")->check(CLI::PositiveNumber);
+  cmd->add_option("--duration", duration, "sweep duration per robot [s]")->check(CLI::Range(0.001, 3600.0));
   cmd->callback([] { RunRobotsTable(duration); });
 }
 

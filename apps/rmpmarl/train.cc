@@ -30,9 +30,9 @@ void RegisterTrain(CLI::App& app) {
   cmd->add_flag("--resume", args->resume, "continue exactly from <output_dir>/checkpoint.ckpt");
   cmd->add_option("--seed", args->seed, "override the config's seed (the default output_dir gets a -seed<N> suffix)");
   cmd->add_option("--output", args->output, "override output_dir (default: the config's, else runs/<name>)");
-  cmd->add_option("--updates", args->updates, "override total_updates");
-  cmd->add_option("--torch-threads", args->torch_threads, "override torch_threads");
-  cmd->add_option("--env-threads", args->env_threads, "override env_threads");
+  cmd->add_option("--updates", args->updates, "override total_updates")->check(CLI::Range(1, 10000000));
+  cmd->add_option("--torch-threads", args->torch_threads, "override torch_threads")->check(CLI::Range(1, 256));
+  cmd->add_option("--env-threads", args->env_threads, "override env_threads")->check(CLI::Range(1, 256));
   cmd->add_flag("--quiet", args->quiet, "no progress output");
   cmd->callback([args] {
     rl::TrainConfig config = rl::LoadTrainConfig(args->config);

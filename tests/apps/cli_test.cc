@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -61,6 +62,23 @@ TEST(CliTest, MissingArgumentsIsAUsageError) {
 TEST(CliTest, DemoRefusesUnreasonableSizesWithTheAllowedRange) {
   for (const char* args : {"demo --obstacles 100000", "demo --duration 1e9", "demo --width 100000",
                            "demo --fps 0", "demo --obstacle-speed 1000"}) {
+    const CommandResult r = RunCli(args);
+    EXPECT_NE(r.exit_code, 0) << args;
+    EXPECT_NE(r.output.find("not in range"), std::string::npos) << args << ": " << r.output;
+  }
+}
+
+TEST(CliTest, TrainEvalAndRobotsRefuseUnreasonableSizesWithTheAllowedRange) {
+  std::vector<std::string> cases = {"robots --duration 1e9", "robots --duration 0"};
+  if (RunCli("train --help").exit_code == 0) {  // built with libtorch
+    for (const char* c : {"train c.yaml --updates 0", "train c.yaml --updates 100000000",
+                          "train c.yaml --env-threads 100000", "train c.yaml --torch-threads 0",
+                          "eval p.rmpp --episodes 0", "eval p.rmpp --episodes 1000000000",
+                          "eval p.rmpp --envs 1000000", "eval p.rmpp --env-threads 0"}) {
+      cases.push_back(c);
+    }
+  }
+  for (const std::string& args : cases) {
     const CommandResult r = RunCli(args);
     EXPECT_NE(r.exit_code, 0) << args;
     EXPECT_NE(r.output.find("not in range"), std::string::npos) << args << ": " << r.output;
