@@ -5,7 +5,15 @@ BUILD_TYPE ?= Release
 JOBS ?= $(shell nproc)
 CMAKE_FLAGS ?=
 
-.PHONY: all deps configure build demo test bench install clean
+# Sanitizers: `make test-sanitize` builds the whole tree with ASan + UBSan (RelWithDebInfo) in its own directory and
+# runs the whole ctest suite there; any report stops the process that made it (halt_on_error), so it fails its test.
+# No suppressions.
+SANITIZE_DIR ?= build-sanitize
+SANITIZE ?= address,undefined
+SANITIZER_ENV = ASAN_OPTIONS=halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1 \
+  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+
+.PHONY: all deps configure build demo test bench install clean test-sanitize
 
 all: build
 
@@ -28,6 +36,12 @@ test: build
 
 bench: build
 	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_report_aggregates_only=true; done
+
+test-sanitize: deps
+	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRMPMARL_SANITIZE=$(SANITIZE) \
+	  -DRMPMARL_BUILD_BENCH=OFF $(CMAKE_FLAGS)
+	$(SANITIZER_ENV) cmake --build $(SANITIZE_DIR) -j $(JOBS)
+	cd $(SANITIZE_DIR) && $(SANITIZER_ENV) ctest --output-on-failure -j $(JOBS)
 
 install: build
 	cmake --install $(BUILD_DIR)

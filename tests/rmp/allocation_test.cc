@@ -19,8 +19,11 @@ std::atomic<long> g_allocations{0};
 }  // namespace rmpmarl::testing
 
 // A sanitizer owns malloc (ASan/TSan/MSan replace it and call it during their own start-up, before this binary's
-// globals exist), so under one the interposition is left out and the tests below skip with that reason.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+// globals exist), so under one the interposition is left out and the tests below skip with that reason. The CMake
+// option RMPMARL_SANITIZE defines RMPMARL_UNDER_SANITIZER for such a sanitizer; the compiler's own macros catch the
+// rest (flags passed by hand).
+#if defined(RMPMARL_UNDER_SANITIZER)
+#elif defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define RMPMARL_UNDER_SANITIZER 1
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
