@@ -107,6 +107,7 @@ struct Recipe {
   bool experiment_slots;    ///< trained with kObstacleSlots (the reach-avoid methods)
   const LayerVariant* layer = nullptr;  ///< trained and evaluated on this basic-layer variant (ablation)
   const char* train_overrides = nullptr;  ///< task overrides of training only (e.g. the training scene's speeds)
+  int max_updates = 0;  ///< > 0: a smaller training budget than the experiment's (a cheaper ablation)
 };
 
 const std::vector<Recipe>& Recipes() {
@@ -138,10 +139,10 @@ const std::vector<Recipe>& Recipes() {
       {"marl-rmp-v2", "MARL-RMP (v2)", "marl-rmp-v2", "mappo-reach-avoid", InterfaceMode::kPerJointRmp,
        "hrl-rmp-2link-v2", true, &kLayerV2, "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}"},
       // ablation of the option layer: every joint runs the composite option, MAPPO learns only the RMP parameters,
-      // from scratch (its initial deterministic policy is the v2 layer at its centre, basic-ttc-v2)
-      {"marl-rmp-v2-params", "MAPPO over the v2 layer (composite option fixed, parameters learned)",
+      // from scratch (its initial deterministic policy is the v2 layer at its centre, basic-ttc-v2); half budget
+      {"marl-rmp-v2-params", "MAPPO over the v2 layer (composite option fixed, parameters learned, 300 updates)",
        "marl-rmp-v2-params", "mappo-nopretrain-reach-avoid", InterfaceMode::kPerJointRmp, "", true, &kLayerV2Params,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}"},
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300},
   };
   return recipes;
 }
@@ -222,6 +223,7 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
     run.base_config = TrainConfigPath(r.config);
     run.seed = static_cast<std::uint64_t>(seed);
     run.total_updates = r.experiment_slots ? b.panda : b.pretrain;
+    if (r.max_updates > 0) run.total_updates = std::min(run.total_updates, r.max_updates);
     if (!r.experiment_slots) run.snapshot_updates = pretrain_snapshots;
     run.init_from = init;
     std::vector<std::string> overrides;
@@ -379,6 +381,11 @@ std::vector<std::string> RecipeKeys(const std::vector<Entry>& entries) {
 }
 
 }  // namespace
+
+std::string RecipeLayerOverrides(const std::string& recipe) {
+  const Recipe& r = FindRecipe(recipe);
+  return r.layer == nullptr ? std::string() : fmt::format("{{{}}}", r.layer->yaml);
+}
 
 std::vector<std::string> ExperimentNames() { return {"table3", "table4", "fig3", "fig5", "cluttered"}; }
 

@@ -37,6 +37,11 @@ std::vector<std::string> ExperimentNames();
 /// the method keys an experiment knows, in report order.
 std::vector<std::string> ExperimentMethods(const std::string& name);
 
+/// the task overrides of a training recipe's basic-layer variant as a YAML flow mapping (what a policy of that recipe
+/// must be evaluated with; scripts/ship-policies writes it beside the shipped policy as `task_overrides`), "" for
+/// the shipped layer. Throws InputError for an unknown recipe key.
+std::string RecipeLayerOverrides(const std::string& recipe);
+
 /// runs the experiment; returns the report's path. Throws InputError for unknown names/methods or failed runs.
 std::filesystem::path RunExperiment(const ExperimentOptions& options);
 
