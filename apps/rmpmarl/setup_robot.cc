@@ -48,6 +48,7 @@ struct SetupArgs {
   std::vector<double> home;
   std::string ee;
   double warning_distance = 0.15;
+  double home_centering = kinematics::RobotSetupOptions{}.home_centering;
 };
 
 void RunSetup(const SetupArgs& args) {
@@ -58,6 +59,7 @@ void RunSetup(const SetupArgs& args) {
   options.samples = args.samples;
   options.warning_distance = args.warning_distance;
   options.end_effector = args.ee;
+  options.home_centering = args.home_centering;
   if (!args.home.empty()) options.home = Eigen::Map<const Eigen::VectorXd>(args.home.data(), args.home.size());
   const std::filesystem::path urdf(args.urdf);
   const kinematics::RobotSetup setup = kinematics::SetupRobot(urdf, options);
@@ -69,8 +71,7 @@ void RunSetup(const SetupArgs& args) {
 
   int counts[4] = {0, 0, 0, 0};
   for (const kinematics::Exclusion& e : setup.exclusions) ++counts[static_cast<int>(e.reason)];
-  int parent_child = 0;
-  for (int k = 1; k < model.num_links(); ++k) parent_child += 1;
+  const int parent_child = model.num_links() - 1;
   fmt::print("\n  self-collision exclusions ({} samples, seed {}): {} parent–child, {} adjacent across frame-only "
              "links, {} always in contact, {} never within {:.0f} mm, {} in contact at home\n", setup.samples,
              args.seed, parent_child, counts[0], counts[1], counts[2], 1000 * options.warning_distance, counts[3]);
@@ -90,13 +91,11 @@ void RunSetup(const SetupArgs& args) {
   if (!std::ofstream(collision_path, std::ios::app) || !std::ofstream(settings_path, std::ios::app)) {
     throw InputError(fmt::format("{}: cannot write the description files", dir.string()));
   }
-  // the files must load as written
-  const kinematics::Robot loaded = kinematics::LoadRobot(urdf, collision_path);
+  kinematics::LoadRobot(urdf, collision_path);  // the files must load as written
   fmt::print("\n  wrote {}\n        {}\n  {:.2f} s. Next: rmpmarl check-robot {} {}\n        rmpmarl demo --urdf {} "
              "--collision {} --video demo.mp4\n", collision_path.string(), settings_path.string(),
              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), urdf.string(),
              collision_path.string(), urdf.string(), collision_path.string());
-  (void)loaded;
 }
 
 }  // namespace
@@ -115,6 +114,10 @@ void RegisterSetupRobot(CLI::App& app) {
       ->check(CLI::Range(1, 10'000'000))
       ->capture_default_str();
   cmd->add_option("--home", args.home, "home posture, one value per joint [rad or m] (default: searched)");
+  cmd->add_option("--home-centering", args.home_centering,
+                  "home search: weight of the distance from mid-range against log manipulability")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
   cmd->add_option("--ee", args.ee, "end-effector link (default: the tip of the longest revolute chain)");
   cmd->add_option("--warning-distance", args.warning_distance,
                   "pairs never closer than this in any sample are excluded [m]")

@@ -267,6 +267,76 @@ math::Capsule FitCapsuleToBalls(const std::vector<Ball>& balls, const CapsuleFit
   return FitCapsuleAlongAxis(balls, best_axis);
 }
 
+std::vector<math::Capsule> FitCapsulesToMesh(const std::vector<Ball>& balls,
+                                             const std::vector<Eigen::Vector3i>& triangles, double keep_below,
+                                             const CapsuleFitOptions& options) {
+  const math::Capsule one = FitCapsuleToBalls(balls, options);
+  if (triangles.empty() || balls.size() < 4) return {one};
+  for (const Eigen::Vector3i& t : triangles) {
+    if (t.minCoeff() < 0 || t.maxCoeff() >= static_cast<int>(balls.size())) {
+      throw InputError(fmt::format("capsule fit: triangle [{} {} {}] indexes outside the {} vertices", t[0], t[1],
+                                   t[2], balls.size()));
+    }
+  }
+  // the two sides of the plane u·p = split: vertices on each side plus the edge crossings (on both sides)
+  auto cut = [&](const Eigen::Vector3d& u, double split, size_t stride) {
+    std::pair<std::vector<Ball>, std::vector<Ball>> sides;
+    for (size_t i = 0; i < balls.size(); i += stride) {
+      (u.dot(balls[i].p_F) <= split ? sides.first : sides.second).push_back(balls[i]);
+    }
+    const size_t tstride = std::max<size_t>(1, stride / 2);
+    for (size_t k = 0; k < triangles.size(); k += tstride) {
+      for (int e = 0; e < 3; ++e) {
+        const Eigen::Vector3d& a = balls[triangles[k][e]].p_F;
+        const Eigen::Vector3d& b = balls[triangles[k][(e + 1) % 3]].p_F;
+        const double da = u.dot(a) - split, db = u.dot(b) - split;
+        if ((da <= 0.0) == (db <= 0.0)) continue;
+        const Eigen::Vector3d x = a + (b - a) * (da / (da - db));
+        sides.first.push_back({x, 0.0});
+        sides.second.push_back({x, 0.0});
+      }
+    }
+    return sides;
+  };
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Ball& b : balls) mean += b.p_F;
+  mean /= static_cast<double>(balls.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Ball& b : balls) cov += (b.p_F - mean) * (b.p_F - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  CapsuleFitOptions quick = options;
+  quick.refine_rounds = std::min(options.refine_rounds, 2);
+  // candidate cuts on a subsample (the final fits use every vertex and crossing)
+  const size_t stride = std::max<size_t>(1, (balls.size() + triangles.size()) / 3000);
+  double best_volume = keep_below * CapsuleVolume(one);
+  Eigen::Vector3d best_axis = Eigen::Vector3d::Zero();
+  double best_split = 0.0;
+  for (int k = 2; k >= 0; --k) {
+    const Eigen::Vector3d u = eig.eigenvectors().col(k);
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Ball& b : balls) {
+      lo = std::min(lo, u.dot(b.p_F));
+      hi = std::max(hi, u.dot(b.p_F));
+    }
+    for (int s = 1; s <= 9; ++s) {
+      const double split = lo + (hi - lo) * s / 10.0;
+      const auto [a, b] = cut(u, split, stride);
+      if (a.empty() || b.empty()) continue;
+      const double v = CapsuleVolume(FitCapsuleToBalls(a, quick)) + CapsuleVolume(FitCapsuleToBalls(b, quick));
+      if (v < best_volume) {
+        best_volume = v;
+        best_axis = u;
+        best_split = split;
+      }
+    }
+  }
+  if (best_axis.isZero()) return {one};
+  const auto [a, b] = cut(best_axis, best_split, 1);
+  const std::vector<math::Capsule> two = {FitCapsuleToBalls(a, options), FitCapsuleToBalls(b, options)};
+  if (CapsuleVolume(two[0]) + CapsuleVolume(two[1]) < keep_below * CapsuleVolume(one)) return two;
+  return {one};
+}
+
 math::Capsule FitCapsuleToPoints(const Eigen::Matrix3Xd& p_F, const CapsuleFitOptions& options) {
   std::vector<Ball> balls(p_F.cols());
   for (Eigen::Index i = 0; i < p_F.cols(); ++i) balls[i].p_F = p_F.col(i);

@@ -106,6 +106,7 @@ double PrimitiveDistance(const LinkShape& shape, const Eigen::Vector3d& p_L) {
 // the geometry of one link prepared for fitting: balls to cover, its primitives and points on its mesh surfaces.
 struct LinkGeometry {
   std::vector<Ball> balls;
+  std::vector<Eigen::Vector3i> triangles;  // of the meshes, indices into balls
   std::vector<LinkShape> primitives;    // distances to these are exact
   std::vector<Eigen::Vector3d> surface; // mesh surface samples
   std::optional<math::Capsule> closed_form;  // single primitive: its exact smallest capsule
@@ -174,7 +175,9 @@ void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetu
         return;
       }
       const Eigen::Matrix3Xd p_L = X * mesh.p_M;
+      const int offset = static_cast<int>(g->balls.size());
       for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->balls.push_back({p_L.col(i), 0.0});
+      for (const Eigen::Vector3i& t : mesh.triangles) g->triangles.push_back(t + Eigen::Vector3i::Constant(offset));
       // surface: the vertices, centroids and edge midpoints of the triangles, at most ~15000 points
       const Eigen::Index stride = std::max<Eigen::Index>(1, p_L.cols() / 3000);
       for (Eigen::Index i = 0; i < p_L.cols(); i += stride) g->surface.push_back(p_L.col(i));
@@ -190,11 +193,20 @@ void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetu
   }
 }
 
-// largest distance from the capsule surface to the link's geometry (exact for primitives, to the nearest surface
+// largest distance from the surface of the capsules' union to the link's geometry (exact for primitives, to the nearest surface
 // sample for meshes).
-double StickOut(const math::Capsule& c, const LinkGeometry& g) {
+double StickOut(const std::vector<math::Capsule>& capsules, const LinkGeometry& g) {
   double worst = 0.0;
-  for (const Eigen::Vector3d& p : CapsuleSurfacePoints(c)) {
+  std::vector<Eigen::Vector3d> points;
+  for (const math::Capsule& c : capsules) {
+    for (const Eigen::Vector3d& p : CapsuleSurfacePoints(c)) {
+      // points of one capsule inside another are not on the union's surface
+      bool inside_other = false;
+      for (const math::Capsule& o : capsules) inside_other |= &o != &c && CapsuleSignedDistance(o, p) < -1e-9;
+      if (!inside_other) points.push_back(p);
+    }
+  }
+  for (const Eigen::Vector3d& p : points) {
     double nearest = std::numeric_limits<double>::infinity();
     for (const LinkShape& shape : g.primitives) nearest = std::min(nearest, PrimitiveDistance(shape, p));
     for (const Eigen::Vector3d& s : g.surface) nearest = std::min(nearest, (p - s).norm());
@@ -344,25 +356,32 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       setup.links.push_back(fit);
       continue;
     }
-    math::Capsule capsule;
+    std::vector<math::Capsule> capsules;
     if (g.missing) {
       // a capsule between the link origin and its children's joint origins
       std::vector<Ball> balls = {{Eigen::Vector3d::Zero(), options.fallback_radius}};
       for (int c = k + 1; c < model.num_links(); ++c) {
         if (model.link(c).parent == k) balls.push_back({model.link(c).X_PJ.translation(), options.fallback_radius});
       }
-      capsule = FitCapsuleToBalls(balls);
+      capsules = {FitCapsuleToBalls(balls)};
       fit.fallback = true;
       fit.source = fmt::format("{}: MISSING, capsule between joint origins (r={:.3f})", sources,
                                options.fallback_radius);
       fit.stick_out = std::numeric_limits<double>::quiet_NaN();
     } else {
-      capsule = num_shapes == 1 && g.closed_form ? *g.closed_form : FitCapsuleToBalls(g.balls);
-      fit.source = num_shapes == 1 && g.closed_form ? sources + " (closed form)" : sources;
-      fit.stick_out = StickOut(capsule, g);
+      const bool closed = num_shapes == 1 && g.closed_form.has_value();
+      capsules = closed ? std::vector<math::Capsule>{*g.closed_form}
+                        : FitCapsulesToMesh(g.balls, g.primitives.empty() ? g.triangles
+                                                                           : std::vector<Eigen::Vector3i>{},
+                                            options.second_capsule_below);
+      fit.source = closed ? sources + " (closed form)"
+                          : sources + (capsules.size() == 2 ? " (two capsules: one covered poorly)" : "");
+      fit.stick_out = StickOut(capsules, g);
     }
-    fit.capsules.push_back(static_cast<int>(robot.capsules.size()));
-    robot.capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
+    for (const math::Capsule& capsule : capsules) {
+      fit.capsules.push_back(static_cast<int>(robot.capsules.size()));
+      robot.capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
+    }
     setup.links.push_back(fit);
   }
   if (robot.capsules.empty()) {
@@ -478,8 +497,10 @@ struct HomeScorer {
   double min_floor;
   mutable Data data;
 
-  HomeScorer(const Robot& r, double clearance, double floor)
-      : robot(r), min_clearance(clearance), min_floor(floor), data(r.model) {
+  double centering;
+
+  HomeScorer(const Robot& r, double clearance, double floor, double centering_weight)
+      : robot(r), min_clearance(clearance), min_floor(floor), data(r.model), centering(centering_weight) {
     const Model& m = r.model;
     lo.resize(m.nq());
     hi.resize(m.nq());
@@ -502,7 +523,7 @@ struct HomeScorer {
     const double w = Manipulability(robot, q);
     if (!(w > 0.0)) return -std::numeric_limits<double>::infinity();
     const double spread = ((q - mid).cwiseQuotient(half)).squaredNorm() / std::max<Eigen::Index>(q.size(), 1);
-    return std::log(w) - 2.0 * spread;
+    return std::log(w) - centering * spread;
   }
 };
 
@@ -546,7 +567,7 @@ RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& option
   SortUnique(&robot.excluded_pairs);
 
   // home: given, else the best sample by HomeScorer (clearance 2 cm, capsules above z = 5 cm; relaxed step by step
-  // when nothing qualifies), refined by a seeded local search
+  // when nothing qualifies) among uniform and near-mid-range samples, refined by a seeded local search
   if (options.home) {
     setup.home = *options.home;
   } else {
@@ -555,13 +576,17 @@ RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& option
     bool found = false;
     for (const auto& [clearance, floor] : std::vector<std::pair<double, double>>{
              {0.02, 0.05}, {0.0, 0.0}, {0.0, -std::numeric_limits<double>::infinity()}}) {
-      const HomeScorer score(robot, clearance, floor);
+      const HomeScorer score(robot, clearance, floor, options.home_centering);
       UniformStream u(SplitMix64(options.seed) ^ 0x686f6d65ULL);
       Eigen::VectorXd best = mid;
       double best_score = score(mid);
       const int candidates = std::max(1, std::min(options.samples, 4000));
       for (int s = 0; s < candidates; ++s) {
-        const Eigen::VectorXd q = RandomConfiguration(model, u);
+        // uniform samples, and as many around mid-range (Gaussian, a quarter of each half range)
+        Eigen::VectorXd q = RandomConfiguration(model, u);
+        if (s % 2 == 1) {
+          for (int i = 0; i < q.size(); ++i) q[i] = score.mid[i] + 0.25 * score.half[i] * u.Normal();
+        }
         const double v = score(q);
         if (v > best_score) {
           best_score = v;

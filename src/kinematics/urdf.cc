@@ -42,10 +42,9 @@ Eigen::Isometry3d ToIsometry(const urdf::Pose& pose) {
 
 bool Finite(double v) { return std::isfinite(v); }
 
-// true when the text is a xacro macro file (the xacro namespace or a xacro element) rather than plain URDF.
-bool LooksLikeXacro(const std::string& xml) {
-  return xml.find("xmlns:xacro") != std::string::npos || xml.find("<xacro:") != std::string::npos;
-}
+// true when the text is a xacro macro file (it uses a xacro element) rather than plain URDF; URDFs expanded by xacro
+// keep the xmlns:xacro declaration, so the namespace alone does not count.
+bool LooksLikeXacro(const std::string& xml) { return xml.find("<xacro:") != std::string::npos; }
 
 // parses URDF text with urdfdom, its console_bridge messages captured into the InputError.
 urdf::ModelInterfaceSharedPtr ParseWithUrdfdom(const std::string& urdf_xml, const std::string& source) {

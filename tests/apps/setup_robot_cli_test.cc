@@ -115,7 +115,8 @@ TEST(SetupRobotCli, DemoWithoutYamlFitsInMemory) {
 
 TEST(SetupRobotCli, XacroIsRefusedWithTheExpansionHint) {
   const fs::path dir = WriteArm("xacro").parent_path();
-  std::ofstream(dir / "arm.urdf.xacro") << "<robot name=\"arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\"/>\n";
+  std::ofstream(dir / "arm.urdf.xacro") << "<robot name=\"arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\">\n"
+                                          "  <xacro:include filename=\"arm_macro.xacro\"/>\n</robot>\n";
   const CommandResult r = RunRmpmarl("setup-robot " + (dir / "arm.urdf.xacro").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("expand it with ROS's xacro first"), std::string::npos) << r.output;

@@ -336,6 +336,12 @@ TEST(RobotSetup, XacroIsRefusedWithAnExpansionHint) {
   }
 }
 
+TEST(RobotSetup, AnExpandedUrdfKeepingTheXacroNamespaceIsPlainUrdf) {
+  const Model m = ParseUrdfModel(R"(<?xml version="1.0"?>
+<robot name="expanded" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="base"/></robot>)", "expanded.urdf");
+  EXPECT_EQ(m.num_links(), 1);
+}
+
 TEST(RobotSetup, UrdfWithoutAnyGeometryIsRefusedClearly) {
   try {
     FitRobot(fs::path(RMPMARL_TEST_DATA_DIR) / "robots/tree/tree.urdf");

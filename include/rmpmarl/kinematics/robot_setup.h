@@ -23,6 +23,10 @@ struct RobotSetupOptions {
   double warning_distance = 0.15;
   double always_in_contact = 0.99;  ///< pairs in contact in at least this share of samples are excluded
   double fallback_radius = 0.04;    ///< capsule radius between joint origins when a mesh is missing [m]
+  /// a mesh link gets a second capsule when two cover it with less than this share of one's volume
+  double second_capsule_below = 0.7;
+  /// the home search maximises log √det(J Jᵀ) − home_centering · mean_i ((q_i − mid_i) / half range_i)²
+  double home_centering = 2.0;
   std::optional<Eigen::VectorXd> home;  ///< the home posture to use instead of searching for one
   std::string end_effector;             ///< end-effector link; "" picks the tip of the longest revolute chain
 };
