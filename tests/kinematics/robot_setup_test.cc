@@ -134,6 +134,41 @@ TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
   EXPECT_LT(fit.stick_out, 0.06);
 }
 
+TEST(RobotSetup, ReadsObjAndColladaWithItsUnitAndWithoutItsUpAxis) {
+  if (!MeshReadingAvailable()) GTEST_SKIP() << "built without assimp";
+  const fs::path dir = TempDir("formats");
+  Write(dir / "tet.obj", "v 0 0 0\nv 0.1 0 0\nv 0 0.2 0\nv 0 0 0.3\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n");
+  const TriangleMesh obj = ReadMesh(dir / "tet.obj", Eigen::Vector3d(1, 2, 1));
+  ASSERT_EQ(obj.p_M.cols(), 4);
+  EXPECT_NEAR(obj.p_M.row(1).maxCoeff(), 0.4, 1e-6);  // y scaled by 2 (assimp reads floats)
+  EXPECT_NEAR(obj.p_M.row(2).maxCoeff(), 0.3, 1e-6);
+  EXPECT_EQ(obj.triangles.size(), 4u);
+  // a COLLADA file in millimetres with Z up, one triangle (0,0,0) (100,0,0) (0,200,300)
+  Write(dir / "tri.dae", R"(<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="millimeter" meter="0.001"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries><geometry id="g" name="g"><mesh>
+    <source id="g-pos"><float_array id="g-pos-array" count="9">0 0 0 100 0 0 0 200 300</float_array>
+      <technique_common><accessor source="#g-pos-array" count="3" stride="3">
+        <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor>
+      </technique_common></source>
+    <vertices id="g-vtx"><input semantic="POSITION" source="#g-pos"/></vertices>
+    <triangles count="1"><input semantic="VERTEX" source="#g-vtx" offset="0"/><p>0 1 2</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene>
+  </library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>
+)");
+  const TriangleMesh dae = ReadMesh(dir / "tri.dae");
+  ASSERT_EQ(dae.p_M.cols(), 3);
+  Eigen::Vector3d hi = dae.p_M.rowwise().maxCoeff();
+  EXPECT_NEAR(hi.x(), 0.1, 1e-6);
+  EXPECT_NEAR(hi.y(), 0.2, 1e-6);
+  EXPECT_NEAR(hi.z(), 0.3, 1e-6);
+  EXPECT_THROW(ReadMesh(dir / "nothing.stl"), InputError);
+}
+
 TEST(RobotSetup, PrimitivesFrameOnlyLinksAndVisualFallback) {
   const fs::path dir = TempDir("primitives");
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
