@@ -102,8 +102,8 @@ void RegisterCheckRobot(CLI::App& app) {
   static std::string urdf, collision;
   static std::vector<std::string> package_paths;
   cmd->add_option("urdf", urdf, "robot URDF file")->required();
-  cmd->add_option("collision", collision, "collision YAML (default: <stem>.collision.yaml beside the URDF, else "
-                                          "capsules fitted in memory as setup-robot does)");
+  cmd->add_option("collision", collision, "collision YAML (default: <stem>.collision.yaml or collision.yaml beside "
+                                          "the URDF, else capsules fitted in memory as setup-robot does)");
   cmd->add_option("--package-path", package_paths, "directory holding the packages of package:// meshes");
   cmd->callback([] {
     const UserRobot user = LoadUserRobot(urdf, collision, package_paths);

@@ -20,7 +20,7 @@ struct UserRobot {
   kinematics::Robot robot;
   std::optional<kinematics::RobotSetup> setup;
 };
-/// `collision` when given, else <urdf stem>.collision.yaml beside the URDF when it exists, else kinematics::SetupRobot
+/// `collision` when given, else <urdf stem>.collision.yaml or collision.yaml beside the URDF, else kinematics::SetupRobot
 /// in memory (saying so on stdout; the home found goes into robot.home).
 UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
                         const std::vector<std::string>& package_paths = {});

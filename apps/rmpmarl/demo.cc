@@ -260,7 +260,7 @@ void RegisterDemo(CLI::App& app) {
   for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
   cmd->add_option("--robot", args.robot, "shipped robot: " + robots)->capture_default_str();
   cmd->add_option("--urdf", args.urdf, "your robot's URDF instead of --robot (its collision YAML: --collision, else "
-                                      "<stem>.collision.yaml beside it, else capsules fitted in memory)");
+                                      "<stem>.collision.yaml or collision.yaml beside it, else capsules fitted in memory)");
   cmd->add_option("--collision", args.collision, "collision YAML of --urdf (rmpmarl setup-robot writes one)");
   cmd->add_option("--scenario", args.scenario, "scenario: " + scenarios)->capture_default_str();
   cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();

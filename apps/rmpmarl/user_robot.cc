@@ -12,9 +12,14 @@ UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
   std::filesystem::path yaml = collision;
   if (yaml.empty()) {
     const std::filesystem::path urdf_path(urdf);
-    const auto beside = kinematics::CollisionYamlPathFor(urdf_path, urdf_path.has_parent_path() ? urdf_path.parent_path()
-                                                                                              : std::filesystem::path("."));
-    if (std::filesystem::is_regular_file(beside)) yaml = beside;
+    const std::filesystem::path dir = urdf_path.has_parent_path() ? urdf_path.parent_path() : std::filesystem::path(".");
+    // setup-robot's <stem>.collision.yaml, else the shipped layout's collision.yaml
+    for (const std::filesystem::path& beside : {kinematics::CollisionYamlPathFor(urdf_path, dir), dir / "collision.yaml"}) {
+      if (std::filesystem::is_regular_file(beside)) {
+        yaml = beside;
+        break;
+      }
+    }
   }
   if (!yaml.empty()) {
     out.robot = kinematics::LoadRobot(urdf, yaml);

@@ -105,6 +105,14 @@ links_without_capsule: [world, tool0]
   EXPECT_NE(r.output.find(" mm"), std::string::npos) << r.output;
 }
 
+TEST(SetupRobotCli, CheckRobotFindsAShippedRobotsCollisionYamlBesideItsUrdf) {
+  const std::string panda = std::string(RMPMARL_TEST_DATA_DIR) + "/../../models/robots/panda/panda.urdf";
+  const CommandResult r = RunRmpmarl("check-robot " + panda);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("collision.yaml"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("configs/rmpflow/panda.yaml"), std::string::npos) << r.output;  // a shipped robot's settings
+}
+
 TEST(SetupRobotCli, DemoWithoutYamlFitsInMemory) {
   const fs::path urdf = WriteArm("demo");
   const CommandResult r = RunRmpmarl("demo --urdf " + urdf.string() + " --duration 1");
