@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <optional>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/capsule_fit.h"
@@ -85,6 +86,17 @@ fs::path WriteVendorArm(const fs::path& dir, const std::string& mesh_uri, bool w
   return urdf;
 }
 
+// options: package path `dir` (none when empty), `samples` configurations, `seed`, optional home.
+RobotSetupOptions Options(const fs::path& dir, int samples = 10000, std::uint64_t seed = 1,
+                          std::optional<Eigen::VectorXd> home = std::nullopt) {
+  RobotSetupOptions options;
+  if (!dir.empty()) options.package_paths = {dir};
+  options.samples = samples;
+  options.seed = seed;
+  options.home = std::move(home);
+  return options;
+}
+
 const LinkFit& FitOf(const RobotSetup& setup, const std::string& link) {
   return setup.links[setup.robot.model.LinkIndex(link)];
 }
@@ -100,7 +112,7 @@ TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
   EXPECT_NEAR(mesh.p_M.row(2).maxCoeff(), 0.3, 1e-9);
 
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup setup = FitRobot(urdf, {.package_paths = {dir}});
+  const RobotSetup setup = FitRobot(urdf, Options(dir));
   EXPECT_TRUE(setup.warnings.empty()) << setup.warnings.front();
   const LinkFit& fit = FitOf(setup, "link2");
   ASSERT_EQ(fit.capsules.size(), 1u);
@@ -172,7 +184,7 @@ TEST(RobotSetup, ReadsObjAndColladaWithItsUnitAndWithoutItsUpAxis) {
 TEST(RobotSetup, PrimitivesFrameOnlyLinksAndVisualFallback) {
   const fs::path dir = TempDir("primitives");
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup setup = FitRobot(urdf, {.package_paths = {dir}});
+  const RobotSetup setup = FitRobot(urdf, Options(dir));
   for (const char* frame : {"world", "flange", "tool0"}) {
     EXPECT_TRUE(FitOf(setup, frame).capsules.empty()) << frame;
     EXPECT_NE(FitOf(setup, frame).source.find("frame only"), std::string::npos);
@@ -221,8 +233,8 @@ TEST(RobotSetup, PackageUrisResolveThroughPackagePathsAndTheUrdfsAncestors) {
 TEST(RobotSetup, ExclusionSamplingIsDeterministicForASeed) {
   const fs::path dir = TempDir("determinism");
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup fit = FitRobot(urdf, {.package_paths = {dir}});
-  RobotSetupOptions options{.package_paths = {dir}, .seed = 42, .samples = 2000};
+  const RobotSetup fit = FitRobot(urdf, Options(dir));
+  RobotSetupOptions options = Options(dir, 2000, 42);
   const auto a = SampleSelfCollision(fit.robot, options);
   const auto b = SampleSelfCollision(fit.robot, options);
   ASSERT_EQ(a.size(), b.size());
@@ -259,7 +271,7 @@ TEST(RobotSetup, ExclusionsByReason) {
   <joint name="jt" type="fixed"><parent link="frame"/><child link="twin"/><origin xyz="0 0.03 0"/></joint>
 </robot>
 )");
-  const RobotSetup setup = SetupRobot(urdf, {.samples = 500});
+  const RobotSetup setup = SetupRobot(urdf, Options({}, 500));
   const Model& m = setup.robot.model;
   auto reason_of = [&](const std::string& a, const std::string& b) -> std::optional<ExclusionReason> {
     const int i = std::min(m.LinkIndex(a), m.LinkIndex(b)), j = std::max(m.LinkIndex(a), m.LinkIndex(b));
@@ -278,7 +290,7 @@ TEST(RobotSetup, ExclusionsByReason) {
 TEST(RobotSetup, HomeIsWithinLimitsCollisionFreeAndWellConditioned) {
   const fs::path dir = TempDir("home");
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 2000});
+  const RobotSetup setup = SetupRobot(urdf, Options(dir, 2000));
   const Model& m = setup.robot.model;
   ASSERT_EQ(setup.home.size(), m.nq());
   for (int i = 0; i < m.nq(); ++i) {
@@ -298,24 +310,24 @@ TEST(RobotSetup, HomeOverrideIsUsedAndChecked) {
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
   Eigen::VectorXd home(4);
   home << 0.1, 0.2, 0.3, 0.4;
-  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = home});
+  const RobotSetup setup = SetupRobot(urdf, Options(dir, 200, 1, home));
   EXPECT_EQ(setup.home, home);
   Eigen::VectorXd bad = home;
   bad[2] = 4.0;
   try {
-    SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = bad});
+    SetupRobot(urdf, Options(dir, 200, 1, bad));
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("j3"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(SetupRobot(urdf, {.package_paths = {dir}, .samples = 200, .home = Eigen::VectorXd::Zero(3)}),
+  EXPECT_THROW(SetupRobot(urdf, Options(dir, 200, 1, Eigen::VectorXd::Zero(3))),
                InputError);
 }
 
 TEST(RobotSetup, WrittenFilesLoadAndCarryTheRobotsOwnSettings) {
   const fs::path dir = TempDir("roundtrip");
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup setup = SetupRobot(urdf, {.package_paths = {dir}, .samples = 1000});
+  const RobotSetup setup = SetupRobot(urdf, Options(dir, 1000));
   const fs::path out = dir / "out";
   fs::create_directories(out);
   Write(CollisionYamlPathFor(urdf, out), CollisionYamlText(setup));
