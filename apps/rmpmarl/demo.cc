@@ -180,7 +180,10 @@ DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, rl::PolicyRuntime* runtime, cons
 // video of each.
 void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   const auto wall_start = std::chrono::steady_clock::now();
-  rl::TaskConfig config = rl::LoadShippedTaskConfig(args.task);
+  // a shipped policy runs on the basic layer it was trained on (task_overrides in the YAML beside it)
+  const std::string layer = rl::LoadPolicyTaskOverrides(policy_path);
+  rl::TaskConfig config = layer.empty() ? rl::LoadShippedTaskConfig(args.task)
+                                        : rl::LoadTaskConfig(rl::TaskConfigPath(args.task), layer);
   if (config.robot != "planar2") config.robot = args.robot;
   if (args.num_obstacles && config.task == rl::TaskKind::kReachAvoid) {
     config.scenario.crossing.num_obstacles = *args.num_obstacles;
@@ -206,6 +209,7 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   fmt::print("rmpmarl demo: {} ({} joints), task '{}', seed {}: the learned per-joint agents ({}; Eigen runtime{}) "
              "and RMPflow on the same episode\n", config.robot, spec.num_agents, args.task, args.seed, policy_path,
              runtime.uses_avx2() ? ", AVX2" : "");
+  if (!layer.empty()) fmt::print("  the policy's basic layer (task overrides beside it): {}\n", layer);
   rl::ManipulatorEnv agents_env(context);
   const DemoRun learned = RunDemoEpisode(agents_env, &runtime, "MARL-RMP", video_for("marl-rmp"), args);
   rl::ExternalController rmpflow;

@@ -4,6 +4,7 @@
 #include "rmpmarl/rl/policy_runtime.h"
 
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 #if defined(__x86_64__) || defined(__i386__)
 #define RMPMARL_RUNTIME_X86 1
 #include <immintrin.h>
@@ -15,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -451,6 +453,27 @@ void PolicyRuntime::Act(const float* obs, int num_agents, float* actions) {
     for (int c = 0; c < w.num_continuous; ++c) act[j++] = std::clamp(h[w.num_options + c], w.low[c], w.high[c]);
     if (w.has_termination) act[j++] = h[hs - 1] > 0.0f ? 1.0f : 0.0f;
   }
+}
+
+std::string LoadPolicyTaskOverrides(const std::string& policy_path) {
+  const std::filesystem::path yaml_path = std::filesystem::path(policy_path).replace_extension(".yaml");
+  if (!std::filesystem::exists(yaml_path)) return "";
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(yaml_path.string());
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}: malformed YAML: {}", yaml_path.string(), e.mark.line + 1, e.msg));
+  }
+  if (!root.IsMap()) {
+    throw InputError(fmt::format("{}: expected a YAML mapping beside the policy file", yaml_path.string()));
+  }
+  const YAML::Node overrides = root["task_overrides"];
+  if (!overrides) return "";
+  if (!overrides.IsScalar()) {
+    throw InputError(fmt::format("{}: key 'task_overrides': expected a string holding a YAML mapping, e.g. "
+                                 "\"{{controller: {{max_substep: 0.002}}}}\"", yaml_path.string()));
+  }
+  return overrides.Scalar();
 }
 
 }  // namespace rmpmarl::rl

@@ -59,6 +59,12 @@ void SavePolicyFile(const PolicyWeights& weights, const std::string& path);
 /// reads a policy file; a wrong magic/version, a truncated file or a checksum mismatch throws InputError naming it.
 PolicyWeights LoadPolicyFile(const std::string& path);
 
+/// the task overrides a shipped policy runs with (its basic-layer variant): the `task_overrides` key (a YAML mapping
+/// in flow style, as a training config's task.overrides) of the YAML beside the policy file (`<stem>.yaml`, written by
+/// scripts/ship-policies). "" when there is no such file or key; throws InputError naming the file when it is not a
+/// YAML mapping or the key is not a string.
+std::string LoadPolicyTaskOverrides(const std::string& policy_path);
+
 /// Evaluates the shared-parameter actor for up to `max_agents` agents at once (one row of observations each).
 /// Evaluate allocates nothing; one instance per thread.
 class PolicyRuntime {
