@@ -1,6 +1,8 @@
 // The figure-specific parts of the experiments (figures.h): Fig. 3's training curves and thresholds, Fig. 5's frames.
 #include "figures.h"
 
+#include "report.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -153,7 +155,7 @@ void WriteFig3Curves(const std::vector<LearnedRuns>& methods, const RunnerOption
         r.task_reached.push_back(success[k] >= kSuccessThreshold && tracking[k] <= kTrackingThreshold ? 1.0 : 0.0);
       }
       for (const CurvePoint& p : r.curve) {
-        csv << fmt::format("{},{},{},{},{:.4f},{:.4f}\n", m.label, r.seed, p.update, p.env_steps, p.mean_return,
+        csv << fmt::format("{},{},{},{},{:.4f},{:.4f}\n", CsvField(m.label), r.seed, p.update, p.env_steps, p.mean_return,
                            p.success_rate);
       }
       runs.push_back(std::move(r));

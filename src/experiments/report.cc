@@ -92,6 +92,20 @@ std::string Mm(const Interval& i) {
   return fmt::format("{:.1f} [{:.1f}, {:.1f}]", i.value, i.low, i.high);
 }
 
+}  // namespace
+
+std::string CsvField(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  return quoted + '"';
+}
+
+namespace {
+
 std::ofstream Open(const fs::path& path) {
   std::ofstream out(path, std::ios::trunc);
   if (!out) throw InputError(fmt::format("cannot write {}", path.string()));
@@ -121,7 +135,8 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
       in_collision.push_back(m.time_in_collision_s);
       clearance.push_back(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN);
       control.push_back(e.control_step_us);
-      episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition,
+      episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", CsvField(r.method),
+                              CsvField(r.condition),
                               r.train_seed, e.index, e.episode_seed, e.variant, e.setting, m.success ? 1 : 0,
                               m.collisions, Num(m.time_in_collision_s, "{:.3f}"), Num(m.mean_tracking_error_mm, "{:.2f}"),
                               Num(m.settled_tracking_error_mm, "{:.2f}"), Num(m.final_tracking_error_mm, "{:.2f}"),
@@ -130,7 +145,8 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
                               e.plans_succeeded, Num(e.planning_ms_mean, "{:.3f}"), Num(e.planning_ms_max, "{:.3f}"));
     }
     const double n = static_cast<double>(r.episodes.size());
-    csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", r.method, r.condition, r.train_seed, r.episodes.size(),
+    csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", CsvField(r.method), CsvField(r.condition), r.train_seed,
+                       r.episodes.size(),
                        Num(n > 0 ? successes / n : NAN, "{:.4f}"), Num(FiniteMean(tracking), "{:.2f}"),
                        Num(FiniteMean(settled), "{:.2f}"), Num(FiniteMean(collisions), "{:.3f}"), Num(FiniteMean(in_collision), "{:.3f}"),
                        Num(FiniteMean(clearance), "{:.1f}"), Num(FiniteMedian(control), "{:.2f}"));
@@ -140,7 +156,8 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
              "seed_success_high,tracking_mm,tracking_low,"
              "tracking_high,settled_tracking_mm,settled_low,settled_high,collisions_per_episode,control_step_us\n";
   for (const Pooled& p : Pool(rows)) {
-    summary << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", p.method, p.condition,
+    summary << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", CsvField(p.method),
+                           CsvField(p.condition),
                            p.seeds.size(), p.episodes, Num(p.success.value, "{:.4f}"), Num(p.success.low, "{:.4f}"),
                            Num(p.success.high, "{:.4f}"), Num(p.seed_success.low, "{:.4f}"),
                            Num(p.seed_success.high, "{:.4f}"), Num(p.tracking.value, "{:.2f}"), Num(p.tracking.low, "{:.2f}"),

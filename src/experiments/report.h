@@ -45,6 +45,9 @@ struct LearnedRuns {
 
 /// results.csv: one line per row; summary.csv: one line per method × condition pooled over training seeds with
 /// 95 % intervals; episodes.csv: every episode.
+/// one CSV field (RFC 4180): quoted, with quotes doubled, when it holds a comma, quote or line break.
+std::string CsvField(const std::string& text);
+
 void WriteResultFiles(const std::vector<ResultRow>& rows, const std::filesystem::path& out);
 /// report.md from the pooled rows and the text.
 void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, const std::filesystem::path& out);

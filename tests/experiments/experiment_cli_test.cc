@@ -32,7 +32,11 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   for (const char* method : {"| PPO |", "| MAPPO (no pre-training) |", "| MARL-PPO |", "| RMPflow |", "| RRT |",
                              "| MARL-RMP |", "| basic layer (target option) |", "| basic layer (target-then-collision) |",
                              "| MARL-RMP (v0 basic layer) |", "| basic layer v0 (target-then-collision) |",
-                             "| MARL-RMP (2 ms basic layer) |", "| basic layer 2 ms (target-then-collision) |"}) {
+                             "| MARL-RMP (2 ms basic layer) |", "| basic layer 2 ms (target-then-collision) |",
+                             "| MARL-RMP (v2) |", "| basic layer v2 (target-then-collision) |",
+                             "| basic layer v2 (target-then-collision, collision scale 1/4) |",
+                             "| RMPflow (tuned collision gains) |",
+                             "| MAPPO over the v2 layer (composite option fixed, parameters learned, 300 updates) |"}) {
     EXPECT_NE(report.find(method), std::string::npos) << method;
   }
   for (const char* speed : {"0.2 m/s", "0.6 m/s", "1.2 m/s", "1.8 m/s", "2.8 m/s"}) {
@@ -41,8 +45,10 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   const std::string csv = Read(dir / "table4" / "results.csv");
   EXPECT_EQ(csv.rfind("method,condition,train_seed,episodes,success_rate,tracking_mm,settled_tracking_mm,"
                       "collisions_per_episode", 0), 0u);
-  // 12 methods (8 + 4 basic-layer ablations) x 5 speeds, one training seed: 60 rows + header
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 61);
+  // 17 methods (8 + 9 basic-layer and baseline ablations) x 5 speeds, one training seed: 85 rows + header
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 86);
+  // a label with a comma is one quoted CSV field (RFC 4180), so the plots read the right columns
+  EXPECT_NE(csv.find("\n\"basic layer v2 (target-then-collision, collision scale 1/4)\",0.2 m/s,0,"), std::string::npos);
   EXPECT_TRUE(fs::exists(dir / "table4" / "table4_success.png"));
   EXPECT_GT(fs::file_size(dir / "table4" / "table4_success.png"), 1000u);
   // a second run reuses the finished training runs
