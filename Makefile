@@ -7,13 +7,19 @@ CMAKE_FLAGS ?=
 
 # Sanitizers: `make test-sanitize` builds the whole tree with ASan + UBSan (RelWithDebInfo) in its own directory and
 # runs the whole ctest suite there; any report stops the process that made it (halt_on_error), so it fails its test.
-# No suppressions.
+# No suppressions of our code; third-party leaks only (fuzz/lsan.supp: urdfdom on a URDF with a kinematic loop).
 SANITIZE_DIR ?= build-sanitize
 SANITIZE ?= address,undefined
 SANITIZER_ENV = ASAN_OPTIONS=halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1 \
-  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
+  UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 LSAN_OPTIONS=suppressions=$(CURDIR)/fuzz/lsan.supp
 
-.PHONY: all deps configure build demo test bench install clean test-sanitize
+# `make fuzz FUZZ_SECONDS=N [FUZZ_TARGETS="robot policy"]`: the libFuzzer targets of fuzz/ (clang, ASan + UBSan,
+# -O1) built in their own directory, each run for N seconds seeded with the shipped files (scripts/run-fuzz).
+FUZZ_DIR ?= build-fuzz
+FUZZ_SECONDS ?= 600
+FUZZ_TARGETS ?=
+
+.PHONY: all deps configure build demo test bench install clean test-sanitize fuzz
 
 all: build
 
@@ -42,6 +48,14 @@ test-sanitize: deps
 	  -DRMPMARL_BUILD_BENCH=OFF $(CMAKE_FLAGS)
 	$(SANITIZER_ENV) cmake --build $(SANITIZE_DIR) -j $(JOBS)
 	cd $(SANITIZE_DIR) && $(SANITIZER_ENV) ctest --output-on-failure -j $(JOBS)
+
+fuzz:
+	@bash scripts/install-deps --fuzz
+	CXX=clang++ cmake -S . -B $(FUZZ_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" -DRMPMARL_SANITIZE=address,undefined \
+	  -DRMPMARL_FUZZ=ON -DRMPMARL_BUILD_TESTS=OFF -DRMPMARL_BUILD_BENCH=OFF
+	cmake --build $(FUZZ_DIR) --target fuzzers -j $(JOBS)
+	bash scripts/run-fuzz $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 install: build
 	cmake --install $(BUILD_DIR)

@@ -18,7 +18,11 @@ void YamlReader::Fail(const YAML::Node& node, const std::string& key, const std:
 void YamlReader::CheckKeys(const YAML::Node& map, const std::string& key, const std::set<std::string>& allowed) const {
   if (!map.IsMap()) Fail(map, key.empty() ? "<root>" : key, "expected a mapping");
   for (const auto& entry : map) {
-    const std::string name = entry.first.as<std::string>();
+    // a sequence or mapping as a key (`? [a, b]: 1`, `{[x]: 1}`) is no key of ours
+    if (!entry.first.IsScalar()) {
+      Fail(entry.first, key.empty() ? "<root>" : key, "expected plain keys, got a sequence or mapping as a key");
+    }
+    const std::string name = entry.first.Scalar();
     if (!allowed.count(name)) {
       std::string list;
       for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
