@@ -13,13 +13,16 @@ SANITIZE ?= address,undefined
 SANITIZER_ENV = ASAN_OPTIONS=halt_on_error=1:detect_leaks=1:check_initialization_order=1:strict_init_order=1 \
   UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 LSAN_OPTIONS=suppressions=$(CURDIR)/fuzz/lsan.supp
 
+# `make soak SOAK_STEPS=N`: random-action env steps over every task x interface mode, 0 non-finite values expected.
+SOAK_STEPS ?= 10000000
+
 # `make fuzz FUZZ_SECONDS=N [FUZZ_TARGETS="robot policy"]`: the libFuzzer targets of fuzz/ (clang, ASan + UBSan,
 # -O1) built in their own directory, each run for N seconds seeded with the shipped files (scripts/run-fuzz).
 FUZZ_DIR ?= build-fuzz
 FUZZ_SECONDS ?= 600
 FUZZ_TARGETS ?=
 
-.PHONY: all deps configure build demo test bench install clean test-sanitize fuzz
+.PHONY: all deps configure build demo test bench install clean test-sanitize soak fuzz
 
 all: build
 
@@ -56,6 +59,10 @@ fuzz:
 	  -DRMPMARL_FUZZ=ON -DRMPMARL_BUILD_TESTS=OFF -DRMPMARL_BUILD_BENCH=OFF
 	cmake --build $(FUZZ_DIR) --target fuzzers -j $(JOBS)
 	bash scripts/run-fuzz $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+
+soak: configure
+	cmake --build $(BUILD_DIR) --target rmpmarl_soak -j $(JOBS)
+	./$(BUILD_DIR)/bench/rmpmarl_soak --steps $(SOAK_STEPS) --threads $(JOBS)
 
 install: build
 	cmake --install $(BUILD_DIR)
