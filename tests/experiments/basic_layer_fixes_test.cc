@@ -95,6 +95,23 @@ rl::TaskConfig V2(const char* name) {
   return c;
 }
 
+/// 200 steps of line-crossing at one speed on the v2 layer
+rl::TaskConfig ShortV2LineCrossing(double speed) {
+  rl::TaskConfig c = V2("line-crossing");
+  c.scenario.line_speeds = {speed};
+  c.episode.max_steps = 200;
+  return c;
+}
+
+/// the episodes of a and b have the same tracking error (within tol) and collision count
+void ExpectSameEpisodes(const std::vector<EpisodeRecord>& a, const std::vector<EpisodeRecord>& b, double tol) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm, tol) << "episode " << i;
+    EXPECT_EQ(a[i].metrics.collisions, b[i].metrics.collisions) << "episode " << i;
+  }
+}
+
 /// the composite option everywhere with the collision parameter u (s_a = 4^u)
 Method Composite(float u) {
   Method m = Method::FixedOption("composite", 2);
@@ -105,9 +122,7 @@ Method Composite(float u) {
 // the env applies s_l = s_a^e: with u = 1 (s_a = gain_range = 4) and e = 0.75 the episodes equal those of e = 0 on a
 // config whose l_p, l_d are multiplied by 4^0.75 by hand
 TEST(BasicLayerV2Test, LengthExponentEqualsHandScaledLengthScales) {
-  rl::TaskConfig learned = V2("line-crossing");
-  learned.scenario.line_speeds = {1.8};
-  learned.episode.max_steps = 200;
+  rl::TaskConfig learned = ShortV2LineCrossing(1.8);
   rl::TaskConfig by_hand = learned;
   by_hand.options.collision_length_exponent = 0.0;
   const double s = std::pow(learned.options.gain_range, 0.75);
@@ -116,10 +131,9 @@ TEST(BasicLayerV2Test, LengthExponentEqualsHandScaledLengthScales) {
   const auto a = EvaluateMethod(Composite(1.0f), learned, {.episodes = 4, .eval_seed = 99});
   const auto b = EvaluateMethod(Composite(1.0f), by_hand, {.episodes = 4, .eval_seed = 99});
   const auto unit = EvaluateMethod(Method::FixedOption("unit", 2), learned, {.episodes = 4, .eval_seed = 99});
+  ExpectSameEpisodes(a, b, 1e-6);
   int differ = 0;
   for (int i = 0; i < 4; ++i) {
-    EXPECT_NEAR(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm, 1e-6);
-    EXPECT_EQ(a[i].metrics.collisions, b[i].metrics.collisions);
     differ += std::abs(a[i].metrics.mean_tracking_error_mm - unit[i].metrics.mean_tracking_error_mm) > 1e-3;
   }
   EXPECT_GT(differ, 0);  // and the parameter acts
@@ -148,35 +162,27 @@ TEST(BasicLayerV2Test, CentreAvoidsFastCubesThePaperParametersDoNot) {
 // the lower end u = −1 (s_a = 1/4) of the v2 layer is the paper-default collision RMP (k_p 800, k_d 50, l_p 1 cm,
 // l_d 4 cm) up to the rounding of the centre's length scales
 TEST(BasicLayerV2Test, LowerEndIsThePaperDefaultRmp) {
-  rl::TaskConfig v2 = V2("line-crossing");
-  v2.scenario.line_speeds = {1.2};
-  v2.episode.max_steps = 200;
+  rl::TaskConfig v2 = ShortV2LineCrossing(1.2);
   rl::TaskConfig paper = v2;
   paper.options.collision_length_exponent = 0.0;
   paper.basic_layer.params.collision = rl::LoadShippedTaskConfig("line-crossing").basic_layer.params.collision;
   paper.basic_layer.params.collision.metric_modulation_radius = 0.35;
   const auto a = EvaluateMethod(Composite(-1.0f), v2, {.episodes = 4, .eval_seed = 99});
   const auto b = EvaluateMethod(Method::FixedOption("paper", 2), paper, {.episodes = 4, .eval_seed = 99});
-  for (int i = 0; i < 4; ++i) {
-    EXPECT_NEAR(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm, 0.5);
-    EXPECT_EQ(a[i].metrics.collisions, b[i].metrics.collisions);
-  }
+  ExpectSameEpisodes(a, b, 0.5);
 }
 
 // options.fixed_option: the action's option index is ignored, every joint runs the configured option
 TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
-  rl::TaskConfig c = V2("line-crossing");
-  c.scenario.line_speeds = {1.2};
-  c.episode.max_steps = 200;
+  const rl::TaskConfig c = ShortV2LineCrossing(1.2);
   rl::TaskConfig fixed = c;
   fixed.options.fixed_option = 2;
   const auto composite = EvaluateMethod(Method::FixedOption("composite", 2), c, {.episodes = 3, .eval_seed = 99});
   const auto asks_target = EvaluateMethod(Method::FixedOption("target", 0), fixed, {.episodes = 3, .eval_seed = 99});
   const auto target = EvaluateMethod(Method::FixedOption("target", 0), c, {.episodes = 3, .eval_seed = 99});
+  ExpectSameEpisodes(asks_target, composite, 0.0);
   int differ = 0;
   for (int i = 0; i < 3; ++i) {
-    EXPECT_EQ(asks_target[i].metrics.mean_tracking_error_mm, composite[i].metrics.mean_tracking_error_mm);
-    EXPECT_EQ(asks_target[i].metrics.collisions, composite[i].metrics.collisions);
     differ += target[i].metrics.mean_tracking_error_mm != composite[i].metrics.mean_tracking_error_mm;
   }
   EXPECT_GT(differ, 0);
