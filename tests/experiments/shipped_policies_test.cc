@@ -4,8 +4,11 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
+#include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
+#include "rmpmarl/experiments/experiments.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/policy_runtime.h"
 
@@ -22,14 +25,22 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     const char* file;
     const char* task;
   };
-  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "pretrain-2link"}, Case{"marl-rmp.rmpp", "reach-avoid"}}) {
+  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "pretrain-2link"}, Case{"marl-rmp.rmpp", "reach-avoid"},
+                        Case{"marl-rmp-v2.rmpp", "reach-avoid"}}) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
     EXPECT_TRUE(fs::exists(fs::path(path).replace_extension(".yaml")));
     const rl::PolicyWeights weights = rl::LoadPolicyFile(path.string());
     EXPECT_EQ(weights.num_options, rl::kNumRmpOptions);
-    rl::TaskConfig task = rl::LoadShippedTaskConfig(c.task);
+    // a policy trained on a basic-layer variant runs on it: the overrides beside it are the recipe's
+    const std::string layer = rl::LoadPolicyTaskOverrides(path.string());
+    if (std::string(c.file) == "marl-rmp-v2.rmpp") {
+      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2"));
+    } else {
+      EXPECT_EQ(layer, "");
+    }
+    rl::TaskConfig task = rl::LoadTaskConfig(rl::TaskConfigPath(c.task), layer);
     task.randomization.variants = 2;
     task.episode.max_steps = 200;
     if (task.task != rl::TaskKind::kPretrain2Link) task.observation.max_obstacles = 6;
@@ -44,6 +55,29 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     // measured (results/, training seed 1): 98 % on pretrain-2link, 90 % on reach-avoid; 6 short episodes here
     EXPECT_GE(successes, 4);
   }
+}
+
+TEST(ShippedPoliciesTest, TaskOverridesBesideAPolicyAreReadOrRejectedWithTheFile) {
+  const fs::path dir = fs::temp_directory_path() / "rmpmarl_policy_overrides_test";
+  fs::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / fs::path(name).replace_extension(".rmpp")).string();
+  };
+  EXPECT_EQ(rl::LoadPolicyTaskOverrides((dir / "none.rmpp").string()), "");  // no YAML beside it
+  EXPECT_EQ(rl::LoadPolicyTaskOverrides(write("plain.yaml", "seed: 1\n")), "");
+  EXPECT_EQ(rl::LoadPolicyTaskOverrides(write("layer.yaml", "task_overrides: \"{options: {fixed_option: 2}}\"\n")),
+            "{options: {fixed_option: 2}}");
+  for (const char* bad : {"task_overrides: [1, 2]\n", "- a list\n", "task_overrides: {a: [\n"}) {
+    SCOPED_TRACE(bad);
+    try {
+      rl::LoadPolicyTaskOverrides(write("bad.yaml", bad));
+      ADD_FAILURE() << "expected an InputError";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace
