@@ -87,7 +87,7 @@ class Reader {
       throw InputError(fmt::format("policy file {} is truncated: reading {} needs {} bytes at offset {}, the payload "
                                    "has {}", path_, what, n, pos_, end_));
     }
-    std::memcpy(p, bytes_.data() + pos_, n);
+    if (n > 0) std::memcpy(p, bytes_.data() + pos_, n);  // p may be null for an empty array (found by fuzzing)
     pos_ += n;
   }
   const std::vector<char>& bytes_;

@@ -222,6 +222,9 @@ TEST(TaskConfigTest, OverridesMergeOverTheFile) {
     EXPECT_NE(msg.find("line-crossing.yaml + overrides"), std::string::npos) << msg;
     EXPECT_NE(msg.find("'episode.max_stepz'"), std::string::npos) << msg;
   }
+  // a sequence as a key in the overrides is an InputError, not a yaml-cpp exception (found by fuzzing)
+  EXPECT_THROW(LoadTaskConfig(TaskConfigPath("line-crossing"), "{[a]: 1}"), InputError);
+  EXPECT_THROW(LoadTaskConfig(TaskConfigPath("line-crossing"), "episode: {[a]: 1}"), InputError);
   const TaskConfig p = ParseTaskConfig("task: pretrain-2link\ninterface: direct\n", "inline");
   EXPECT_EQ(p.interface, InterfaceMode::kDirect);
   EXPECT_EQ(p.source, "inline");

@@ -165,11 +165,15 @@ const std::vector<Key>& Keys() {
 
 // flattens nested maps into dotted keys (task.overrides stays one node).
 void Flatten(const YAML::Node& node, const std::string& prefix, std::map<std::string, YAML::Node>* out,
-             std::vector<std::string>* order) {
+             std::vector<std::string>* order, const std::string& where) {
   for (const auto& kv : node) {
-    const std::string key = prefix + kv.first.as<std::string>();
+    if (!kv.first.IsScalar()) {  // e.g. {[a]: 1} (found by fuzzing)
+      throw InputError(fmt::format("{}: under '{}': expected a plain key name, got a sequence or mapping as a key",
+                                   where, prefix.empty() ? std::string("(top level)") : prefix));
+    }
+    const std::string key = prefix + kv.first.Scalar();
     if (kv.second.IsMap() && key != "task.overrides") {
-      Flatten(kv.second, key + ".", out, order);
+      Flatten(kv.second, key + ".", out, order, where);
     } else {
       (*out)[key] = kv.second;
       order->push_back(key);
@@ -229,7 +233,7 @@ TrainConfig ParseTrainConfig(const std::string& yaml_text, const std::string& wh
   if (!root.IsMap()) throw InputError(fmt::format("{}: expected a YAML map of training settings", where));
   std::map<std::string, YAML::Node> flat;
   std::vector<std::string> order;
-  Flatten(root, "", &flat, &order);
+  Flatten(root, "", &flat, &order, where);
   TrainConfig config;
   std::map<std::string, const Key*> by_name;
   for (const Key& key : Keys()) by_name[key.name] = &key;
