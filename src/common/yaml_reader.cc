@@ -8,6 +8,20 @@
 
 namespace rmpmarl::internal {
 
+void MergeYamlMaps(YAML::Node base, const YAML::Node& over, const std::string& where) {
+  for (const auto& kv : over) {
+    if (!kv.first.IsScalar()) {  // e.g. {[a]: 1} (found by fuzzing)
+      throw InputError(fmt::format("{}: expected plain key names, got a sequence or mapping as a key", where));
+    }
+    const std::string key = kv.first.Scalar();
+    if (kv.second.IsMap() && base[key] && base[key].IsMap()) {
+      MergeYamlMaps(base[key], kv.second, where);
+    } else {
+      base[key] = YAML::Clone(kv.second);
+    }
+  }
+}
+
 void YamlReader::Fail(const YAML::Node& node, const std::string& key, const std::string& message) const {
   if (node.IsDefined() && node.Mark().line >= 0) {
     throw InputError(fmt::format("{}:{}: key '{}': {}", file_, node.Mark().line + 1, key, message));

@@ -28,4 +28,8 @@ class YamlReader {
   std::string file_;
 };
 
+/// merges the mapping `over` into `base`: nested mappings key by key, anything else replaced (by a copy). Throws
+/// InputError "<where>: ..." when a key of `over` is a sequence or mapping instead of a plain name.
+void MergeYamlMaps(YAML::Node base, const YAML::Node& over, const std::string& where);
+
 }  // namespace rmpmarl::internal

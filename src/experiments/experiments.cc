@@ -12,6 +12,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "../common/yaml_reader.h"
 #include "figures.h"
 #include "report.h"
 #include "rmpmarl/common/error.h"
@@ -155,18 +156,7 @@ const Recipe& FindRecipe(const std::string& key) {
 }
 
 /// merges YAML mappings (later ones win; nested mappings merge key by key, so two parts may both set keys of one
-/// section) into one flow-style mapping.
-void MergeYamlInto(YAML::Node into, const YAML::Node& from) {
-  for (const auto& kv : from) {
-    const std::string key = kv.first.as<std::string>();
-    if (kv.second.IsMap() && into[key] && into[key].IsMap()) {
-      MergeYamlInto(into[key], kv.second);
-    } else {
-      into[key] = YAML::Clone(kv.second);
-    }
-  }
-}
-
+/// section) into one flow-style mapping
 /// (parts whose top-level keys are all distinct are joined as written, so the train.yaml of runs trained before
 /// the merge existed stays byte-identical and they are reused)
 std::string MergeOverrides(const std::vector<std::string>& parts) {
@@ -176,7 +166,7 @@ std::string MergeOverrides(const std::vector<std::string>& parts) {
   for (const std::string& p : parts) {
     const YAML::Node node = YAML::Load("{" + p + "}");
     keys += node.size();
-    MergeYamlInto(merged, node);
+    internal::MergeYamlMaps(merged, node, "training run task overrides");
   }
   if (merged.size() == keys) return fmt::format("{{{}}}", fmt::join(parts, ", "));
   YAML::Emitter out;

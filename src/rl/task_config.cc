@@ -317,21 +317,6 @@ TaskConfig LoadShippedTaskConfig(std::string_view name) {
 
 namespace {
 
-// merges `over` into `base` (maps recursively, everything else replaced).
-void MergeYaml(YAML::Node base, const YAML::Node& over, const std::string& source) {
-  for (const auto& kv : over) {
-    if (!kv.first.IsScalar()) {  // e.g. {[a]: 1} (found by fuzzing)
-      throw InputError(fmt::format("{}: expected plain key names, got a sequence or mapping as a key", source));
-    }
-    const std::string key = kv.first.Scalar();
-    if (kv.second.IsMap() && base[key] && base[key].IsMap()) {
-      MergeYaml(base[key], kv.second, source);
-    } else {
-      base[key] = kv.second;
-    }
-  }
-}
-
 YAML::Node LoadYamlFile(const std::string& file) {
   try {
     return YAML::LoadFile(file);
@@ -366,7 +351,7 @@ TaskConfig LoadTaskConfig(const std::filesystem::path& path, const std::string& 
     if (!over.IsMap() || !root.IsMap()) {
       throw InputError(fmt::format("{}: expected the file and the overrides to be mappings", source));
     }
-    MergeYaml(root, over, source);
+    internal::MergeYamlMaps(root, over, source);
   }
   return ParseTaskNode(root, source);
 }

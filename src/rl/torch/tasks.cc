@@ -2,13 +2,9 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 
 #include "rmpmarl/common/error.h"
@@ -181,18 +177,6 @@ ToyReachOptions ToyOptions(const TaskSelection& task) {
   return o;
 }
 
-// overrides `base` with the keys of `over`, recursively for maps.
-void Merge(YAML::Node base, const YAML::Node& over) {
-  for (const auto& kv : over) {
-    const std::string key = kv.first.as<std::string>();
-    if (kv.second.IsMap() && base[key] && base[key].IsMap()) {
-      Merge(base[key], kv.second);
-    } else {
-      base[key] = kv.second;
-    }
-  }
-}
-
 // the manipulator task config: the task file (shipped or task.config), the overrides merged in, the interface.
 TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
   const std::filesystem::path path = task.config.empty() ? TaskConfigPath(task.name) : std::filesystem::path(task.config);
@@ -200,29 +184,13 @@ TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
   if (task.overrides_yaml.empty()) {
     config = LoadTaskConfig(path);
   } else {
-    // the task loader reads files: write the merged YAML to a temporary file named after the task
-    YAML::Node base;
+    // the task loader merges the overrides itself (mappings key by key, non-scalar keys refused)
     try {
-      base = YAML::LoadFile(path.string());
-    } catch (const YAML::Exception& e) {
-      throw InputError(fmt::format("task config {}: cannot read it: {}", path.string(), e.what()));
-    }
-    const YAML::Node over = YAML::Load(task.overrides_yaml);
-    if (!over.IsMap()) throw InputError(fmt::format("task {}: overrides: expected a map", task.name));
-    Merge(base, over);
-    static std::atomic<int> counter{0};
-    const std::filesystem::path merged = std::filesystem::temp_directory_path() /
-                                         fmt::format("rmpmarl-{}-with-overrides-{}-{}.yaml", task.name, getpid(),
-                                                     counter++);
-    std::ofstream(merged) << YAML::Dump(base) << "\n";
-    try {
-      config = LoadTaskConfig(merged);
+      config = LoadTaskConfig(path, task.overrides_yaml);
     } catch (const InputError& e) {
-      std::filesystem::remove(merged);
       throw InputError(fmt::format("task {} ({} with the training config's task.overrides): {}", task.name,
                                    path.string(), e.what()));
     }
-    std::filesystem::remove(merged);
   }
   if (TaskKindName(config.task) != task.name) {
     throw InputError(fmt::format("task config {} is for task {}, not {}", path.string(), TaskKindName(config.task),
