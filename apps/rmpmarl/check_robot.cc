@@ -27,6 +27,13 @@ void PrintRobot(const kinematics::Robot& robot) {
     fmt::print("  {:>2}  {:<22} {:<10} {:<20} {:>9.4f} {:>9.4f} {:>9.3f} {:>8.1f}\n", i, link.joint_name,
                kinematics::JointTypeName(link.joint_type), link.name, l.lower, l.upper, l.velocity, l.effort);
   }
+  for (int k = 1; k < model.num_links(); ++k) {
+    const kinematics::Link& link = model.link(k);
+    if (link.mimic_dof < 0) continue;
+    fmt::print("   -  {:<22} {:<10} {:<20} mimic: {:.4g} x {} {:+.4g}\n", link.joint_name,
+               kinematics::JointTypeName(link.joint_type), link.name, link.mimic_multiplier,
+               model.dof_name(link.mimic_dof), link.mimic_offset);
+  }
   fmt::print("\n  capsules ({}):\n", robot.capsules.size());
   for (const kinematics::LinkCapsule& c : robot.capsules) {
     fmt::print("    {:<22} a=[{:7.4f} {:7.4f} {:7.4f}] b=[{:7.4f} {:7.4f} {:7.4f}] r={:.4f}  length {:.4f}\n",

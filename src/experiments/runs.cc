@@ -138,6 +138,10 @@ rl::TrainConfig RunConfig(const TrainingRun& r, const RunnerOptions& options) {
     }
     config.task.overrides_yaml = r.task_overrides;
   }
+  if (!r.mix_task.empty()) {
+    config.task.mix_name = r.mix_task;
+    config.task.mix_overrides_yaml = r.mix_overrides;
+  }
   return config;
 }
 

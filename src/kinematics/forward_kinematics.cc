@@ -35,9 +35,11 @@ void CalcForwardKinematics(const Model& model, const Eigen::Ref<const Eigen::Vec
   data->X_WL[0].setIdentity();
   for (int k = 1; k < model.num_links(); ++k) {
     const Link& link = model.link(k);
-    const double q_k = link.q_index >= 0 ? q[link.q_index] : 0.0;
-    data->X_WL[k] = data->X_WL[link.parent] * JointPose(link, q_k);
-    if (link.q_index >= 0) data->axis_W.col(link.q_index) = data->X_WL[k].linear() * link.axis_J;
+    data->X_WL[k] = data->X_WL[link.parent] * JointPose(link, model.JointValue(k, q));
+    if (link.moving()) {
+      data->axis_WL.col(k) = data->X_WL[k].linear() * link.axis_J;
+      if (link.q_index >= 0) data->axis_W.col(link.q_index) = data->axis_WL.col(k);
+    }
   }
   data->has_velocities = false;
 }
@@ -62,8 +64,10 @@ void CalcVelocityKinematics(const Model& model, const Eigen::Ref<const Eigen::Ve
     Eigen::Vector3d v = data->v_WLo.col(p) + w_p.cross(r);
     Eigen::Vector3d alpha = alpha_p;
     Eigen::Vector3d a = data->a_bias_WLo.col(p) + alpha_p.cross(r) + w_p.cross(w_p.cross(r));
-    if (link.q_index >= 0) {
-      const Eigen::Vector3d s = data->axis_W.col(link.q_index) * qd[link.q_index];  // axis times rate
+    if (link.moving()) {
+      // axis times rate (a mimic joint's rate is its multiplier times its leader's)
+      const double rate = link.q_index >= 0 ? qd[link.q_index] : link.mimic_multiplier * qd[link.mimic_dof];
+      const Eigen::Vector3d s = data->axis_WL.col(k) * rate;
       if (IsRotational(link.joint_type)) {
         w += s;
         alpha += w_p.cross(s);   // d/dt of the axis, which turns with the parent
@@ -91,11 +95,26 @@ Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, in
   return axis.cross(p_WP - data.X_WL[joint_link].translation());
 }
 
+Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, int dof, int link,
+                                        const Eigen::Vector3d& p_WP) {
+  if (!model.has_mimic_joints()) return CalcPointJacobianColumn(model, data, dof, p_WP);
+  // the sum over the joints dof drives that move `link`: its own (multiplier 1) and its mimic followers'
+  Eigen::Vector3d column = Eigen::Vector3d::Zero();
+  for (int k : model.dof_joint_links(dof)) {
+    if (!model.IsAncestorOrSelf(k, link)) continue;
+    const Link& joint = model.link(k);
+    const double m = joint.q_index >= 0 ? 1.0 : joint.mimic_multiplier;
+    const Eigen::Vector3d axis = data.axis_WL.col(k);
+    column += m * (IsRotational(joint.joint_type) ? axis.cross(p_WP - data.X_WL[k].translation()) : axis);
+  }
+  return column;
+}
+
 void CalcPointJacobianAtWorldPoint(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_WP,
                                    Eigen::Ref<Eigen::Matrix3Xd> J_WP) {
   RMPMARL_DASSERT(J_WP.cols() == model.nq(), "J_WP has the wrong number of columns");
   J_WP.setZero();
-  for (int i : model.link_dofs(link)) J_WP.col(i) = CalcPointJacobianColumn(model, data, i, p_WP);
+  for (int i : model.link_dofs(link)) J_WP.col(i) = CalcPointJacobianColumn(model, data, i, link, p_WP);
 }
 
 void CalcPointJacobian(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_LP,

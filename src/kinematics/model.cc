@@ -34,18 +34,27 @@ Model::Model(std::string name, std::vector<Link> links, std::vector<DofLimits> l
                                    "(links in topological order)", name_, link.name, link.parent, k));
     }
     const bool moving = link.joint_type != JointType::kFixed;
-    if (moving != (link.q_index >= 0)) {
-      throw InputError(fmt::format("robot '{}': joint '{}' of type {} has q_index {}", name_, link.joint_name,
-                                   JointTypeName(link.joint_type), link.q_index));
+    const bool mimic = link.mimic_dof >= 0;
+    if (moving != (link.q_index >= 0 || mimic) || (mimic && link.q_index >= 0)) {
+      throw InputError(fmt::format("robot '{}': joint '{}' of type {} has q_index {} and mimic dof {}", name_,
+                                   link.joint_name, JointTypeName(link.joint_type), link.q_index, link.mimic_dof));
     }
-    if (moving) {
+    if (mimic) {
+      if (link.mimic_dof >= n_q || !std::isfinite(link.mimic_multiplier) || !std::isfinite(link.mimic_offset)) {
+        throw InputError(fmt::format("robot '{}': mimic joint '{}' expected a dof in [0, {}) and a finite "
+                                     "multiplier and offset, got dof {}, multiplier {}, offset {}", name_,
+                                     link.joint_name, n_q, link.mimic_dof, link.mimic_multiplier, link.mimic_offset));
+      }
+      has_mimic_ = true;
+    }
+    if (moving && std::abs(link.axis_J.norm() - 1.0) > 1e-9) {
+      throw InputError(fmt::format("robot '{}': joint '{}' axis must be a unit vector, got norm {}", name_,
+                                   link.joint_name, link.axis_J.norm()));
+    }
+    if (link.q_index >= 0) {
       if (link.q_index >= n_q || dof_link_[link.q_index] != -1) {
         throw InputError(fmt::format("robot '{}': joint '{}' has q_index {}, expected a unique index in [0, {})",
                                      name_, link.joint_name, link.q_index, n_q));
-      }
-      if (std::abs(link.axis_J.norm() - 1.0) > 1e-9) {
-        throw InputError(fmt::format("robot '{}': joint '{}' axis must be a unit vector, got norm {}", name_,
-                                     link.joint_name, link.axis_J.norm()));
       }
       dof_link_[link.q_index] = k;
     }
@@ -60,11 +69,20 @@ Model::Model(std::string name, std::vector<Link> links, std::vector<DofLimits> l
     }
   }
   supports_.assign(static_cast<size_t>(n_links) * n_q, 0);
+  ancestor_.assign(static_cast<size_t>(n_links) * n_links, 0);
   link_dofs_.assign(n_links, {});
+  dof_joint_links_.assign(n_q, {});
+  for (int i = 0; i < n_q; ++i) dof_joint_links_[i].push_back(dof_link_[i]);
+  ancestor_[0] = 1;
   for (int k = 1; k < n_links; ++k) {
     const Link& link = links_[k];
     for (int i = 0; i < n_q; ++i) supports_[k * n_q + i] = supports_[link.parent * n_q + i];
-    if (link.q_index >= 0) supports_[k * n_q + link.q_index] = 1;
+    for (int a = 0; a < n_links; ++a) ancestor_[static_cast<size_t>(k) * n_links + a] =
+        ancestor_[static_cast<size_t>(link.parent) * n_links + a];
+    ancestor_[static_cast<size_t>(k) * n_links + k] = 1;
+    const int dof = link.driving_dof();
+    if (dof >= 0) supports_[k * n_q + dof] = 1;
+    if (link.mimic_dof >= 0) dof_joint_links_[link.mimic_dof].push_back(k);
   }
   for (int k = 0; k < n_links; ++k) {
     for (int i = 0; i < n_q; ++i) {
@@ -109,6 +127,7 @@ Eigen::VectorXd Model::VelocityLimits() const {
 Data::Data(const Model& model)
     : X_WL(model.num_links(), Eigen::Isometry3d::Identity()),
       axis_W(Eigen::Matrix3Xd::Zero(3, model.nq())),
+      axis_WL(Eigen::Matrix3Xd::Zero(3, model.num_links())),
       w_WL(Eigen::Matrix3Xd::Zero(3, model.num_links())),
       v_WLo(Eigen::Matrix3Xd::Zero(3, model.num_links())),
       alpha_bias_WL(Eigen::Matrix3Xd::Zero(3, model.num_links())),

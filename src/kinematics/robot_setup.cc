@@ -442,8 +442,12 @@ double Manipulability(const Robot& robot, const Eigen::VectorXd& q) {
   Eigen::Matrix3Xd J_v(3, model.nq());
   CalcPointJacobian(model, data, ee, robot.end_effector.X_LE.translation(), J_v);
   J.topRows<3>() = J_v;
-  for (int i : model.link_dofs(ee)) {
-    if (model.link(model.dof_link(i)).joint_type != JointType::kPrismatic) J.block<3, 1>(3, i) = data.axis_W.col(i);
+  for (int i : model.link_dofs(ee)) {  // angular rows: the rotational joints dof i drives (mimic followers too)
+    for (int k : model.dof_joint_links(i)) {
+      const Link& joint = model.link(k);
+      if (joint.joint_type == JointType::kPrismatic || !model.IsAncestorOrSelf(k, ee)) continue;
+      J.block<3, 1>(3, i) += (joint.q_index >= 0 ? 1.0 : joint.mimic_multiplier) * data.axis_WL.col(k);
+    }
   }
   const Eigen::MatrixXd G = model.nq() >= 6 ? Eigen::MatrixXd(J * J.transpose()) : Eigen::MatrixXd(J.transpose() * J);
   return std::sqrt(std::max(0.0, G.determinant()));

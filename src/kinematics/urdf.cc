@@ -2,6 +2,7 @@
 // temporary output handler captures them for our InputError messages.
 #include <console_bridge/console.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
@@ -73,6 +74,68 @@ urdf::ModelInterfaceSharedPtr ParseWithUrdfdom(const std::string& urdf_xml, cons
   return urdf_model;
 }
 
+// a mimic joint as read: its link, the joint it follows, value = multiplier · leader + offset.
+struct PendingMimic {
+  int link;
+  std::string leader;
+  double multiplier, offset;
+};
+
+// points every mimic joint at the independent dof at the end of its chain of leaders (a mimic of a mimic composes:
+// m1 (m2 q + o2) + o1); refuses unknown, fixed and cyclic leaders.
+void ResolveMimicJoints(const std::vector<PendingMimic>& mimics, const std::string& source, std::vector<Link>* links) {
+  auto find_joint = [&](const std::string& name) {
+    for (size_t k = 1; k < links->size(); ++k) {
+      if ((*links)[k].joint_name == name) return static_cast<int>(k);
+    }
+    return -1;
+  };
+  auto pending_of = [&](int link) -> const PendingMimic* {
+    for (const PendingMimic& p : mimics) {
+      if (p.link == link) return &p;
+    }
+    return nullptr;
+  };
+  for (const PendingMimic& mimic : mimics) {
+    Link& follower = (*links)[mimic.link];
+    if (!std::isfinite(mimic.multiplier) || !std::isfinite(mimic.offset)) {
+      throw InputError(fmt::format("{}: joint '{}': <mimic multiplier offset> must be finite numbers, got {} {}",
+                                   source, follower.joint_name, mimic.multiplier, mimic.offset));
+    }
+    double multiplier = mimic.multiplier, offset = mimic.offset;
+    std::string leader = mimic.leader;
+    std::vector<std::string> chain{follower.joint_name};
+    for (;;) {
+      const int k = find_joint(leader);
+      if (k < 0) {
+        throw InputError(fmt::format("{}: joint '{}': <mimic joint=\"{}\">: no joint of that name", source,
+                                     follower.joint_name, leader));
+      }
+      if (std::find(chain.begin(), chain.end(), leader) != chain.end()) {
+        throw InputError(fmt::format("{}: joint '{}': <mimic> joints follow each other in a cycle ({} -> {})",
+                                     source, follower.joint_name, fmt::join(chain, " -> "), leader));
+      }
+      const Link& lead = (*links)[k];
+      if (lead.joint_type == JointType::kFixed) {
+        throw InputError(fmt::format("{}: joint '{}': <mimic joint=\"{}\">: that joint is fixed (expected a moving "
+                                     "joint)", source, follower.joint_name, leader));
+      }
+      if (lead.q_index >= 0) {
+        follower.mimic_dof = lead.q_index;
+        break;
+      }
+      const PendingMimic* next = pending_of(k);
+      RMPMARL_ASSERT(next != nullptr, "a moving joint without a dof must be a pending mimic joint");
+      chain.push_back(leader);
+      offset += multiplier * next->offset;  // m1 (m2 q + o2) + o1
+      multiplier *= next->multiplier;
+      leader = next->leader;
+    }
+    follower.mimic_multiplier = multiplier;
+    follower.mimic_offset = offset;
+  }
+}
+
 }  // namespace
 
 Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
@@ -93,6 +156,7 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
     int parent;
   };
   std::vector<Pending> stack;
+  std::vector<PendingMimic> mimics;
   auto push_children = [&stack](const urdf::LinkConstSharedPtr& link, int index) {
     std::vector<urdf::JointSharedPtr> child_joints = link->child_joints;
     std::sort(child_joints.begin(), child_joints.end(),
@@ -122,8 +186,19 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
         throw InputError(fmt::format("{}: joint '{}': type not supported (expected revolute, continuous, "
                                      "prismatic or fixed)", source, joint->name));
     }
-    if (joint->mimic) throw InputError(fmt::format("{}: joint '{}': <mimic> is not supported", source, joint->name));
-    if (link.joint_type != JointType::kFixed) {
+    if (joint->mimic && link.joint_type == JointType::kFixed) {
+      throw InputError(fmt::format("{}: joint '{}': <mimic> on a fixed joint (expected revolute, continuous or "
+                                   "prismatic)", source, joint->name));
+    }
+    if (joint->mimic) {
+      if (axis.norm() < 1e-12) {
+        throw InputError(fmt::format("{}: joint '{}': <axis xyz> must be non-zero, got [{} {} {}]", source,
+                                     joint->name, axis.x(), axis.y(), axis.z()));
+      }
+      link.axis_J = axis.normalized();
+      mimics.push_back({static_cast<int>(links.size()), joint->mimic->joint_name, joint->mimic->multiplier,
+                        joint->mimic->offset});
+    } else if (link.joint_type != JointType::kFixed) {
       if (axis.norm() < 1e-12) {
         throw InputError(fmt::format("{}: joint '{}': <axis xyz> must be non-zero, got [{} {} {}]", source,
                                      joint->name, axis.x(), axis.y(), axis.z()));
@@ -163,6 +238,7 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
     throw InputError(fmt::format("{}: expected all {} links to form one tree under root '{}', reached {}", source,
                                  urdf_model->links_.size(), root->name, links.size()));
   }
+  ResolveMimicJoints(mimics, source, &links);
   return Model(urdf_model->getName(), std::move(links), std::move(limits));
 }
 

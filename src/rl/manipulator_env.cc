@@ -533,12 +533,7 @@ void ManipulatorEnv::UpdateKinematics() {
       v_other = MaterialVelocity(kin_, w.partner_index, w.p_W2);
     }
     w.closing_speed = -w.n_W.dot(MaterialVelocity(kin_, w.link, w.p_W1) - v_other);
-    const int joint_link = m.dof_link(i);
-    const Eigen::Vector3d axis = kin_.axis_W.col(i);
-    const Eigen::Vector3d column = m.link(joint_link).joint_type == kinematics::JointType::kPrismatic
-                                       ? axis
-                                       : Eigen::Vector3d(axis.cross(w.p_W1 - kin_.X_WL[joint_link].translation()));
-    w.gradient = w.n_W.dot(column);
+    w.gradient = w.n_W.dot(kinematics::CalcPointJacobianColumn(m, kin_, i, w.link, w.p_W1));
   }
 }
 
@@ -744,7 +739,8 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   JointReachRewards(e_before_, J_WE_before_, info_.dq_command, rc.joint_reach_tolerance, info_.joint_reach);
   RewardTerms& r = info_.reward;
   r.joint_reach = joint_weights_.dot(info_.joint_reach);
-  r.distance = rc.distance_weight * DistanceReward(info_.distance_before, d, rc.distance_unit);
+  // R_d (eq 14) and the optional dense precision term − tracking_weight · d (RewardConfig::tracking_weight)
+  r.distance = rc.distance_weight * DistanceReward(info_.distance_before, d, rc.distance_unit) - rc.tracking_weight * d;
   r.time = cycles_.Update(d);
   r.collision = -rc.collision_penalty * step_collisions_;
   info_.collision_events = step_collisions_;

@@ -447,7 +447,8 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Num(r, "joint_reach_tolerance", &w.joint_reach_tolerance),
                  Num(r, "distance_weight", &w.distance_weight), Num(r, "distance_unit", &w.distance_unit),
                  Num(r, "time_reward", &w.time_reward), Num(r, "reach_tolerance", &w.reach_tolerance),
-                 Num(r, "reach_release", &w.reach_release), Num(r, "collision_penalty", &w.collision_penalty)});
+                 Num(r, "reach_release", &w.reach_release), Num(r, "collision_penalty", &w.collision_penalty),
+                 Num(r, "tracking_weight", &w.tracking_weight)});
   }
   if (const YAML::Node n = root["randomization"]) {
     RandomizationConfig& d = c.randomization;
@@ -570,6 +571,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         fmt::format("a distance > reward.reach_tolerance ({} m)", w.reach_tolerance), w.reach_release);
   check(std::isfinite(w.collision_penalty) && w.collision_penalty >= 0.0, "reward.collision_penalty",
         "a penalty >= 0", w.collision_penalty);
+  check(std::isfinite(w.tracking_weight) && w.tracking_weight >= 0.0, "reward.tracking_weight",
+        "a weight >= 0 [reward per metre per step]", w.tracking_weight);
 
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

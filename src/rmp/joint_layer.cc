@@ -42,7 +42,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
     const Eigen::Vector3d f = M * (weights.target_accel_scale * rmp.a);
-    const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, p_WE);
+    const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
     const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     force += j.dot(f - M * jdqd);
     metric += j.dot(M * j);
@@ -70,7 +70,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
         const Rmp1 rmp = EvalScaledCollisionRmp(params.collision, res.distance, xd, weights.collision_length_scale);
         const double m = weights.collision_metric_scale * rmp.m;
         const double f = m * weights.collision_accel_scale * rmp.a;
-        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
+        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, lc.link, res.p_W1));
         const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
         force += j * (f - m * jdqd);
         metric += j * m * j;
@@ -113,7 +113,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
       if (!w.use_target) continue;
       const Eigen::Matrix3d M = w.target_metric_scale * rmp.M;
       const Eigen::Vector3d f = M * (w.target_accel_scale * rmp.a);
-      const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, p_WE);
+      const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
       results[dof].force += j.dot(f - M * jdqd);
       results[dof].metric += j.dot(M * j);
     }
@@ -153,7 +153,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
                              ? rmp.a
                              : EvalScaledCollisionRmp(params.collision, res.distance, xd, w.collision_length_scale).a;
         const double f = m * w.collision_accel_scale * a;
-        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, res.p_W1));
+        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, lc.link, res.p_W1));
         results[dof].force += j * (f - m * jdqd);
         results[dof].metric += j * m * j;
         ++results[dof].collision_terms;

@@ -16,6 +16,12 @@ namespace rmpmarl::rmp::internal {
 inline void AddDistanceJacobianRow(const kinematics::Model& model, const kinematics::Data& kin,
                                    const Eigen::Matrix3Xd& origin_W, const std::vector<char>& prismatic, int link,
                                    const Eigen::Vector3d& p_W, const Eigen::Vector3d& n, double sign, double* row) {
+  if (model.has_mimic_joints()) {  // a dof may drive several joints: the general column
+    for (int dof : model.link_dofs(link)) {
+      row[dof] += sign * n.dot(kinematics::CalcPointJacobianColumn(model, kin, dof, link, p_W));
+    }
+    return;
+  }
   for (int dof : model.link_dofs(link)) {
     const Eigen::Vector3d axis = kin.axis_W.col(dof);
     row[dof] += sign * (prismatic[dof] ? axis.dot(n) : axis.dot((p_W - origin_W.col(dof)).cross(n)));

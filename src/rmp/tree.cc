@@ -301,7 +301,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         x3 = p_W;
         Eigen::Map<Eigen::Matrix3Xd> J3(J, 3, model.nq());
         J3.setZero();
-        for (int dof : model.link_dofs(m.link)) J3.col(dof) = kinematics::CalcPointJacobianColumn(model, kin, dof, p_W);
+        for (int dof : model.link_dofs(m.link)) J3.col(dof) = kinematics::CalcPointJacobianColumn(model, kin, dof, m.link, p_W);
         xd3 = kinematics::CalcPointVelocityAtWorldPoint(kin, m.link, p_W);
         jdqd3 = kinematics::CalcPointJdotQdotAtWorldPoint(kin, m.link, p_W);
         break;

@@ -99,10 +99,11 @@ void WriteBody(const Robot& robot, const WorldOptions& options, const ServoGains
                         Vec(link.X_PJ.translation()), Quat(link.X_PJ.linear()));
   }
   if (k != 0 && link.joint_type != JointType::kFixed) {
-    const int i = link.q_index;
+    // a mimic joint: no limits of its own (it follows its leader through an <equality><joint>), the leader's damping
+    const int i = link.driving_dof();
     const kinematics::DofLimits& lim = model.limits()[i];
     const bool slide = link.joint_type == JointType::kPrismatic;
-    const bool limited = link.joint_type != JointType::kContinuous;
+    const bool limited = link.joint_type != JointType::kContinuous && link.q_index >= 0;
     std::string range = limited ? fmt::format(" limited=\"true\" range=\"{} {}\"", Num(lim.lower), Num(lim.upper))
                                 : std::string(" limited=\"false\"");
     *out += fmt::format("{}  <joint name=\"{}\" type=\"{}\" pos=\"0 0 0\" axis=\"{}\"{} damping=\"{}\" armature=\"{}\"/>\n",
@@ -266,7 +267,9 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
   // every primitive pair used here yields at most 2 contacts (capsule–capsule, capsule–box, capsule–plane);
   // frictionless contacts (condim 1) need one constraint row each, joint limits one per dof.
   const int nconmax = 2 * (num_dynamic_pairs + static_cast<int>(pairs.size())) + 16;
-  const int njmax = nconmax + 2 * nq + 16;
+  int num_mimic = 0;
+  for (int k = 1; k < num_links; ++k) num_mimic += model.link(k).mimic_dof >= 0;
+  const int njmax = nconmax + 2 * nq + num_mimic + 16;
 
   std::string out;
   out.reserve(4096 + 512 * (num_links + num_capsules + num_obstacles));
@@ -319,6 +322,17 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
                          Xml(g2), Num(options.warning_margin), Num(options.warning_margin));
     }
     out += "  </contact>\n";
+  }
+  if (num_mimic > 0) {
+    // URDF <mimic>: follower = multiplier · leader + offset (MuJoCo: joint1 = polycoef(joint2))
+    out += "  <equality>\n";
+    for (int k = 1; k < num_links; ++k) {
+      const kinematics::Link& link = model.link(k);
+      if (link.mimic_dof < 0) continue;
+      out += fmt::format("    <joint joint1=\"{}\" joint2=\"{}\" polycoef=\"{} {} 0 0 0\"/>\n", Xml(link.joint_name),
+                         Xml(model.dof_name(link.mimic_dof)), Num(link.mimic_offset), Num(link.mimic_multiplier));
+    }
+    out += "  </equality>\n";
   }
   if (nq > 0) {
     out += "  <actuator>\n";

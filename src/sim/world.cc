@@ -80,6 +80,10 @@ void World::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0, const Eigen::Ref<
     d->qvel[model_->dof_vel_adr(i)] = qd0[i];
     d->ctrl[model_->dof_actuator(i)] = q0[i];
   }
+  for (const WorldModel::MimicJoint& mimic : model_->mimic_joints()) {  // start on the equality constraint
+    d->qpos[mimic.qpos_adr] = mimic.multiplier * q0[mimic.dof] + mimic.offset;
+    d->qvel[mimic.vel_adr] = mimic.multiplier * qd0[mimic.dof];
+  }
   q_cmd_ = q0;
   Sync();
   ReadState();

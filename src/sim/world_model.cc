@@ -96,6 +96,13 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
     lower_[i] = continuous ? -inf : model.limits()[i].lower;
     upper_[i] = continuous ? inf : model.limits()[i].upper;
   }
+  for (int k = 1; k < model.num_links(); ++k) {
+    const kinematics::Link& link = model.link(k);
+    if (link.mimic_dof < 0) continue;
+    const int joint = IdOf(m, mjOBJ_JOINT, link.joint_name);
+    mimic_joints_.push_back(
+        {m->jnt_qposadr[joint], m->jnt_dofadr[joint], link.mimic_dof, link.mimic_multiplier, link.mimic_offset});
+  }
   link_body_.resize(model.num_links());
   for (int k = 0; k < model.num_links(); ++k) link_body_[k] = IdOf(m, mjOBJ_BODY, MjcfNames::LinkBody(robot_, k));
 

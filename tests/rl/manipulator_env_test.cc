@@ -1,6 +1,7 @@
 // The manipulator environment: layouts, observation features and rewards against hand-computed values, options,
 // domain randomisation and the variant pool, determinism, invalid input.
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/common/error.h"
 
 #include <gtest/gtest.h>
 
@@ -249,6 +250,35 @@ TEST(ManipulatorEnvTest, RewardTermsFollowTheirDefinitions) {
     if (b.terminated || b.truncated) env.Reset(rng, b.out());
   }
   EXPECT_GT(reached_terms, 10);  // random motion does earn joint rewards sometimes
+}
+
+// the dense precision term (reward.tracking_weight w): the distance term is R_d − w·d, d after the step; the same
+// episode with w = 0 differs by exactly that, step by step (identical seeds, identical actions).
+TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
+  TaskConfig plain = SmallConfig(TaskKind::kReachAvoid, "panda", 2);
+  TaskConfig dense = plain;
+  dense.reward.tracking_weight = 10.0;
+  auto plain_context = MakeTaskContext(plain);
+  auto dense_context = MakeTaskContext(dense);
+  ManipulatorEnv a(plain_context), b_env(dense_context);
+  Buffers ba(a.spec()), bb(b_env.spec());
+  std::mt19937_64 rng_a(9), rng_b(9), arng(10);
+  a.Reset(rng_a, ba.out());
+  b_env.Reset(rng_b, bb.out());
+  std::vector<float> actions(a.spec().num_agents * a.spec().action.size());
+  for (int step = 0; step < 100; ++step) {
+    RandomActions(a.spec(), arng, actions.data());
+    a.Step(actions.data(), rng_a, ba.out());
+    b_env.Step(actions.data(), rng_b, bb.out());
+    const double d = b_env.last_step().distance_after;
+    ASSERT_NEAR(d, a.last_step().distance_after, 1e-12) << step;
+    EXPECT_NEAR(bb.reward_terms[1], ba.reward_terms[1] - 10.0 * d, 1e-3) << step;
+    EXPECT_NEAR(bb.reward, ba.reward - 10.0 * d, 1e-3) << step;
+    EXPECT_GT(d, 0.0);
+  }
+  TaskConfig bad = plain;
+  bad.reward.tracking_weight = -1.0;
+  EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError);
 }
 
 TEST(ManipulatorEnvTest, CollisionCostsSeventyFivePerEvent) {

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/manipulator_env.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
 
 namespace rmpmarl::rl {
@@ -101,6 +102,38 @@ TEST(TrainConfigTest, UnknownKeysAndBadValuesRefused) {
   TrainConfig multi = ToyConfig(3, "options");
   multi.algorithm = "ppo";
   ExpectRefused([&] { Trainer t(multi, MakeTaskFactory(multi.task)); }, {"single-agent", "3 agents"});
+}
+
+// a mixture of scenes (task.mix): every other env runs the second task, with the first's interface; the keys
+// round-trip, and a config without a mix prints no mix keys (so older runs' train.yaml still compare equal)
+TEST(TrainConfigTest, MixedTasksAlternateOverTheEnvs) {
+  const TrainConfig c = ParseTrainConfig(R"(
+name: mix
+task:
+  name: reach-avoid
+  interface: per-joint-rmp
+  overrides: {observation: {max_obstacles: 6}, randomization: {variants: 1}}
+  mix: {name: cluttered, overrides: {observation: {max_obstacles: 6}, randomization: {variants: 1}}, fraction: 0.5}
+)", "inline");
+  EXPECT_EQ(c.task.mix_name, "cluttered");
+  const TrainConfig back = ParseTrainConfig(ToYaml(c), "round trip");
+  EXPECT_EQ(FlattenTrainConfig(back), FlattenTrainConfig(c));
+  EXPECT_EQ(back.task.mix_overrides_yaml, c.task.mix_overrides_yaml);
+  const EnvFactory factory = MakeTaskFactory(c.task);
+  for (int k = 0; k < 4; ++k) {
+    const std::unique_ptr<Env> env = factory(k);
+    const auto* m = dynamic_cast<const ManipulatorEnv*>(env.get());
+    ASSERT_NE(m, nullptr);
+    EXPECT_EQ(m->context().config().task, k % 2 == 1 ? TaskKind::kCluttered : TaskKind::kReachAvoid) << k;
+    EXPECT_EQ(m->context().config().interface, InterfaceMode::kPerJointRmp) << k;
+    EXPECT_EQ(m->context().config().observation.max_obstacles, 6) << k;
+  }
+  const TrainConfig plain = ParseTrainConfig("task: {name: toy-reach}\n", "inline");
+  EXPECT_EQ(ToYaml(plain).find("mix"), std::string::npos);
+  ExpectRefused([] { ParseTrainConfig("task: {name: reach-avoid, mix: {name: cluttered, fraction: 1.5}}\n", "c.yaml"); },
+                {"task.mix.fraction", "(0, 1)", "1.5"});
+  ExpectRefused([] { MakeTaskFactory({.name = "toy-reach", .mix_name = "cluttered"}); },
+                {"two manipulator tasks", "toy-reach"});
 }
 
 TEST(TrainConfigTest, ShippedTrainingConfigsParse) {

@@ -19,6 +19,8 @@ struct TrainingRun {
   std::vector<int> snapshot_updates;   ///< also export policy-u<N>.rmpp after these updates (training budgets)
   std::string init_from;               ///< id of the run whose final.ckpt initialises the actor ("": the config's)
   std::string task_overrides;          ///< YAML map merged over the task (e.g. "{observation: {max_obstacles: 6}}")
+  std::string mix_task;                ///< a second task half the envs train on (rl::TaskSelection::mix_name), "" none
+  std::string mix_overrides;           ///< its overrides
 };
 
 /// Where and how the runs are trained.

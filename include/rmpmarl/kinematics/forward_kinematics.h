@@ -26,9 +26,16 @@ void CalcPointJacobian(const Model& model, const Data& data, int link, const Eig
 void CalcPointJacobianAtWorldPoint(const Model& model, const Data& data, int link, const Eigen::Vector3d& p_WP,
                                    Eigen::Ref<Eigen::Matrix3Xd> J_WP);
 
-/// column `dof` of the position Jacobian of world point p_WP taken as fixed on a link that `dof` moves:
-/// a × (p_WP − o_J) for a rotational joint, a for a prismatic one.  \pre CalcForwardKinematics.
+/// column `dof` of the position Jacobian of world point p_WP taken as fixed on a link that `dof`'s own joint moves:
+/// a × (p_WP − o_J) for a rotational joint, a for a prismatic one. Mimic followers of the dof are not included: use
+/// the overload with the link for points that a mimic joint may move.  \pre CalcForwardKinematics.
 Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, int dof, const Eigen::Vector3d& p_WP);
+
+/// column `dof` of the position Jacobian of world point p_WP fixed on `link`: the sum, over the joints `dof` drives
+/// that move `link` (its own joint and its mimic followers, each times its multiplier), of a × (p_WP − o_J) or a;
+/// zero when none does. Equals the overload above on robots without mimic joints.  \pre CalcForwardKinematics.
+Eigen::Vector3d CalcPointJacobianColumn(const Model& model, const Data& data, int dof, int link,
+                                        const Eigen::Vector3d& p_WP);
 
 /// linear velocity of the material point of `link` at world point p_WP.  \pre CalcVelocityKinematics.
 Eigen::Vector3d CalcPointVelocityAtWorldPoint(const Data& data, int link, const Eigen::Vector3d& p_WP);

@@ -121,6 +121,9 @@ struct RewardConfig {
   double reach_tolerance = 0.02;        ///< a reach cycle ends when d ≤ this [m], > 0
   double reach_release = 0.04;          ///< a new cycle starts when d > this after a reach [m], > reach_tolerance
   double collision_penalty = 75.0;      ///< φ per collision event, ≥ 0
+  /// a dense precision term beside eq (14)'s (issue 9): − this × d per step, d the end-effector–target distance [m];
+  /// logged with R_d in the `distance` term. ≥ 0 (0: eq 14 alone)
+  double tracking_weight = 0.0;
 };
 
 /// Planar two-link arm parameters (robot: planar2).

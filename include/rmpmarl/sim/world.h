@@ -57,6 +57,13 @@ class WorldModel {
   int dof_qpos_adr(int i) const { return dof_qpos_adr_[i]; }
   /// qvel/dof address of dof i.
   int dof_vel_adr(int i) const { return dof_vel_adr_[i]; }
+  /// A mimic joint of the robot in MuJoCo: its qpos/qvel address and the dof it follows (kinematics::Link).
+  struct MimicJoint {
+    int qpos_adr = 0, vel_adr = 0, dof = 0;
+    double multiplier = 1.0, offset = 0.0;
+  };
+  /// the robot's mimic joints (held to their leaders by MuJoCo joint equalities; set with them on Reset).
+  const std::vector<MimicJoint>& mimic_joints() const { return mimic_joints_; }
   /// actuator id of dof i's servo.
   int dof_actuator(int i) const { return dof_actuator_[i]; }
   /// MuJoCo body id of link k.
@@ -88,6 +95,7 @@ class WorldModel {
   std::string mjcf_;
   std::shared_ptr<const mjModel> mj_model_;
   std::vector<int> dof_qpos_adr_, dof_vel_adr_, dof_actuator_, link_body_, capsule_geom_;
+  std::vector<MimicJoint> mimic_joints_;
   std::vector<int> obstacle_body_, obstacle_mocap_, obstacle_geom_;
   int target_mocap_ = -1, target_geom_ = -1, floor_geom_ = -1;
   std::vector<GeomInfo> geom_info_;

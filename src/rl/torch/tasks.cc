@@ -221,13 +221,36 @@ std::vector<std::string> KnownTasks() {
 }
 
 EnvFactory MakeTaskFactory(const TaskSelection& task) {
+  const std::vector<std::string> manipulator = TaskNames();
+  auto is_manipulator = [&](const std::string& name) {
+    return std::find(manipulator.begin(), manipulator.end(), name) != manipulator.end();
+  };
+  if (!task.mix_name.empty()) {
+    if (!is_manipulator(task.name) || !is_manipulator(task.mix_name)) {
+      throw InputError(fmt::format("task.mix: a mixture needs two manipulator tasks, got {} and {}", task.name,
+                                   task.mix_name));
+    }
+    if (!(task.mix_fraction > 0.0 && task.mix_fraction < 1.0)) {
+      throw InputError(fmt::format("task.mix.fraction: expected a share in (0, 1), got {}", task.mix_fraction));
+    }
+    TaskSelection mix;
+    mix.name = task.mix_name;
+    mix.interface = task.interface;
+    mix.overrides_yaml = task.mix_overrides_yaml;
+    const EnvFactory first = MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(task)));
+    const EnvFactory second = MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(mix)));
+    const double f = task.mix_fraction;
+    // env k runs the mix task when the running share floor(k f) steps up at k: spread evenly over the envs
+    return [first, second, f](int k) {
+      return std::floor((k + 1) * f) > std::floor(k * f) ? second(k) : first(k);
+    };
+  }
   if (task.name == "toy-reach") {
     const ToyReachOptions options = ToyOptions(task);
     ToyReachEnv probe(options);  // validates the options now, not in a worker thread
     return [options](int) { return std::make_unique<ToyReachEnv>(options); };
   }
-  const std::vector<std::string> manipulator = TaskNames();
-  if (std::find(manipulator.begin(), manipulator.end(), task.name) != manipulator.end()) {
+  if (is_manipulator(task.name)) {
     // the context (robot variants, one WorldModel each) is built once and shared by every env of every segment
     return MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(task)));
   }

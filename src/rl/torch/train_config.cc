@@ -98,6 +98,25 @@ const std::vector<Key>& Keys() {
                       c.task.overrides_yaml = n.size() == 0 ? "" : e.c_str();
                     },
                     [](const TrainConfig& c) { return c.task.overrides_yaml.empty() ? "{}" : c.task.overrides_yaml; }});
+    k.push_back(Key{"task.mix.name", [](TrainConfig& c, const YAML::Node& n) { c.task.mix_name = n.as<std::string>(); },
+                    [](const TrainConfig& c) { return Quote(c.task.mix_name); }});
+    k.push_back(Key{"task.mix.overrides",
+                    [](TrainConfig& c, const YAML::Node& n) {
+                      if (n.IsNull()) {
+                        c.task.mix_overrides_yaml.clear();
+                        return;
+                      }
+                      if (!n.IsMap()) throw YAML::Exception(YAML::Mark(), "expected a map");
+                      YAML::Emitter e;
+                      e << YAML::Flow << n;
+                      c.task.mix_overrides_yaml = n.size() == 0 ? "" : e.c_str();
+                    },
+                    [](const TrainConfig& c) {
+                      return c.task.mix_overrides_yaml.empty() ? "{}" : c.task.mix_overrides_yaml;
+                    }});
+    k.push_back(Key{"task.mix.fraction",
+                    [](TrainConfig& c, const YAML::Node& n) { c.task.mix_fraction = n.as<double>(); },
+                    [](const TrainConfig& c) { return Real(c.task.mix_fraction); }});
     k.push_back(FieldKey("algorithm", &TrainConfig::algorithm, str));
     k.push_back(FieldKey("seed", &TrainConfig::seed, u64));
     k.push_back(FieldKey("num_envs", &TrainConfig::num_envs, integer));
@@ -172,7 +191,7 @@ void Flatten(const YAML::Node& node, const std::string& prefix, std::map<std::st
                                    where, prefix.empty() ? std::string("(top level)") : prefix));
     }
     const std::string key = prefix + kv.first.Scalar();
-    if (kv.second.IsMap() && key != "task.overrides") {
+    if (kv.second.IsMap() && key != "task.overrides" && key != "task.mix.overrides") {
       Flatten(kv.second, key + ".", out, order, where);
     } else {
       (*out)[key] = kv.second;
@@ -190,6 +209,12 @@ void Validate(const TrainConfig& c, const std::string& where) {
     fail("algorithm", fmt::format("expected \"mappo\" or \"ppo\", got \"{}\"", c.algorithm));
   }
   if (c.num_envs < 1) fail("num_envs", fmt::format("expected >= 1, got {}", c.num_envs));
+  if (!c.task.mix_name.empty() && !(c.task.mix_fraction > 0.0 && c.task.mix_fraction < 1.0)) {
+    fail("task.mix.fraction", fmt::format("expected a share of the envs in (0, 1), got {}", c.task.mix_fraction));
+  }
+  if (c.task.mix_name.empty() && !c.task.mix_overrides_yaml.empty()) {
+    fail("task.mix.overrides", "given without task.mix.name");
+  }
   if (c.env_threads < 1) fail("env_threads", fmt::format("expected >= 1, got {}", c.env_threads));
   if (c.torch_threads < 1) fail("torch_threads", fmt::format("expected >= 1, got {}", c.torch_threads));
   if (c.total_updates < 1) fail("total_updates", fmt::format("expected >= 1, got {}", c.total_updates));
@@ -267,7 +292,11 @@ TrainConfig LoadTrainConfig(const std::string& path) {
 
 std::vector<std::pair<std::string, std::string>> FlattenTrainConfig(const TrainConfig& config) {
   std::vector<std::pair<std::string, std::string>> out;
-  for (const Key& key : Keys()) out.emplace_back(key.name, key.write(config));
+  for (const Key& key : Keys()) {
+    // the mixture keys only when a mix task is set: configs without one print (and compare) as before they existed
+    if (config.task.mix_name.empty() && key.name.rfind("task.mix.", 0) == 0) continue;
+    out.emplace_back(key.name, key.write(config));
+  }
   return out;
 }
 

@@ -26,6 +26,11 @@ struct TaskSelection {
   std::string config;          ///< optional task YAML (e.g. configs/tasks/reach-avoid.yaml)
   std::string interface;       ///< e.g. "per-joint-rmp", "direct", "per-joint-direct" (task-defined)
   std::string overrides_yaml;  ///< optional YAML map of task parameters (task-defined)
+  /// a second task trained alongside (a mixture of scenes, issue 9): that share of the envs runs it instead, with
+  /// the same interface; both must be manipulator tasks with one batch layout (same robot, obstacle slots). "": none
+  std::string mix_name;
+  std::string mix_overrides_yaml;  ///< its overrides (as overrides_yaml)
+  double mix_fraction = 0.5;       ///< share of the envs that run the mix task, in (0, 1)
 };
 
 /// A training run, as read from configs/train/<name>.yaml (docs/learning.md lists every key).
