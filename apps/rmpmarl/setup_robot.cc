@@ -2,6 +2,7 @@
 // sampling and a home posture, written as <stem>.collision.yaml + <stem>.rmpflow.yaml (docs/robot-description.md).
 #include <fmt/core.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -69,12 +70,19 @@ void RunSetup(const SetupArgs& args) {
              urdf.string(), model.num_links(), model.nq());
   PrintLinkFits(setup);
 
-  int counts[4] = {0, 0, 0, 0};
-  for (const kinematics::Exclusion& e : setup.exclusions) ++counts[static_cast<int>(e.reason)];
+  std::array<int, 5> counts{};  // per kinematics::ExclusionReason
+  for (const kinematics::Exclusion& e : setup.exclusions) ++counts.at(static_cast<size_t>(e.reason));
   const int parent_child = model.num_links() - 1;
   fmt::print("\n  self-collision exclusions ({} samples, seed {}): {} parent–child, {} adjacent across frame-only "
-             "links, {} always in contact, {} never within {:.0f} mm, {} in contact at home\n", setup.samples,
-             args.seed, parent_child, counts[0], counts[1], counts[2], 1000 * options.warning_distance, counts[3]);
+             "links, {} always in contact, {} never within {:.0f} mm, {} in contact at home, {} fingers of one "
+             "gripper\n", setup.samples, args.seed, parent_child, counts[0], counts[1], counts[2],
+             1000 * options.warning_distance, counts[3], counts[4]);
+  int mimic = 0;
+  for (int k = 1; k < model.num_links(); ++k) mimic += model.link(k).mimic_dof >= 0;
+  if (mimic > 0) {
+    fmt::print("  mimic joints: {} follow their leaders (no coordinate of their own; agents and RMPflow control the "
+               "{} independent joints)\n", mimic, model.nq());
+  }
   std::string home;
   for (int i = 0; i < setup.home.size(); ++i) home += fmt::format("{}{:.3f}", i ? " " : "", setup.home[i]);
   fmt::print("  home posture: [{}]{} (manipulability {:.4g}, closest checked pair {:.0f} mm)\n", home,

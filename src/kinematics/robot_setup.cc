@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <set>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -217,9 +218,15 @@ double StickOut(const std::vector<math::Capsule>& capsules, const LinkGeometry& 
 // joints to a tool frame when one is named like one (tcp, tool0, ee, flange, hand).
 int PickEndEffector(const Model& model, const std::string& requested) {
   if (!requested.empty()) return model.LinkIndex(requested);
+  // rotational joints from the root to link k, mimic joints of a rotational dof included (a coupled wrist joint is
+  // part of the arm), those a prismatic dof drives not (a gripper's linkage)
   auto revolute_count = [&](int k) {
     int n = 0;
-    for (int i : model.link_dofs(k)) n += model.link(model.dof_link(i)).joint_type != JointType::kPrismatic;
+    for (int j = k; j > 0; j = model.link(j).parent) {
+      const Link& l = model.link(j);
+      if (!l.moving() || l.joint_type == JointType::kPrismatic) continue;
+      n += model.link(model.dof_link(l.driving_dof())).joint_type != JointType::kPrismatic;
+    }
     return n;
   };
   int tip = 0;
@@ -309,6 +316,7 @@ std::string_view ExclusionReasonName(ExclusionReason reason) {
     case ExclusionReason::kAlwaysInContact: return "always in contact";
     case ExclusionReason::kNeverClose: return "never close";
     case ExclusionReason::kContactAtHome: return "in contact at home";
+    case ExclusionReason::kOneGripper: return "one gripper (moved against each other by one mimic dof)";
   }
   return "unknown";
 }
@@ -401,6 +409,24 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       setup.exclusions.push_back({std::min(a, k), std::max(a, k), ExclusionReason::kAdjacent, 0.0, 0.0});
     }
   }
+  // links that only a gripper's dof moves relative to each other (the fingers of one gripper: the path between them
+  // in the tree has fixed joints and joints of one dof with mimic followers): touching is what they are for
+  for (int a = 1; a < model.num_links(); ++a) {
+    for (int b = a + 1; b < model.num_links(); ++b) {
+      if (capsule_count[a] == 0 || capsule_count[b] == 0 || robot.IsExcludedPair(a, b)) continue;
+      if (model.IsAncestorOrSelf(a, b) || model.IsAncestorOrSelf(b, a)) continue;  // one chain: not two fingers
+      std::set<int> path_dofs;
+      for (int k = a; !model.IsAncestorOrSelf(k, b); k = model.link(k).parent) {
+        if (model.link(k).moving()) path_dofs.insert(model.link(k).driving_dof());
+      }
+      for (int k = b; !model.IsAncestorOrSelf(k, a); k = model.link(k).parent) {
+        if (model.link(k).moving()) path_dofs.insert(model.link(k).driving_dof());
+      }
+      if (path_dofs.size() != 1 || model.dof_joint_links(*path_dofs.begin()).size() < 2) continue;
+      robot.excluded_pairs.emplace_back(a, b);
+      setup.exclusions.push_back({a, b, ExclusionReason::kOneGripper, 0.0, 0.0});
+    }
+  }
   SortUnique(&robot.excluded_pairs);
   return setup;
 }
@@ -438,18 +464,21 @@ double Manipulability(const Robot& robot, const Eigen::VectorXd& q) {
   Data data(model);
   CalcForwardKinematics(model, q, &data);
   const int ee = robot.end_effector.link;
-  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(6, model.nq());
-  Eigen::Matrix3Xd J_v(3, model.nq());
-  CalcPointJacobian(model, data, ee, robot.end_effector.X_LE.translation(), J_v);
-  J.topRows<3>() = J_v;
-  for (int i : model.link_dofs(ee)) {  // angular rows: the rotational joints dof i drives (mimic followers too)
-    for (int k : model.dof_joint_links(i)) {
+  // the columns of the dofs that move the end effector (a gripper's dof beside it would make any posture singular)
+  const std::vector<int>& dofs = model.link_dofs(ee);
+  const int n = static_cast<int>(dofs.size());
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(6, n);
+  const Eigen::Vector3d p_WE = data.X_WL[ee] * robot.end_effector.X_LE.translation();
+  for (int c = 0; c < n; ++c) {
+    const int i = dofs[c];
+    J.block<3, 1>(0, c) = CalcPointJacobianColumn(model, data, i, ee, p_WE);
+    for (int k : model.dof_joint_links(i)) {  // angular rows: the rotational joints dof i drives (mimic followers too)
       const Link& joint = model.link(k);
       if (joint.joint_type == JointType::kPrismatic || !model.IsAncestorOrSelf(k, ee)) continue;
-      J.block<3, 1>(3, i) += (joint.q_index >= 0 ? 1.0 : joint.mimic_multiplier) * data.axis_WL.col(k);
+      J.block<3, 1>(3, c) += (joint.q_index >= 0 ? 1.0 : joint.mimic_multiplier) * data.axis_WL.col(k);
     }
   }
-  const Eigen::MatrixXd G = model.nq() >= 6 ? Eigen::MatrixXd(J * J.transpose()) : Eigen::MatrixXd(J.transpose() * J);
+  const Eigen::MatrixXd G = n >= 6 ? Eigen::MatrixXd(J * J.transpose()) : Eigen::MatrixXd(J.transpose() * J);
   return std::sqrt(std::max(0.0, G.determinant()));
 }
 

@@ -130,4 +130,17 @@ TEST(SetupRobotCli, XacroIsRefusedWithTheExpansionHint) {
   EXPECT_NE(r.output.find("expand it with ROS's xacro first"), std::string::npos) << r.output;
 }
 
+// a URDF with <mimic> joints runs as downloaded (issue 10): fitted in memory, RMPflow drives the independent joints
+// in MuJoCo, the followers ride along on their equality constraints
+TEST(SetupRobotCli, DemoRunsAUrdfWithMimicJoints) {
+  const std::string urdf = std::string(RMPMARL_TEST_DATA_DIR) + "/robots/mimic/mimic_arm.urdf";
+  const CommandResult check = RunRmpmarl("check-robot " + urdf);
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find("mimic: -0.5 x j3 +0.2"), std::string::npos) << check.output;
+  const CommandResult r = RunRmpmarl("demo --urdf " + urdf + " --duration 2");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("mimic_arm (4 dof)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0 self"), std::string::npos) << r.output;
+}
+
 }  // namespace

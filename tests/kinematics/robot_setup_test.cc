@@ -398,5 +398,31 @@ TEST(RobotSetup, UrdfWithoutAnyGeometryIsRefusedClearly) {
   }
 }
 
+// a URDF with a parallel gripper and a coupled wrist (<mimic>, issue 10): the tool frame is found past the coupled
+// joint, the two fingers of the gripper are excluded from each other (and nothing else for being on one chain), and
+// the home posture is well conditioned although the gripper's dof does not move the end effector.
+TEST(RobotSetup, MimicGripperFingersAreOneGripperAndHomeIgnoresTheGripperDof) {
+  const fs::path urdf = fs::path(RMPMARL_TEST_DATA_DIR) / "robots" / "mimic" / "mimic_arm.urdf";
+  RobotSetupOptions options;
+  options.samples = 2000;
+  const RobotSetup setup = SetupRobot(urdf, options);
+  const Robot& robot = setup.robot;
+  const Model& m = robot.model;
+  EXPECT_EQ(m.link(robot.end_effector.link).name, "tcp");
+  const int left = m.LinkIndex("finger_left"), right = m.LinkIndex("finger_right");
+  int gripper = 0;
+  for (const Exclusion& e : setup.exclusions) {
+    if (e.reason != ExclusionReason::kOneGripper) continue;
+    ++gripper;
+    EXPECT_EQ(std::make_pair(e.link_a, e.link_b), std::make_pair(std::min(left, right), std::max(left, right)));
+  }
+  EXPECT_EQ(gripper, 1);
+  EXPECT_TRUE(robot.IsExcludedPair(left, right));
+  EXPECT_FALSE(robot.IsExcludedPair(m.LinkIndex("link2"), m.LinkIndex("link4")));  // j3 and its follower: one arm
+  EXPECT_GT(setup.home_manipulability, 1e-3);
+  EXPECT_NEAR(setup.home_manipulability, Manipulability(robot, setup.home), 1e-12);
+  EXPECT_GE(ClosestSelfCollisionPair(robot, setup.home).distance, 0.0);
+}
+
 }  // namespace
 }  // namespace rmpmarl::kinematics

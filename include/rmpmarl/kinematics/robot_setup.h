@@ -41,7 +41,8 @@ struct LinkFit {
 };
 
 /// Why a link pair is excluded from self-collision checks.
-enum class ExclusionReason { kAdjacent, kAlwaysInContact, kNeverClose, kContactAtHome };
+/// kOneGripper: links only one dof with mimic followers moves against each other (the fingers of a gripper).
+enum class ExclusionReason { kAdjacent, kAlwaysInContact, kNeverClose, kContactAtHome, kOneGripper };
 
 /// name as written in the collision YAML comments ("adjacent", "always in contact", ...).
 std::string_view ExclusionReasonName(ExclusionReason reason);
