@@ -88,6 +88,21 @@ const LayerVariant kLayerV2Params{
       task.options.fixed_option = 2;
     }};
 
+/// the parameters-only v2 layer with temporally consistent parameters: each joint reads its RMP parameters when its
+/// option starts, when its warning set fills or empties, and every 25 steps (options.parameter_period), and options
+/// run 50 steps (fixed termination) — exploration noise then lasts as long as an evasion does.
+const LayerVariant kLayerV2ParamsHold{
+    "controller: {max_substep: 0.002}, observation: {warning_distance: 0.35}, "
+    "options: {collision_length_exponent: 0.75, fixed_option: 2, parameter_period: 25, termination: fixed, "
+    "horizon: 50}, rmp: {collision_rmp: {metric_modulation_radius: 0.35, repulsion_gain: 3200, damping_gain: 200, "
+    "repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}",
+    [](rl::TaskConfig& task) {
+      kLayerV2Params.apply(task);
+      task.options.parameter_period = 25;
+      task.options.termination = rl::OptionTermination::kFixed;
+      task.options.horizon = 50;
+    }};
+
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
 /// of eq (8)'s gains and length scales tried on the basic layer and RMPflow (docs/learning.md).
@@ -159,6 +174,13 @@ const std::vector<Recipe>& Recipes() {
       // tracking_weight 10 (reward per metre of error per step): the scenes where the layer's two ends win
       {"marl-rmp-v2-params-mix", "MAPPO over the v2 layer (parameters only, mixed scenes, phi 1000, dense tracking)",
        "marl-rmp-v2-params-mix", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true, &kLayerV2Params,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 1000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
+      // ... with the parameters held between reads (kLayerV2ParamsHold): temporally consistent exploration
+      {"marl-rmp-v2-params-hold", "MAPPO over the v2 layer (parameters only, held 25 steps, mixed scenes)",
+       "marl-rmp-v2-params-hold", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2ParamsHold,
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 1000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
@@ -318,7 +340,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-2ms", "marl-rmp-2ms"), basic_ttc_2ms, learned("marl-rmp-v2", "marl-rmp-v2"),
             basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned, learned("marl-rmp-v2-params", "marl-rmp-v2-params"),
             learned("marl-rmp-v2-params-phi", "marl-rmp-v2-params-phi"),
-            learned("marl-rmp-v2-params-mix", "marl-rmp-v2-params-mix")};
+            learned("marl-rmp-v2-params-mix", "marl-rmp-v2-params-mix"),
+            learned("marl-rmp-v2-params-hold", "marl-rmp-v2-params-hold")};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),

@@ -258,6 +258,9 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   option_warning_.assign(nq_, 0);
   options_.assign(nq_, OptionMachine(config_.options.termination, config_.options.horizon));
   terminate_flags_.assign(nq_, 0);
+  held_parameters_.setZero(nq_, RmpActionLayout::kNumContinuous);
+  parameter_age_.assign(nq_, -1);
+  parameter_warning_.assign(nq_, 0);
   joint_weights_.resize(nq_);
   const std::vector<double>& w = config_.reward.joint_reach_weights;
   for (int i = 0; i < nq_; ++i) joint_weights_[i] = w.size() == 1 ? w[0] : w[i];
@@ -342,6 +345,7 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
   info_.joint_reach.setZero();
   info_.dq_command.setZero();
   info_.qdd.setZero();
+  std::fill(parameter_age_.begin(), parameter_age_.end(), -1);  // the first step reads every joint's parameters
 
   report_ = &world_->QueryContacts();
   step_collisions_ = 0;
@@ -382,7 +386,7 @@ bool ManipulatorEnv::ValidActions(const float* actions) const {
   return true;
 }
 
-void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
+void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, float* parameters_read) {
   const ActionSpec& a = spec().action;
   const int size = a.size();
   if (external_controller_ != nullptr) {  // a baseline drives the robot; the actions are ignored
@@ -405,15 +409,29 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started) {
                                : DecodeOptionIndex(u[RmpActionLayout::kOption], a.num_options);
         const OptionSelection sel = options_[i].Begin(chosen, option_warning_[i] != 0);
         option_started[i] = sel.started ? 1.0f : 0.0f;
+        // the RMP parameters: read now, or held since the last read (options.parameter_period)
+        const int period = config_.options.parameter_period;
+        const bool read = period == 1 || sel.started || parameter_age_[i] < 0 || parameter_age_[i] >= period ||
+                          parameter_warning_[i] != option_warning_[i];
+        if (read) {
+          for (int c = 0; c < RmpActionLayout::kNumContinuous; ++c) {
+            held_parameters_(i, c) = u[RmpActionLayout::kTargetAccelScale + c];
+          }
+          parameter_age_[i] = 0;
+          parameter_warning_[i] = option_warning_[i];
+        }
+        ++parameter_age_[i];
+        if (parameters_read != nullptr) parameters_read[i] = read ? 1.0f : 0.0f;
+        auto p = [&](int index) { return held_parameters_(i, index - RmpActionLayout::kTargetAccelScale); };
         rmp::JointLayerWeights& w = policy_->weights[i];
         // while the collision RMPs run, the target RMP keeps a small priority (options.collision_target_weight)
         const double target_weight = sel.use_collision ? config_.options.collision_target_weight : 1.0;
         w.use_target = sel.use_target || target_weight > 0.0;
         w.use_collision = sel.use_collision;
-        w.target_accel_scale = GainScale(u[RmpActionLayout::kTargetAccelScale], g);
-        w.target_metric_scale = target_weight * GainScale(u[RmpActionLayout::kTargetMetricScale], g);
-        w.collision_accel_scale = GainScale(u[RmpActionLayout::kCollisionAccelScale], g);
-        w.collision_metric_scale = GainScale(u[RmpActionLayout::kCollisionMetricScale], g);
+        w.target_accel_scale = GainScale(p(RmpActionLayout::kTargetAccelScale), g);
+        w.target_metric_scale = target_weight * GainScale(p(RmpActionLayout::kTargetMetricScale), g);
+        w.collision_accel_scale = GainScale(p(RmpActionLayout::kCollisionAccelScale), g);
+        w.collision_metric_scale = GainScale(p(RmpActionLayout::kCollisionMetricScale), g);
         w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);
         terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
       }
@@ -718,7 +736,7 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   J_WE_before_ = J_WE_;
   info_.distance_before = e_before_.norm();
 
-  ApplyActions(actions, out.option_started);
+  ApplyActions(actions, out.option_started, out.parameters_read);
   step_collisions_ = 0;
   step_min_clearance_ = kInf;
   const bool ok = AdvancePhysics();

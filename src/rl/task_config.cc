@@ -425,6 +425,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Num(r, "collision_target_weight", &o.collision_target_weight),
                  Num(r, "collision_length_exponent", &o.collision_length_exponent),
                  Int(r, "fixed_option", &o.fixed_option),
+                 Int(r, "parameter_period", &o.parameter_period),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -536,6 +537,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(std::isfinite(c.options.collision_length_exponent) && c.options.collision_length_exponent >= 0.0 &&
             c.options.collision_length_exponent <= 4.0,
         "options.collision_length_exponent", "an exponent in [0, 4]", c.options.collision_length_exponent);
+  check(c.options.parameter_period >= 1 && c.options.parameter_period <= 1000, "options.parameter_period",
+        "a period in steps in [1, 1000]", c.options.parameter_period);
   check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
         "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&

@@ -38,7 +38,7 @@ struct VecEnv::Impl {
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> reset_reward_terms;
   Eigen::VectorXf reset_reward;
   std::vector<std::uint8_t> reset_flags;
-  Eigen::VectorXf reset_option_started;
+  Eigen::VectorXf reset_option_started, reset_parameters_read;
   std::vector<EpisodeMetrics> reset_metrics;
 
   // thread pool
@@ -64,6 +64,7 @@ struct VecEnv::Impl {
     out.truncated = &batch.truncated[k];
     out.option_started = batch.option_started.data() + static_cast<size_t>(k) * A;
     out.metrics = &batch.metrics[k];
+    out.parameters_read = batch.parameters_read.data() + static_cast<size_t>(k) * A;
     return out;
   }
 
@@ -75,6 +76,7 @@ struct VecEnv::Impl {
     out.truncated = &reset_flags[2 * k + 1];
     out.option_started = reset_option_started.data() + static_cast<size_t>(k) * spec.num_agents;
     out.metrics = &reset_metrics[k];
+    out.parameters_read = reset_parameters_read.data() + static_cast<size_t>(k) * spec.num_agents;
     return out;
   }
 
@@ -179,6 +181,7 @@ VecEnv::VecEnv(const EnvFactory& factory, const VecEnvOptions& options) : impl_(
   b.terminated.assign(N, 0);
   b.truncated.assign(N, 0);
   b.option_started.setZero(N * A);
+  b.parameters_read.setOnes(N * A);
   b.final_global_state.setZero(N, spec.global_state_dim);
   b.final_local_obs.setZero(N * A, spec.local_obs_dim);
   b.metrics.assign(N, EpisodeMetrics{});
@@ -186,6 +189,7 @@ VecEnv::VecEnv(const EnvFactory& factory, const VecEnvOptions& options) : impl_(
   impl.reset_reward.setZero(N);
   impl.reset_flags.assign(2 * N, 0);
   impl.reset_option_started.setZero(N * A);
+  impl.reset_parameters_read.setOnes(N * A);
   impl.reset_metrics.assign(N, EpisodeMetrics{});
   for (int w = 0; w + 1 < impl.options.num_threads; ++w) {
     impl.workers.emplace_back([&impl, w] { impl.WorkerLoop(w); });
@@ -212,6 +216,7 @@ void VecEnv::Reset() {
 
 void VecEnv::Step(const float* actions) {
   RMPMARL_ASSERT(actions != nullptr, "VecEnv::Step needs actions");
+  impl_->batch.parameters_read.setOnes();  // envs that always read the continuous part leave it at 1
   impl_->Run(Impl::Job::kStep, actions);
 }
 

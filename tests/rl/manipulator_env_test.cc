@@ -281,6 +281,58 @@ TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
   EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError);
 }
 
+// options.parameter_period: a joint reads its RMP parameters at the first step, at option starts, when W_i fills or
+// empties, and every N steps, and holds them in between. Reference: an env reading every step, fed the held values
+// (the action of each joint's last read) — the two trajectories are identical, step by step.
+TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
+  TaskConfig held = SmallConfig(TaskKind::kReachAvoid, "panda", 1);
+  held.options.parameter_period = 5;
+  held.scenario.crossing.num_obstacles = 2;  // warnings come and go
+  TaskConfig every = held;
+  every.options.parameter_period = 1;
+  auto held_context = MakeTaskContext(held);
+  auto every_context = MakeTaskContext(every);
+  ManipulatorEnv a(held_context), b(every_context);
+  const EnvSpec& s = a.spec();
+  const ActionSpec& as = s.action;
+  Buffers ba(s), bb(b.spec());
+  std::mt19937_64 rng_a(21), rng_b(21), arng(22);
+  a.Reset(rng_a, ba.out());
+  b.Reset(rng_b, bb.out());
+  std::vector<float> actions(s.num_agents * as.size()), fed(actions.size()), last_read(actions.size(), 0.0f);
+  std::vector<int> age(s.num_agents, 0);
+  int reads = 0, holds = 0, early = 0;
+  for (int step = 0; step < 300; ++step) {
+    RandomActions(s, arng, actions.data());
+    a.Step(actions.data(), rng_a, ba.out());
+    fed = actions;
+    for (int i = 0; i < s.num_agents; ++i) {
+      float* row = fed.data() + i * as.size() + as.continuous_offset();
+      const float* now = actions.data() + i * as.size() + as.continuous_offset();
+      float* kept = last_read.data() + i * as.size() + as.continuous_offset();
+      if (step == 0) EXPECT_EQ(ba.parameters_read[i], 1.0f);
+      if (ba.parameters_read[i] == 1.0f) {
+        std::copy(now, now + as.num_continuous, kept);
+        early += age[i] > 0 && age[i] < 5;  // an option start or a W_i change
+        age[i] = 0;
+        ++reads;
+      } else {
+        EXPECT_EQ(ba.parameters_read[i], 0.0f);
+        ++holds;
+      }
+      ++age[i];
+      EXPECT_LE(age[i], 5) << "joint " << i << " step " << step;  // at least every 5 steps
+      std::copy(kept, kept + as.num_continuous, row);
+    }
+    b.Step(fed.data(), rng_b, bb.out());
+    ASSERT_EQ((a.world().q() - b.world().q()).cwiseAbs().maxCoeff(), 0.0) << "step " << step;
+    EXPECT_EQ(bb.parameters_read, std::vector<float>(s.num_agents, 1.0f));  // period 1 reads every step
+    if (ba.terminated || ba.truncated) break;
+  }
+  EXPECT_GT(2 * holds, reads);  // often held (the random actions also end options every ~5 steps)
+  EXPECT_GT(early, 0);          // and read early where options start or warnings change
+}
+
 TEST(ManipulatorEnvTest, CollisionCostsSeventyFivePerEvent) {
   Planar2Setup p;
   p.centre = Eigen::Vector3d(0.0, 0.75, 0.0);  // in link 2's sweep when joint 1 turns the arm up

@@ -148,6 +148,10 @@ TEST(HybridHeadTest, JointLogProbMasksTheOptionAndTermination) {
   // row 0: option started and an option was running: all three heads count
   // row 1: option not started (the option index was ignored), first step of an episode (no termination decision)
   ExpectNear(JointLogProb(lp, T({1, 0}), T({1, 0})), {-0.4076059644 - 4.2697298858 - 0.5543552445, -1.1447298858});
+  // with the continuous mask (options.parameter_period): row 1's parameters were held, not read, so only the
+  // termination flag would count there — and its mask is 0 in this row, so nothing does
+  ExpectNear(JointLogProb(lp, T({1, 0}), T({1, 0}), T({1, 0})), {-0.4076059644 - 4.2697298858 - 0.5543552445, 0.0});
+  ExpectNear(JointLogProb(lp, T({0, 0}), T({0, 1}), T({1, 0})), {-0.5543552445, -1.1447298858});
 }
 
 TEST(HybridHeadTest, HeadSizesComeFromTheActionSpec) {

@@ -81,6 +81,9 @@ struct StepOutput {
   std::uint8_t* truncated = nullptr;   ///< 1: the episode hit max_episode_steps
   float* option_started = nullptr;     ///< num_agents: 1 where the agent's action started a new option this step
   EpisodeMetrics* metrics = nullptr;   ///< written when terminated or truncated
+  /// num_agents, optional (nullptr: not asked): 1 where the env read the action's continuous part this step, 0 where
+  /// it held earlier values (per-joint-rmp with options.parameter_period > 1); envs that always read it may leave it
+  float* parameters_read = nullptr;
 };
 
 /// Owned buffers for one env's step results (what a VecEnv row holds), sized from a spec, and the StepOutput view
@@ -98,10 +101,11 @@ struct StepBuffers {
 
   StepOutput out() {
     return {local_obs.data(), global_state.data(), reward_terms.data(), &reward, &terminated, &truncated,
-            option_started.data(), &metrics};
+            option_started.data(), &metrics, parameters_read.data()};
   }
 
   std::vector<float> local_obs, global_state, reward_terms, option_started;
+  std::vector<float> parameters_read = std::vector<float>(option_started.size(), 1.0f);
   float reward = 0.0f;
   std::uint8_t terminated = 0, truncated = 0;
   EpisodeMetrics metrics;

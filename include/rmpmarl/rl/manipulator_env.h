@@ -143,7 +143,7 @@ class ManipulatorEnv final : public Env {
   struct JointWarning;
   void StartEpisode(std::mt19937_64& rng);
   bool ValidActions(const float* actions) const;
-  void ApplyActions(const float* actions, float* option_started);
+  void ApplyActions(const float* actions, float* option_started, float* parameters_read);
   bool AdvancePhysics();  // false when MuJoCo diverged
   void CountCollisions(const sim::ContactReport& report);
   void UpdateKinematics();
@@ -187,6 +187,11 @@ class ManipulatorEnv final : public Env {
   // options and reward state
   std::vector<OptionMachine> options_;
   std::vector<std::uint8_t> terminate_flags_;
+  // options.parameter_period > 1: the RMP parameters each joint holds, the steps since it read them, and the warning
+  // state at that read (nq_ × kNumContinuous; nq_; nq_); a negative age forces a read (episode start)
+  Eigen::Matrix<float, Eigen::Dynamic, RmpActionLayout::kNumContinuous, Eigen::RowMajor> held_parameters_;
+  std::vector<int> parameter_age_;
+  std::vector<std::uint8_t> parameter_warning_;
   Eigen::VectorXd joint_weights_;  // δ_i
   ReachCycleTracker cycles_;
   std::vector<long> pair_last_seen_;  // per (link, partner) pair: physics step index it was last in penetration

@@ -95,6 +95,11 @@ struct OptionConfig {
   /// ≥ 0: every joint always runs this option (0 target, 1 collision, 2 target-then-collision) and the action's option
   /// index is ignored — the agents learn the RMP parameters only (an ablation of the option layer); −1: learned.
   int fixed_option = -1;
+  /// how often a joint reads the RMP parameters (the action's continuous part): at the start of an option, when the
+  /// joint's warning set W_i empties or fills, and every `parameter_period` steps; held in between (temporally
+  /// consistent exploration, issue 9; the learner counts their log-probability only where read,
+  /// StepOutput::parameters_read). 1: every step (the paper). In [1, 1000].
+  int parameter_period = 1;
   OptionWarnings warnings = OptionWarnings::kObstacles;
 };
 

@@ -30,6 +30,9 @@ struct Batch {
   std::vector<std::uint8_t> terminated;                                                 ///< N
   std::vector<std::uint8_t> truncated;                                                  ///< N
   Eigen::VectorXf option_started;                                                       ///< N·A
+  /// N·A: 1 where the env read the agent's continuous action part this step (StepOutput::parameters_read; 1 for
+  /// envs that always read it)
+  Eigen::VectorXf parameters_read;
   /// global state at the last step of an episode that ended this step (before the auto-reset), for bootstrapping
   /// truncated episodes; rows of envs that did not end are unspecified.
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> final_global_state;

@@ -195,6 +195,11 @@ torch::Tensor JointLogProb(const HeadLogProbs& lp, const torch::Tensor& option_m
   return option_mask * lp.option + lp.continuous + termination_mask * lp.termination;
 }
 
+torch::Tensor JointLogProb(const HeadLogProbs& lp, const torch::Tensor& option_mask,
+                           const torch::Tensor& continuous_mask, const torch::Tensor& termination_mask) {
+  return option_mask * lp.option + continuous_mask * lp.continuous + termination_mask * lp.termination;
+}
+
 SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, torch::Generator& generator,
                              bool deterministic) {
   std::vector<torch::Tensor> parts;
@@ -365,8 +370,14 @@ void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::st
 
 LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {
   const HeadLogProbs lp = LogProbs(in.head, in.layout, in.actions);
-  const torch::Tensor joint = JointLogProb(lp, in.option_mask, in.termination_mask);
-  const torch::Tensor old_joint = JointLogProb(in.old_log_probs, in.option_mask, in.termination_mask);
+  // the continuous part counts where the env read it (all rows when no mask is given)
+  const torch::Tensor joint = in.continuous_mask.defined()
+                                  ? JointLogProb(lp, in.option_mask, in.continuous_mask, in.termination_mask)
+                                  : JointLogProb(lp, in.option_mask, in.termination_mask);
+  const torch::Tensor old_joint =
+      in.continuous_mask.defined()
+          ? JointLogProb(in.old_log_probs, in.option_mask, in.continuous_mask, in.termination_mask)
+          : JointLogProb(in.old_log_probs, in.option_mask, in.termination_mask);
   LossTerms terms;
   terms.policy = ClippedSurrogateLoss(joint, old_joint, in.advantages, options.clip());
   terms.value = ClippedValueLoss(in.values, in.old_values, in.returns, options.value_clip());
@@ -510,6 +521,7 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
                           batch.old_log_probs.termination.index_select(0, rows)};
       in.option_mask = batch.option_mask.index_select(0, rows);
       in.termination_mask = batch.termination_mask.index_select(0, rows);
+      if (batch.continuous_mask.defined()) in.continuous_mask = batch.continuous_mask.index_select(0, rows);
       in.advantages = advantages.index_select(0, idx).repeat_interleave(A);
       in.old_values = old_values_n.index_select(0, idx);
       in.returns = returns_n.index_select(0, idx);

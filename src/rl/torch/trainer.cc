@@ -302,6 +302,8 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   // the option's log-prob counts where the option choice took effect; the termination flag is a decision at every
   // step (it ends the running option after the step), so its mask is all ones
   torch::Tensor option_mask = torch::empty({T, N * A}, f), term_mask = torch::ones({T, N * A}, f);
+  // the continuous part counts where the env read it (parameters held between reads were not this step's action)
+  torch::Tensor param_mask = torch::empty({T, N * A}, f);
   torch::Tensor raw_values = torch::empty({T, N}, f), values = torch::empty({T, N}, f);
   torch::Tensor rewards = torch::empty({T, N}, f), terminated = torch::zeros({T, N}, f),
                 truncated = torch::zeros({T, N}, f), final_values = torch::zeros({T, N}, f);
@@ -324,6 +326,7 @@ UpdateSummary Trainer::Impl::RunUpdate() {
     env->Step(step_actions.data_ptr<float>());
     const Batch& after = env->batch();
     std::memcpy(option_mask[t].data_ptr<float>(), after.option_started.data(), sizeof(float) * N * A);
+    std::memcpy(param_mask[t].data_ptr<float>(), after.parameters_read.data(), sizeof(float) * N * A);
     std::memcpy(rewards[t].data_ptr<float>(), after.reward.data(), sizeof(float) * N);
     float* term = terminated[t].data_ptr<float>();
     float* trunc = truncated[t].data_ptr<float>();
@@ -359,6 +362,7 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   batch.old_log_probs = {lp_option.reshape({-1}), lp_cont.reshape({-1}), lp_term.reshape({-1})};
   batch.option_mask = option_mask.reshape({-1});
   batch.termination_mask = term_mask.reshape({-1});
+  batch.continuous_mask = param_mask.reshape({-1});
   batch.old_values = raw_values.reshape({-1});
   batch.returns = gae.returns.reshape({-1});
   batch.advantages = gae.advantages.reshape({-1});

@@ -114,6 +114,10 @@ HeadEntropies Entropies(const HeadOutputs& head, const HeadLayout& layout);
 /// ended by its own condition, counting it adds variance but no bias).
 torch::Tensor JointLogProb(const HeadLogProbs& log_probs, const torch::Tensor& option_mask,
                            const torch::Tensor& termination_mask);
+/// the same with the continuous part masked too: continuous_mask = StepOutput::parameters_read (an env that holds an
+/// agent's RMP parameters between reads, options.parameter_period > 1, did not act on the held steps' values).
+torch::Tensor JointLogProb(const HeadLogProbs& log_probs, const torch::Tensor& option_mask,
+                           const torch::Tensor& continuous_mask, const torch::Tensor& termination_mask);
 
 /// Sampled (or deterministic) flat actions and their per-head log-probabilities.
 struct SampledActions {

@@ -96,6 +96,7 @@ struct LossInputs {
   HeadLogProbs old_log_probs;     ///< at collection, per head (M·A)
   torch::Tensor option_mask;      ///< M·A
   torch::Tensor termination_mask; ///< M·A
+  torch::Tensor continuous_mask;  ///< M·A, optional (undefined: the continuous part counts on every row)
   torch::Tensor advantages;       ///< M·A (each agent gets its env-step's advantage)
   torch::Tensor values;           ///< M, current critic output (normalised units)
   torch::Tensor old_values;       ///< M, critic output at collection (normalised with the current statistics)
@@ -115,6 +116,7 @@ struct RolloutBatch {
   HeadLogProbs old_log_probs;      ///< per head, (M·A)
   torch::Tensor option_mask;       ///< M·A
   torch::Tensor termination_mask;  ///< M·A
+  torch::Tensor continuous_mask;   ///< M·A, optional: Batch::parameters_read (undefined: all ones)
   torch::Tensor old_values;        ///< M, critic outputs at collection (normalised units of the old statistics)
   torch::Tensor returns;           ///< M
   torch::Tensor advantages;        ///< M
