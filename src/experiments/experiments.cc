@@ -39,7 +39,7 @@ std::string TrainConfigPath(const std::string& name) {
 /// A variant of the basic layer under the agents (an ablation): task overrides for training and the same change
 /// applied to the evaluation task.
 struct LayerVariant {
-  const char* yaml;                   ///< merged into the training task's overrides
+  std::string yaml;                   ///< merged into the training task's overrides
   void (*apply)(rl::TaskConfig& task);
 };
 
@@ -61,47 +61,51 @@ const LayerVariant kLayer2ms{"controller: {max_substep: 0.002}",
 /// k_d 200, l_p 2.8 cm, l_d 11.3 cm), so its lower end s_a = 1/4 is the paper-default RMP (800, 50, 1 cm, 4 cm).
 constexpr double kV2RepulsionGain = 3200.0, kV2DampingGain = 200.0, kV2RepulsionLength = 0.0283,
                  kV2DampingLength = 0.1131;
-const LayerVariant kLayerV2{
-    "controller: {max_substep: 0.002}, observation: {warning_distance: 0.35}, "
-    "options: {collision_length_exponent: 0.75}, rmp: {collision_rmp: {metric_modulation_radius: 0.35, "
-    "repulsion_gain: 3200, damping_gain: 200, repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}",
-    [](rl::TaskConfig& task) {
-      task.controller.max_substep = 0.002;
-      task.observation.warning_distance = 0.35;
-      task.options.collision_length_exponent = 0.75;
-      rmp::CollisionRmpParams& c = task.basic_layer.params.collision;
-      c.metric_modulation_radius = 0.35;
-      c.repulsion_gain = kV2RepulsionGain;
-      c.damping_gain = kV2DampingGain;
-      c.repulsion_std_dev = kV2RepulsionLength;
-      c.damping_std_dev = kV2DampingLength;
-    }};
+/// the v2 layer's overrides with more `options` keys (", key: value, ..."): one string for the whole v2 family,
+/// written as the runs' train.yaml have it
+std::string V2LayerYaml(const std::string& more_options) {
+  return "controller: {max_substep: 0.002}, observation: {warning_distance: 0.35}, "
+         "options: {collision_length_exponent: 0.75" + more_options + "}, rmp: {collision_rmp: "
+         "{metric_modulation_radius: 0.35, repulsion_gain: 3200, damping_gain: 200, repulsion_std_dev: 0.0283, "
+         "damping_std_dev: 0.1131}}";
+}
+const LayerVariant kLayerV2{V2LayerYaml(""), [](rl::TaskConfig& task) {
+                              task.controller.max_substep = 0.002;
+                              task.observation.warning_distance = 0.35;
+                              task.options.collision_length_exponent = 0.75;
+                              rmp::CollisionRmpParams& c = task.basic_layer.params.collision;
+                              c.metric_modulation_radius = 0.35;
+                              c.repulsion_gain = kV2RepulsionGain;
+                              c.damping_gain = kV2DampingGain;
+                              c.repulsion_std_dev = kV2RepulsionLength;
+                              c.damping_std_dev = kV2DampingLength;
+                            }};
 
 /// the v2 layer with the composite option at every joint (options.fixed_option 2): the agents set the RMP
 /// parameters only.
-const LayerVariant kLayerV2Params{
-    "controller: {max_substep: 0.002}, observation: {warning_distance: 0.35}, "
-    "options: {collision_length_exponent: 0.75, fixed_option: 2}, rmp: {collision_rmp: {metric_modulation_radius: "
-    "0.35, repulsion_gain: 3200, damping_gain: 200, repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}",
-    [](rl::TaskConfig& task) {
-      kLayerV2.apply(task);
-      task.options.fixed_option = 2;
-    }};
+const LayerVariant kLayerV2Params{V2LayerYaml(", fixed_option: 2"), [](rl::TaskConfig& task) {
+                                    kLayerV2.apply(task);
+                                    task.options.fixed_option = 2;
+                                  }};
 
 /// the parameters-only v2 layer with temporally consistent parameters: each joint reads its RMP parameters when its
 /// option starts, when its warning set fills or empties, and every 25 steps (options.parameter_period), and options
 /// run 50 steps (fixed termination) — exploration noise then lasts as long as an evasion does.
 const LayerVariant kLayerV2ParamsHold{
-    "controller: {max_substep: 0.002}, observation: {warning_distance: 0.35}, "
-    "options: {collision_length_exponent: 0.75, fixed_option: 2, parameter_period: 25, termination: fixed, "
-    "horizon: 50}, rmp: {collision_rmp: {metric_modulation_radius: 0.35, repulsion_gain: 3200, damping_gain: 200, "
-    "repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}",
+    V2LayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50"),
     [](rl::TaskConfig& task) {
       kLayerV2Params.apply(task);
       task.options.parameter_period = 25;
       task.options.termination = rl::OptionTermination::kFixed;
       task.options.horizon = 50;
     }};
+
+/// the v2 layer with options learned and parameters held between reads (options.parameter_period 25): the paper's
+/// structure (options + parameters per joint) with temporally consistent parameter exploration.
+const LayerVariant kLayerV2Hold{V2LayerYaml(", parameter_period: 25"), [](rl::TaskConfig& task) {
+                                  kLayerV2.apply(task);
+                                  task.options.parameter_period = 25;
+                                }};
 
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
@@ -184,6 +188,13 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 1000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
+      // MARL-RMP v3: the paper's method (pre-trained HRL-RMP v2 agents, options and parameters, MAPPO) with what the
+      // ablations above found: parameters held between reads, mixed scenes, phi 1000 and the dense precision term
+      {"marl-rmp-v3", "MARL-RMP (v3: held parameters, mixed scenes, phi 1000, dense tracking)", "marl-rmp-v3",
+       "mappo-reach-avoid", InterfaceMode::kPerJointRmp, "hrl-rmp-2link-v2", true, &kLayerV2Hold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 1000, tracking_weight: 10}",
+       0, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
   };
   return recipes;
 }
@@ -341,7 +352,7 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned, learned("marl-rmp-v2-params", "marl-rmp-v2-params"),
             learned("marl-rmp-v2-params-phi", "marl-rmp-v2-params-phi"),
             learned("marl-rmp-v2-params-mix", "marl-rmp-v2-params-mix"),
-            learned("marl-rmp-v2-params-hold", "marl-rmp-v2-params-hold")};
+            learned("marl-rmp-v2-params-hold", "marl-rmp-v2-params-hold"), learned("marl-rmp-v3", "marl-rmp-v3")};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),

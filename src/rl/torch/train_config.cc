@@ -65,6 +65,22 @@ Key FieldKey(const std::string& name, T TrainConfig::*field, std::function<std::
              [=](const TrainConfig& c) { return print(c.*field); }};
 }
 
+// a task-overrides key: a YAML map kept as one flow-style string ("" for none or an empty map).
+Key OverridesKey(const std::string& name, std::string TaskSelection::*field) {
+  return Key{name,
+             [field](TrainConfig& c, const YAML::Node& n) {
+               if (n.IsNull()) {
+                 (c.task.*field).clear();
+                 return;
+               }
+               if (!n.IsMap()) throw YAML::Exception(YAML::Mark(), "expected a map");
+               YAML::Emitter e;
+               e << YAML::Flow << n;
+               c.task.*field = n.size() == 0 ? "" : e.c_str();
+             },
+             [field](const TrainConfig& c) { return (c.task.*field).empty() ? std::string("{}") : c.task.*field; }};
+}
+
 const std::vector<Key>& Keys() {
   static const std::vector<Key> keys = [] {
     const std::function<std::string(const std::string&)> str = Quote;
@@ -86,34 +102,10 @@ const std::vector<Key>& Keys() {
     k.push_back(Key{"task.interface",
                     [](TrainConfig& c, const YAML::Node& n) { c.task.interface = n.as<std::string>(); },
                     [](const TrainConfig& c) { return Quote(c.task.interface); }});
-    k.push_back(Key{"task.overrides",
-                    [](TrainConfig& c, const YAML::Node& n) {
-                      if (n.IsNull()) {
-                        c.task.overrides_yaml.clear();
-                        return;
-                      }
-                      if (!n.IsMap()) throw YAML::Exception(YAML::Mark(), "expected a map");
-                      YAML::Emitter e;
-                      e << YAML::Flow << n;
-                      c.task.overrides_yaml = n.size() == 0 ? "" : e.c_str();
-                    },
-                    [](const TrainConfig& c) { return c.task.overrides_yaml.empty() ? "{}" : c.task.overrides_yaml; }});
+    k.push_back(OverridesKey("task.overrides", &TaskSelection::overrides_yaml));
     k.push_back(Key{"task.mix.name", [](TrainConfig& c, const YAML::Node& n) { c.task.mix_name = n.as<std::string>(); },
                     [](const TrainConfig& c) { return Quote(c.task.mix_name); }});
-    k.push_back(Key{"task.mix.overrides",
-                    [](TrainConfig& c, const YAML::Node& n) {
-                      if (n.IsNull()) {
-                        c.task.mix_overrides_yaml.clear();
-                        return;
-                      }
-                      if (!n.IsMap()) throw YAML::Exception(YAML::Mark(), "expected a map");
-                      YAML::Emitter e;
-                      e << YAML::Flow << n;
-                      c.task.mix_overrides_yaml = n.size() == 0 ? "" : e.c_str();
-                    },
-                    [](const TrainConfig& c) {
-                      return c.task.mix_overrides_yaml.empty() ? "{}" : c.task.mix_overrides_yaml;
-                    }});
+    k.push_back(OverridesKey("task.mix.overrides", &TaskSelection::mix_overrides_yaml));
     k.push_back(Key{"task.mix.fraction",
                     [](TrainConfig& c, const YAML::Node& n) { c.task.mix_fraction = n.as<double>(); },
                     [](const TrainConfig& c) { return Real(c.task.mix_fraction); }});
