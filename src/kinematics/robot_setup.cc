@@ -719,4 +719,25 @@ fs::path SettingsPathFor(const fs::path& urdf_path, const fs::path& dir) {
   return dir / (urdf_path.stem().string() + ".rmpflow.yaml");
 }
 
+Robot LoadOrFitRobot(const fs::path& urdf, const fs::path& collision, const RobotSetupOptions& options,
+                     std::optional<RobotSetup>* fitted) {
+  fs::path yaml = collision;
+  if (yaml.empty()) {
+    const fs::path dir = urdf.has_parent_path() ? urdf.parent_path() : fs::path(".");
+    // setup-robot's <stem>.collision.yaml, else the shipped layout's collision.yaml
+    for (const fs::path& beside : {CollisionYamlPathFor(urdf, dir), dir / "collision.yaml"}) {
+      if (fs::is_regular_file(beside)) {
+        yaml = beside;
+        break;
+      }
+    }
+  }
+  if (!yaml.empty()) return LoadRobot(urdf, yaml);
+  RobotSetup setup = SetupRobot(urdf, options);
+  Robot robot = setup.robot;
+  robot.home = setup.home;
+  if (fitted != nullptr) *fitted = std::move(setup);
+  return robot;
+}
+
 }  // namespace rmpmarl::kinematics

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <functional>
 #include <initializer_list>
 #include <set>
@@ -491,12 +492,15 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
 void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   const Checker check(where);
   // robot
-  if (c.robot != "planar2") {
+  if (IsUrdfPath(c.robot)) {
+    check(std::filesystem::is_regular_file(c.robot), "robot",
+          "a shipped robot's name or an existing .urdf file (a user's robot)", fmt::format("'{}' (no such file)", c.robot));
+  } else if (c.robot != "planar2") {
     const std::vector<std::string> names = kinematics::ShippedRobotNames();
     if (std::find(names.begin(), names.end(), c.robot) == names.end()) {
       std::string list = "planar2";
       for (const std::string& n : names) list += ", " + n;
-      check(false, "robot", fmt::format("one of {}", list), fmt::format("'{}'", c.robot));
+      check(false, "robot", fmt::format("one of {}, or a path to a .urdf file", list), fmt::format("'{}'", c.robot));
     }
   }
   check(c.task != TaskKind::kPretrain2Link || c.robot == "planar2", "robot",
@@ -683,6 +687,10 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   rmp::ValidateCollisionRmpParams(c.basic_layer.params.collision, fmt::format("{}: rmp.collision_rmp", where));
   check(std::isfinite(c.basic_layer.relative_regularizer) && c.basic_layer.relative_regularizer > 0.0,
         "rmp.relative_regularizer", "a number > 0", c.basic_layer.relative_regularizer);
+}
+
+bool IsUrdfPath(const std::string& robot) {
+  return robot.size() > 5 && robot.compare(robot.size() - 5, 5, ".urdf") == 0;
 }
 
 }  // namespace rmpmarl::rl

@@ -333,6 +333,29 @@ TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
   EXPECT_GT(early, 0);          // and read early where options start or warnings change
 }
 
+// a learning task on a user's robot (issue 10): `robot: <file>.urdf` loads it as `demo --urdf` does — here a URDF
+// with mimic joints and no YAML, so capsules, exclusions and home are fitted in memory; one agent per independent
+// joint, and random per-joint RMP actions step it without invalid steps or collisions of the robot with itself.
+TEST(ManipulatorEnvTest, AUserUrdfRunsAsATaskRobot) {
+  TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "", 1);
+  c.robot = std::string(RMPMARL_TEST_DATA_DIR) + "/robots/mimic/mimic_arm.urdf";
+  auto context = MakeTaskContext(c);
+  ManipulatorEnv env(context);
+  EXPECT_EQ(env.spec().num_agents, 4);  // j1, j2, j3 and the gripper; the 3 mimic joints follow
+  Buffers b(env.spec());
+  std::mt19937_64 rng(3), arng(4);
+  env.Reset(rng, b.out());
+  std::vector<float> actions(env.spec().num_agents * env.spec().action.size());
+  for (int step = 0; step < 150 && !b.terminated && !b.truncated; ++step) {
+    RandomActions(env.spec(), arng, actions.data());
+    env.Step(actions.data(), rng, b.out());
+    ASSERT_FALSE(env.last_step().invalid) << step;
+  }
+  TaskConfig missing = c;
+  missing.robot = "/no/such/robot.urdf";
+  EXPECT_THROW(ValidateTaskConfig(missing, "test"), rmpmarl::InputError);
+}
+
 TEST(ManipulatorEnvTest, CollisionCostsSeventyFivePerEvent) {
   Planar2Setup p;
   p.centre = Eigen::Vector3d(0.0, 0.75, 0.0);  // in link 2's sweep when joint 1 turns the arm up

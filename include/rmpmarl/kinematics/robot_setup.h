@@ -109,6 +109,12 @@ std::string SettingsYamlText(const RobotSetup& setup);
 
 /// <stem>.collision.yaml and <stem>.rmpflow.yaml for a URDF <stem>.urdf, in `dir`.
 std::filesystem::path CollisionYamlPathFor(const std::filesystem::path& urdf_path, const std::filesystem::path& dir);
+
+/// A user's robot from its URDF: `collision` when given, else <urdf stem>.collision.yaml or collision.yaml beside
+/// the URDF, else fitted in memory by SetupRobot (then `*fitted` holds the setup, when asked, and robot.home the home
+/// it found). Used by check-robot, demo and the learning tasks (`robot: path/to/robot.urdf`). Throws InputError.
+Robot LoadOrFitRobot(const std::filesystem::path& urdf, const std::filesystem::path& collision = {},
+                     const RobotSetupOptions& options = {}, std::optional<RobotSetup>* fitted = nullptr);
 std::filesystem::path SettingsPathFor(const std::filesystem::path& urdf_path, const std::filesystem::path& dir);
 
 }  // namespace rmpmarl::kinematics

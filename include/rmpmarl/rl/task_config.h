@@ -188,7 +188,7 @@ struct BasicLayerConfig {
 struct TaskConfig {
   std::string source = "<defaults>";  ///< file it was loaded from (error messages)
   TaskKind task = TaskKind::kReachAvoid;
-  std::string robot = "panda";        ///< "planar2" or a shipped arm (kinematics::ShippedRobotNames)
+  std::string robot = "panda";        ///< "planar2", a shipped arm (kinematics::ShippedRobotNames) or a path to a .urdf
   InterfaceMode interface = InterfaceMode::kPerJointRmp;
   EpisodeConfig episode;
   sim::ControllerOptions controller;  ///< control_rate is taken from episode.control_rate
@@ -224,6 +224,10 @@ TaskConfig ParseTaskConfig(const std::string& yaml_text, const std::string& sour
 TaskConfig LoadShippedTaskConfig(std::string_view name);
 /// throws InputError naming `where` (a file) and the key unless every value is in range (called by the loader and
 /// by TaskContext for configs built in code).
+/// true when a task's `robot` names a user's URDF file (ends in ".urdf") rather than a shipped robot: the task then
+/// loads it with its collision YAML beside it, else capsules fitted in memory (kinematics::LoadOrFitRobot).
+bool IsUrdfPath(const std::string& robot);
+
 void ValidateTaskConfig(const TaskConfig& config, std::string_view where);
 
 }  // namespace rmpmarl::rl
