@@ -6,6 +6,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -33,8 +34,16 @@ ExitStatus RunCli(const std::vector<std::string>& args, const std::vector<std::s
                   const std::string& log) {
   std::vector<std::string> argv_s = {RMPMARL_CLI_PATH};
   argv_s.insert(argv_s.end(), args.begin(), args.end());
+  // the inherited environment, with extra_env's variables replacing any of the same name (getenv returns the first
+  // of duplicates: an inherited ASAN_OPTIONS would hide the one given here)
+  auto name_of = [](const std::string& entry) { return entry.substr(0, entry.find('=')); };
   std::vector<std::string> env_s;
-  for (char** e = environ; *e != nullptr; ++e) env_s.emplace_back(*e);
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string entry(*e);
+    const bool replaced = std::any_of(extra_env.begin(), extra_env.end(),
+                                      [&](const std::string& x) { return name_of(x) == name_of(entry); });
+    if (!replaced) env_s.push_back(entry);
+  }
   env_s.insert(env_s.end(), extra_env.begin(), extra_env.end());
   std::vector<char*> argv, envp;
   for (std::string& s : argv_s) argv.push_back(s.data());
