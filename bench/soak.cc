@@ -4,75 +4,16 @@
 #include <fmt/core.h>
 
 #include <chrono>
-#include <cmath>
 #include <cstdint>
 #include <cstdlib>
-#include <random>
 #include <string>
-#include <vector>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/random_rollout.h"
 #include "rmpmarl/rl/task_config.h"
-#include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl {
 namespace {
-
-struct SoakStats {
-  long steps = 0, nonfinite = 0, episodes = 0, invalid_episodes = 0, collisions = 0;
-  double seconds = 0.0;
-};
-
-// uniformly random actions: option indices, continuous values a bit beyond [low, high] (the env clips), termination
-// flags (as tests/rl/rl_test_util.h).
-void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions) {
-  const ActionSpec& a = spec.action;
-  std::uniform_real_distribution<float> u(-1.2f, 1.2f), flag(0.0f, 1.0f);
-  for (int agent = 0; agent < spec.num_agents; ++agent) {
-    float* row = actions + static_cast<size_t>(agent) * a.size();
-    if (a.num_options > 0) row[0] = static_cast<float>(std::uniform_int_distribution<int>(0, a.num_options - 1)(rng));
-    for (int k = 0; k < a.num_continuous; ++k) row[a.continuous_offset() + k] = u(rng);
-    if (a.has_termination) row[a.termination_offset()] = flag(rng) < 0.2f ? 1.0f : 0.0f;
-  }
-}
-
-SoakStats Soak(const TaskConfig& config, int num_envs, int threads, long steps, std::uint64_t seed) {
-  VecEnv envs(MakeManipulatorEnvFactory(MakeTaskContext(config)),
-              {.num_envs = num_envs, .seed = seed, .num_threads = threads});
-  const EnvSpec& spec = envs.spec();
-  std::vector<float> actions(static_cast<size_t>(num_envs) * spec.num_agents * spec.action.size());
-  std::mt19937_64 rng(seed ^ 0x9e3779b97f4a7c15ull);
-  SoakStats s;
-  const auto count = [&s](const float* p, size_t n) {
-    for (size_t k = 0; k < n; ++k) s.nonfinite += std::isfinite(p[k]) ? 0 : 1;
-  };
-  const auto start = std::chrono::steady_clock::now();
-  envs.Reset();
-  while (s.steps < steps) {
-    for (int k = 0; k < num_envs; ++k) {
-      RandomActions(spec, rng, actions.data() + static_cast<size_t>(k) * spec.num_agents * spec.action.size());
-    }
-    envs.Step(actions.data());
-    const Batch& b = envs.batch();
-    count(b.local_obs.data(), b.local_obs.size());
-    count(b.global_state.data(), b.global_state.size());
-    count(b.reward_terms.data(), b.reward_terms.size());
-    count(b.reward.data(), b.reward.size());
-    for (int k = 0; k < num_envs; ++k) {
-      if (!b.terminated[k] && !b.truncated[k]) continue;
-      count(b.final_global_state.row(k).data(), b.final_global_state.cols());
-      count(b.final_local_obs.data() + static_cast<size_t>(k) * spec.num_agents * b.final_local_obs.cols(),
-            static_cast<size_t>(spec.num_agents) * b.final_local_obs.cols());
-      ++s.episodes;
-      s.invalid_episodes += b.metrics[k].invalid ? 1 : 0;
-      s.collisions += b.metrics[k].collisions;
-    }
-    s.steps += num_envs;
-  }
-  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return s;
-}
 
 long ArgValue(int argc, char** argv, const std::string& name, long fallback, long lo, long hi) {
   for (int k = 1; k + 1 < argc; ++k) {
@@ -105,7 +46,8 @@ int Main(int argc, char** argv) {
       TaskConfig c = LoadShippedTaskConfig(TaskKindName(task));
       c.interface = mode;
       c.episode.max_steps = 200;  // more resets per step budget
-      const SoakStats s = Soak(c, envs, threads, per_run, seed + static_cast<std::uint64_t>(steps));
+      const RandomRolloutStats s = RandomRollout(
+          c, {.num_envs = envs, .threads = threads, .steps = per_run, .seed = seed + static_cast<std::uint64_t>(steps)});
       fmt::print("  {:<15} {:<16} {:>9} steps {:>6} episodes ({} invalid, {} collisions) {:7.1f} s {:8.0f} steps/s  "
                  "non-finite {}\n", TaskKindName(task), InterfaceModeName(mode), s.steps, s.episodes,
                  s.invalid_episodes, s.collisions, s.seconds, s.steps / s.seconds, s.nonfinite);

@@ -310,7 +310,9 @@ TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
       float* row = fed.data() + i * as.size() + as.continuous_offset();
       const float* now = actions.data() + i * as.size() + as.continuous_offset();
       float* kept = last_read.data() + i * as.size() + as.continuous_offset();
-      if (step == 0) EXPECT_EQ(ba.parameters_read[i], 1.0f);
+      if (step == 0) {
+        EXPECT_EQ(ba.parameters_read[i], 1.0f);
+      }
       if (ba.parameters_read[i] == 1.0f) {
         std::copy(now, now + as.num_continuous, kept);
         early += age[i] > 0 && age[i] < 5;  // an option start or a W_i change

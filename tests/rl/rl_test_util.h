@@ -7,6 +7,7 @@
 
 #include "rmpmarl/rl/env.h"
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/random_rollout.h"
 
 namespace rmpmarl::rl::testing {
 
@@ -25,18 +26,8 @@ inline int IndexOf(const std::vector<std::string>& names, const std::string& nam
   return -1;
 }
 
-// uniformly random actions for every agent: option indices, continuous values a bit beyond [low, high] (the env
-// clips), termination flags.
-inline void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions) {
-  const ActionSpec& a = spec.action;
-  std::uniform_real_distribution<float> u(-1.2f, 1.2f), flag(0.0f, 1.0f);
-  for (int agent = 0; agent < spec.num_agents; ++agent) {
-    float* row = actions + static_cast<size_t>(agent) * a.size();
-    if (a.num_options > 0) row[0] = static_cast<float>(std::uniform_int_distribution<int>(0, a.num_options - 1)(rng));
-    for (int k = 0; k < a.num_continuous; ++k) row[a.continuous_offset() + k] = u(rng);
-    if (a.has_termination) row[a.termination_offset()] = flag(rng) < 0.2f ? 1.0f : 0.0f;
-  }
-}
+// random actions (the library's, shared with the soak command)
+using rl::RandomActions;
 
 // a task config with fewer variants (faster contexts) for tests.
 inline TaskConfig SmallConfig(TaskKind task, const std::string& robot = "", int variants = 2) {
