@@ -18,7 +18,9 @@ SOAK_STEPS ?= 10000000
 
 # `make fuzz FUZZ_SECONDS=N [FUZZ_TARGETS="robot policy"]`: the libFuzzer targets of fuzz/ (clang, ASan + UBSan,
 # -O1) built in their own directory, each run for N seconds seeded with the shipped files (scripts/run-fuzz).
+# The checkpoint target is built by g++ in FUZZ_GCC_DIR (Debian's libtorch headers do not compile with clang 14).
 FUZZ_DIR ?= build-fuzz
+FUZZ_GCC_DIR ?= build-fuzz-gcc
 FUZZ_SECONDS ?= 600
 FUZZ_TARGETS ?=
 
@@ -58,7 +60,12 @@ fuzz:
 	  "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -gline-tables-only -DNDEBUG" -DRMPMARL_SANITIZE=address,undefined \
 	  -DRMPMARL_FUZZ=ON -DRMPMARL_BUILD_TESTS=OFF -DRMPMARL_BUILD_BENCH=OFF
 	cmake --build $(FUZZ_DIR) --target fuzzers -j $(JOBS)
-	bash scripts/run-fuzz $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
+	@if [ -z "$(FUZZ_TARGETS)" ] || echo " $(FUZZ_TARGETS) " | grep -q " checkpoint "; then \
+	  cmake -S . -B $(FUZZ_GCC_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DRMPMARL_SANITIZE=address,undefined \
+	    -DRMPMARL_FUZZ_GCC=ON -DRMPMARL_BUILD_TESTS=OFF -DRMPMARL_BUILD_BENCH=OFF && \
+	  cmake --build $(FUZZ_GCC_DIR) --target fuzzers -j $(JOBS); fi
+	CHECKPOINT_FUZZ_DIR=$(FUZZ_GCC_DIR) bash scripts/run-fuzz $(FUZZ_DIR) $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 soak: configure
 	cmake --build $(BUILD_DIR) --target rmpmarl_soak -j $(JOBS)

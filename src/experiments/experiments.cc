@@ -107,6 +107,47 @@ const LayerVariant kLayerV2Hold{V2LayerYaml(", parameter_period: 25"), [](rl::Ta
                                   task.options.parameter_period = 25;
                                 }};
 
+/// the coupled v2 layer (issue 9, session 5): the v2 layer's collision gains, resolved with the joints coupled
+/// (rmp.resolve: coupled, rmp::EvaluateCoupledLayer) — one n × n resolve of every joint's selected RMPs on the
+/// robot's RMPflow structure (C-space target and damping, joint limits, velocity cap, self-collision) instead of n
+/// scalar ones — with the rest of RMPflow's task leaves: the target RMP at full weight beside the collision RMPs
+/// (options.collision_target_weight 1), RMPflow's linear target damping k_d 85, collision metric μ = 10⁴ and
+/// sensing radius r = 0.5 m (configs/rmpflow/default.yaml). At unit scales the layer is RMPflow with the tuned
+/// collision gains; the agents scale its leaves per joint. Chosen on evaluation seed 7 (never a reported seed)
+/// among per-joint/coupled, r 0.35/0.5 and quadratic/linear damping (docs/learning.md, session 5).
+std::string V2CoupledLayerYaml(const std::string& more_options) {
+  return "controller: {max_substep: 0.002}, observation: {warning_distance: 0.5}, "
+         "options: {collision_length_exponent: 0.75, collision_target_weight: 1" + more_options + "}, "
+         "rmp: {resolve: coupled, target_rmp: {damping: linear, accel_d_gain: 85}, collision_rmp: "
+         "{metric_modulation_radius: 0.5, metric_scalar: 10000, repulsion_gain: 3200, damping_gain: 200, "
+         "repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}";
+}
+void ApplyCoupled(rl::TaskConfig& task) {
+  task.observation.warning_distance = 0.5;
+  task.options.collision_target_weight = 1.0;
+  task.basic_layer.resolve = rmp::LayerResolve::kCoupled;
+  task.basic_layer.params.target.damping = rmp::TargetDamping::kLinear;
+  task.basic_layer.params.target.accel_d_gain = 85.0;
+  task.basic_layer.params.collision.metric_modulation_radius = 0.5;
+  task.basic_layer.params.collision.metric_scalar = 1e4;
+}
+const LayerVariant kLayerV2Coupled{V2CoupledLayerYaml(""), [](rl::TaskConfig& task) {
+                                     kLayerV2.apply(task);
+                                     ApplyCoupled(task);
+                                   }};
+/// kLayerV2ParamsHold on the coupled layer: the agents set the RMP parameters only, held between reads.
+const LayerVariant kLayerV2CoupledParamsHold{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50"),
+    [](rl::TaskConfig& task) {
+      kLayerV2ParamsHold.apply(task);
+      ApplyCoupled(task);
+    }};
+/// kLayerV2Hold (options learned) on the coupled layer.
+const LayerVariant kLayerV2CoupledHold{V2CoupledLayerYaml(", parameter_period: 25"), [](rl::TaskConfig& task) {
+                                         kLayerV2Hold.apply(task);
+                                         ApplyCoupled(task);
+                                       }};
+
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
 /// of eq (8)'s gains and length scales tried on the basic layer and RMPflow (docs/learning.md).
@@ -195,6 +236,33 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 1000, tracking_weight: 10}",
        0, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
+      // the coupled resolve (kLayerV2Coupled*): the -hold recipe, and MARL-RMP v3, on the v2 layer with the joints
+      // resolved together
+      {"marl-rmp-v2c-params-hold", "MAPPO over the coupled v2 layer (parameters only, held, mixed scenes)",
+       "marl-rmp-v2c-params-hold", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledParamsHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 1000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
+      // ... with the collision/tracking trade-off moved towards safety: dense precision term w = 2 instead of 10,
+      // or collision penalty phi = 5000 instead of 1000
+      {"marl-rmp-v2c-params-hold-w2", "MAPPO over the coupled v2 layer (parameters only, held, mixed, w = 2)",
+       "marl-rmp-v2c-params-hold-w2", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledParamsHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 1000, tracking_weight: 2}",
+       300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 2}"},
+      {"marl-rmp-v2c-params-hold-phi5k", "MAPPO over the coupled v2 layer (parameters only, held, mixed, phi 5000)",
+       "marl-rmp-v2c-params-hold-phi5k", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledParamsHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 10}"},
+      {"marl-rmp-v3c", "MARL-RMP (v3 on the coupled v2 layer)", "marl-rmp-v3c", "mappo-reach-avoid",
+       InterfaceMode::kPerJointRmp, "hrl-rmp-2link-v2", true, &kLayerV2CoupledHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 1000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
   };
   return recipes;
 }
@@ -336,6 +404,14 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   ttc_v2_gentle.fixed_parameters[rl::RmpActionLayout::kCollisionAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
       -1.0f;  // u = −1: s_a = 1/gain_range, the paper-default collision RMP
   const Entry basic_ttc_v2_gentle = fixed("basic-ttc-v2-gentle", ttc_v2_gentle);
+  Method ttc_v2c = Method::FixedOption("basic layer v2, coupled resolve (target-then-collision)", 2);
+  ttc_v2c.adjust_task = kLayerV2Coupled.apply;
+  const Entry basic_ttc_v2c = fixed("basic-ttc-v2c", ttc_v2c);
+  Method ttc_v2c_gentle =
+      Method::FixedOption("basic layer v2, coupled resolve (target-then-collision, collision scale 1/4)", 2);
+  ttc_v2c_gentle.adjust_task = kLayerV2Coupled.apply;
+  ttc_v2c_gentle.fixed_parameters = ttc_v2_gentle.fixed_parameters;
+  const Entry basic_ttc_v2c_gentle = fixed("basic-ttc-v2c-gentle", ttc_v2c_gentle);
   const Entry rmpflow = fixed("rmpflow", Method::Rmpflow());
   Method rmpflow_tuned_method = Method::Rmpflow("RMPflow (tuned collision gains)");
   rmpflow_tuned_method.adjust_rmpflow = TuneRmpflowCollision;
@@ -352,7 +428,11 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned, learned("marl-rmp-v2-params", "marl-rmp-v2-params"),
             learned("marl-rmp-v2-params-phi", "marl-rmp-v2-params-phi"),
             learned("marl-rmp-v2-params-mix", "marl-rmp-v2-params-mix"),
-            learned("marl-rmp-v2-params-hold", "marl-rmp-v2-params-hold"), learned("marl-rmp-v3", "marl-rmp-v3")};
+            learned("marl-rmp-v2-params-hold", "marl-rmp-v2-params-hold"), learned("marl-rmp-v3", "marl-rmp-v3"),
+            basic_ttc_v2c, basic_ttc_v2c_gentle, learned("marl-rmp-v2c-params-hold", "marl-rmp-v2c-params-hold"),
+            learned("marl-rmp-v2c-params-hold-w2", "marl-rmp-v2c-params-hold-w2"),
+            learned("marl-rmp-v2c-params-hold-phi5k", "marl-rmp-v2c-params-hold-phi5k"),
+            learned("marl-rmp-v3c", "marl-rmp-v3c")};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),

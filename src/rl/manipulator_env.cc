@@ -13,6 +13,7 @@
 #include "rmpmarl/kinematics/robot_setup.h"
 #include "rmpmarl/rl/pretrain_scenario.h"
 #include "rmpmarl/rmp/joint_layer.h"
+#include "rmpmarl/rmp/rmpflow.h"
 
 namespace rmpmarl::rl {
 namespace {
@@ -184,11 +185,23 @@ std::shared_ptr<const TaskContext> MakeTaskContext(TaskConfig config, ScenarioMa
 class ManipulatorEnv::PerJointRmpPolicy final : public sim::AccelerationPolicy {
  public:
   PerJointRmpPolicy(const kinematics::Robot* robot, const BasicLayerConfig& config)
-      : robot_(robot), config_(config), kin_(robot->model), weights(robot->model.nq()) {}
+      : robot_(robot), config_(config), kin_(robot->model), coupled_(robot->model.nq()), weights(robot->model.nq()) {
+    set_robot(robot);
+  }
 
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) override {
     kinematics::CalcVelocityKinematics(robot_->model, q, qd, &kin_);
+    if (config_.resolve == rmp::LayerResolve::kCoupled) {
+      // the agents' RMPs resolved together on the robot's RMPflow structure, capped as RMPflow caps
+      structure_->EvaluateStructure(q, qd);
+      rmp::EvaluateCoupledLayer(*robot_, kin_, scene, config_.params, weights, structure_->data().f_root,
+                                structure_->data().M_root, config_.relative_regularizer, &coupled_, qdd);
+      const double norm = qdd.norm();
+      const double cap = structure_->options().max_acceleration_norm;
+      if (norm > cap) qdd *= cap / norm;
+      return;
+    }
     for (int i = 0; i < robot_->model.nq(); ++i) {
       qdd[i] = rmp::EvaluateJointLayer(*robot_, kin_, i, scene, config_.params, weights[i],
                                        config_.relative_regularizer)
@@ -197,12 +210,28 @@ class ManipulatorEnv::PerJointRmpPolicy final : public sim::AccelerationPolicy {
   }
   std::string name() const override { return "per-joint-rmp"; }
   int nq() const override { return robot_->model.nq(); }
-  void set_robot(const kinematics::Robot* robot) { robot_ = robot; }
+  /// switches to another variant's robot (same joints); the coupled resolve's structure is built once per robot.
+  void set_robot(const kinematics::Robot* robot) {
+    robot_ = robot;
+    if (config_.resolve != rmp::LayerResolve::kCoupled) return;
+    for (const auto& [r, s] : structures_) {
+      if (r == robot) {
+        structure_ = s.get();
+        return;
+      }
+    }
+    structures_.emplace_back(robot, std::make_unique<rmp::RmpflowPolicy>(*robot, rmp::LoadRmpflowOptions(*robot), 0));
+    structure_ = structures_.back().second.get();
+  }
 
  private:
   const kinematics::Robot* robot_;
   BasicLayerConfig config_;
   kinematics::Data kin_;
+  rmp::CoupledLayerWorkspace coupled_;  ///< buffers of the coupled resolve
+  /// the coupled resolve's RMPflow structure per robot variant, and the current one
+  std::vector<std::pair<const kinematics::Robot*, std::unique_ptr<rmp::RmpflowPolicy>>> structures_;
+  rmp::RmpflowPolicy* structure_ = nullptr;
 
  public:
   std::vector<rmp::JointLayerWeights> weights;  ///< per joint, set by the env before every control step

@@ -474,13 +474,17 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   }
   if (const YAML::Node n = root["scenario"]) ReadScenario(r, n, task, &c.scenario);
   if (const YAML::Node n = root["rmp"]) {
-    r.CheckKeys(n, "rmp", {"target_rmp", "collision_rmp", "relative_regularizer"});
+    r.CheckKeys(n, "rmp", {"target_rmp", "collision_rmp", "relative_regularizer", "resolve"});
     if (const YAML::Node t = n["target_rmp"]) ReadTargetRmp(r, t, "rmp.target_rmp", &c.basic_layer.params.target);
     if (const YAML::Node t = n["collision_rmp"]) {
       ReadCollisionRmp(r, t, "rmp.collision_rmp", &c.basic_layer.params.collision);
     }
     if (const YAML::Node t = n["relative_regularizer"]) {
       c.basic_layer.relative_regularizer = r.Number(t, "rmp.relative_regularizer");
+    }
+    if (const YAML::Node t = n["resolve"]) {
+      c.basic_layer.resolve = r.Choice(t, "rmp.resolve", {"per-joint", "coupled"}) == 0 ? rmp::LayerResolve::kPerJoint
+                                                                                         : rmp::LayerResolve::kCoupled;
     }
   }
   ValidateTaskConfig(c, file);

@@ -167,4 +167,86 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   }
 }
 
+CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
+    : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq) {}
+
+void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                          const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                          const Eigen::Ref<const Eigen::VectorXd>& f0, const Eigen::Ref<const Eigen::MatrixXd>& M0,
+                          double relative_regularizer,
+                          CoupledLayerWorkspace* workspace, Eigen::Ref<Eigen::VectorXd> qdd) {
+  const kinematics::Model& model = robot.model;
+  const int nq = model.nq();
+  if (static_cast<int>(weights.size()) != nq || qdd.size() != nq) {
+    throw InputError(fmt::format("EvaluateCoupledLayer: robot '{}' has {} joints but got {} weights and {} outputs",
+                                 robot.name, nq, weights.size(), qdd.size()));
+  }
+  RMPMARL_ASSERT(workspace != nullptr && workspace->A.rows() == nq, "EvaluateCoupledLayer: workspace size");
+  RMPMARL_DASSERT(kin.has_velocities, "EvaluateCoupledLayer: CalcVelocityKinematics must run first");
+  CoupledLayerWorkspace& ws = *workspace;
+  RMPMARL_ASSERT(f0.size() == nq && M0.rows() == nq && M0.cols() == nq, "EvaluateCoupledLayer: structure size");
+  ws.A = M0;  // the structure's leaves, already pulled back
+  ws.b = f0;
+
+  if (scene.has_target) {  // the target leaf (eqs 5–7), columns weighted by √s_m of each joint
+    const int link = robot.end_effector.link;
+    const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
+    const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
+    const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
+    const Eigen::Vector3d Mjdqd = rmp.M * CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
+    const Eigen::Vector3d Ma = rmp.M * rmp.a;
+    ws.G.setZero();
+    bool any = false;
+    for (int dof : model.link_dofs(link)) {
+      const JointLayerWeights& w = weights[dof];
+      if (!w.use_target || w.target_metric_scale <= 0.0) continue;
+      const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
+      ws.G.col(dof) = std::sqrt(w.target_metric_scale) * j;
+      ws.b[dof] += w.target_metric_scale * j.dot(w.target_accel_scale * Ma - Mjdqd);
+      any = true;
+    }
+    if (any) {
+      ws.MG.noalias() = rmp.M * ws.G;
+      ws.A.noalias() += ws.G.transpose() * ws.MG;
+    }
+  }
+
+  // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r
+  const double r = params.collision.metric_modulation_radius;
+  for (const kinematics::LinkCapsule& lc : robot.capsules) {
+    const std::vector<int>& dofs = model.link_dofs(lc.link);
+    if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
+    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+    const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
+    const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
+    for (const Obstacle& obstacle : scene.obstacles) {
+      if ((centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle) > r) continue;
+      const math::DistanceResult res = CapsuleObstacleDistance(capsule, obstacle);
+      if (res.distance > r) continue;
+      const Eigen::Vector3d n = res.gradient_norm * res.n_W;
+      const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
+      const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
+      const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
+      ws.g.setZero();
+      for (int dof : dofs) {
+        const JointLayerWeights& w = weights[dof];
+        if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
+        const double a = w.collision_length_scale == 1.0
+                             ? rmp.a
+                             : EvalScaledCollisionRmp(params.collision, res.distance, xd, w.collision_length_scale).a;
+        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, lc.link, res.p_W1));
+        ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
+        ws.b[dof] += w.collision_metric_scale * j * rmp.m * (w.collision_accel_scale * a - jdqd);
+      }
+      ws.A.noalias() += rmp.m * ws.g * ws.g.transpose();
+    }
+  }
+
+  const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);
+  ws.A.diagonal().array() += lambda;
+  ws.ldlt.compute(ws.A);
+  qdd = ws.ldlt.solve(ws.b);
+}
+
 }  // namespace rmpmarl::rmp

@@ -165,6 +165,29 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
                                  num_obstacles, max_obstacles_));
   }
   PushForward(tree_, q, qd, scene, &data_);
+  WriteLeaves(q, qd, scene, /*task_leaves=*/true);
+  PullbackAndResolve(tree_, &data_, qdd);
+  diagnostics_.lambda = data_.lambda;
+  const double norm = qdd.norm();
+  if (norm > options_.max_acceleration_norm) {
+    qdd *= options_.max_acceleration_norm / norm;
+    diagnostics_.clipped = true;
+  }
+}
+
+void RmpflowPolicy::EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                      const Eigen::Ref<const Eigen::VectorXd>& qd) {
+  const kinematics::Model& model = tree_.robot().model;
+  kinematics::CheckJointVector(model, q, "q");
+  kinematics::CheckJointVector(model, qd, "qd");
+  PushForward(tree_, q, qd, no_task_, &data_);
+  WriteLeaves(q, qd, no_task_, /*task_leaves=*/false);
+  Pullback(tree_, &data_);
+}
+
+void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene, bool task_leaves) {
+  const int num_obstacles = static_cast<int>(scene.obstacles.size());
   RmpflowDiagnostics& diag = diagnostics_;
   diag = RmpflowDiagnostics{};
   constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -172,7 +195,7 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
   diag.min_self_distance = kInf;
 
   // end-effector target, fed with the velocity relative to the target
-  if (scene.has_target) {
+  if (task_leaves && scene.has_target) {
     const Eigen::Vector3d x = data_.x(ee_node_);
     const Eigen::Vector3d xd_rel = Eigen::Vector3d(data_.xd(ee_node_)) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(options_.target, x, xd_rel, scene.p_WT);
@@ -201,15 +224,17 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
     data_.M(node)(0, 0) = rmp.m;
     data_.f(node)[0] = rmp.m * rmp.a;
   }
-  for (int node : obstacle_nodes_) {
-    if (std::get<CapsuleObstacleDistanceMap>(tree_.map(node)).obstacle >= num_obstacles) continue;
-    const double x = data_.x(node)[0];
-    diag.min_obstacle_distance = std::min(diag.min_obstacle_distance, x);
-    if (!data_.active(node)) continue;
-    ++diag.active_obstacle_pairs;
-    const Rmp1 rmp = EvalCollisionRmp(options_.collision, x, data_.xd(node)[0]);
-    data_.M(node)(0, 0) = rmp.m;
-    data_.f(node)[0] = rmp.m * rmp.a;
+  if (task_leaves) {
+    for (int node : obstacle_nodes_) {
+      if (std::get<CapsuleObstacleDistanceMap>(tree_.map(node)).obstacle >= num_obstacles) continue;
+      const double x = data_.x(node)[0];
+      diag.min_obstacle_distance = std::min(diag.min_obstacle_distance, x);
+      if (!data_.active(node)) continue;
+      ++diag.active_obstacle_pairs;
+      const Rmp1 rmp = EvalCollisionRmp(options_.collision, x, data_.xd(node)[0]);
+      data_.M(node)(0, 0) = rmp.m;
+      data_.f(node)[0] = rmp.m * rmp.a;
+    }
   }
   for (int node : self_nodes_) {
     const double x = data_.x(node)[0];
@@ -219,14 +244,6 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
     const Rmp1 rmp = EvalCollisionRmp(options_.self_collision, x, data_.xd(node)[0]);
     data_.M(node)(0, 0) = rmp.m;
     data_.f(node)[0] = rmp.m * rmp.a;
-  }
-
-  PullbackAndResolve(tree_, &data_, qdd);
-  diag.lambda = data_.lambda;
-  const double norm = qdd.norm();
-  if (norm > options_.max_acceleration_norm) {
-    qdd *= options_.max_acceleration_norm / norm;
-    diag.clipped = true;
   }
 }
 

@@ -13,16 +13,19 @@ TEST(NoAllocTest, EnvStepDoesNotAllocate) {
     TaskKind task;
     InterfaceMode mode;
     const char* robot;
+    rmp::LayerResolve resolve = rmp::LayerResolve::kPerJoint;
   };
   const Case cases[] = {{TaskKind::kPretrain2Link, InterfaceMode::kPerJointRmp, ""},
                         {TaskKind::kReachAvoid, InterfaceMode::kPerJointRmp, "panda"},
                         {TaskKind::kReachAvoid, InterfaceMode::kDirect, "ur5e"},
                         {TaskKind::kLineCrossing, InterfaceMode::kPerJointRmp, "panda"},
+                        {TaskKind::kReachAvoid, InterfaceMode::kPerJointRmp, "panda", rmp::LayerResolve::kCoupled},
                         {TaskKind::kCluttered, InterfaceMode::kPerJointDirect, "panda"}};
   for (const Case& c : cases) {
     SCOPED_TRACE(TaskKindName(c.task));
     TaskConfig config = testing::SmallConfig(c.task, c.robot, 1);
     config.interface = c.mode;
+    config.basic_layer.resolve = c.resolve;
     config.episode.max_steps = 100000;  // no episode end inside the counted window
     if (c.task == TaskKind::kReachAvoid) config.scenario.crossing.num_obstacles = 4;
     ManipulatorEnv env(MakeTaskContext(config));

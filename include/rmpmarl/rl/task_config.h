@@ -182,6 +182,9 @@ struct ScenarioConfig {
 struct BasicLayerConfig {
   rmp::BasicRmpParams params;          ///< target_rmp, collision_rmp (defaults: see DefaultTaskConfig)
   double relative_regularizer = 1e-6;  ///< λ rule of EvaluateJointLayer, > 0
+  /// `resolve`: per-joint (the paper) or coupled (one resolve of every joint's RMPs on top of the robot's RMPflow
+  /// C-space, joint-limit and self-collision leaves, configs/rmpflow; rmp::EvaluateCoupledLayer)
+  rmp::LayerResolve resolve = rmp::LayerResolve::kPerJoint;
 };
 
 /// A whole task.

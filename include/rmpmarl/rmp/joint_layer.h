@@ -10,11 +10,13 @@
 /// where for the target j_k is column i of J_WE (3 × 1), a_k = s_a · a_target, M_k = s_m · M_target, and for a
 /// collision pair j_k = g n_Wᵀ (column i of J_WP1) with a_k = s_a · a, M_k = s_m · m; J̇_k q̇ is the full curvature
 /// term of the task given all joint velocities (the same one the tree uses, see tree.h).
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <span>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rmp/joint_rmps.h"
 #include "rmpmarl/rmp/paper_rmps.h"
 #include "rmpmarl/rmp/scene.h"
 
@@ -69,5 +71,43 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
 void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                          const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                          std::span<JointLayerResult> results, double relative_regularizer = 1e-6);
+
+/// How the joints' pulled-back RMPs become q̈.
+enum class LayerResolve {
+  kPerJoint,  ///< `per-joint`: each joint resolves alone through its own column (EvaluateJointLayer; the paper)
+  kCoupled,   ///< `coupled`: one n × n resolve of every joint's terms with their coupling (EvaluateCoupledLayer)
+};
+
+/// Buffers of EvaluateCoupledLayer for an nq-joint robot (sized once; the evaluation allocates nothing).
+struct CoupledLayerWorkspace {
+  explicit CoupledLayerWorkspace(int nq);
+  Eigen::MatrixXd A;                  ///< the resolved metric, nq × nq
+  Eigen::VectorXd b;                  ///< the resolved force, nq
+  Eigen::VectorXd g;                  ///< one collision leaf's weighted row, nq
+  Eigen::Matrix3Xd G;                 ///< the target leaf's weighted Jacobian, 3 × nq
+  Eigen::Matrix3Xd MG;                ///< M · G, 3 × nq
+  Eigen::LDLT<Eigen::MatrixXd> ldlt;  ///< factorisation of A + λI
+};
+
+/// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved
+/// together instead of joint by joint, on top of a structure (f₀, M₀) — the pulled-back C-space RMPs that hold a
+/// redundant arm together (RMPflow's C-space target and damping, joint limits, velocity cap and self-collision,
+/// RmpflowPolicy::EvaluateStructure). With w_ki = √(s_m) of joint i's scaling of leaf k (0 when joint i does not
+/// select the leaf or does not move it), j_ki the leaf's Jacobian column i and f_ki = M_k (s_a a_k) − M_k J̇_k q̇ with
+/// joint i's s_a:
+///
+///   A_ij = M₀_ij + Σ_k w_ki w_kj j_kiᵀ M_k j_kj,   b_i = f₀_i + Σ_k w_ki² j_kiᵀ f_ki,
+///   q̈ = (A + λI)⁻¹ b,   λ = relative_regularizer · (1 + trace(A)/n)   (rmp.h's rule).
+///
+/// Without the structure and A's off-diagonal terms this is exactly the per-joint layer, so an agent's action means
+/// the same under both resolves; with every weight 1 it is RMPflow (Cheng et al. 2018, eqs 2–3: pullback and
+/// resolve of every leaf). Allocates nothing.
+/// \pre as EvaluateJointLayers; workspace built for robot.model.nq();
+/// f0, qdd have nq entries, M0 is nq × nq.
+void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                          const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                          const Eigen::Ref<const Eigen::VectorXd>& f0, const Eigen::Ref<const Eigen::MatrixXd>& M0,
+                          double relative_regularizer,
+                          CoupledLayerWorkspace* workspace, Eigen::Ref<Eigen::VectorXd> qdd);
 
 }  // namespace rmpmarl::rmp

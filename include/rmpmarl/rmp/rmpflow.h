@@ -85,6 +85,12 @@ class RmpflowPolicy {
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd);
 
+  /// the pulled-back C-space RMP of the leaves that are not the task's — C-space target and damping, joint limits,
+  /// velocity cap, self-collision; not the end-effector target nor the obstacles — left unresolved in data().f_root
+  /// and data().M_root: the rest of RMPflow under a coupled per-joint basic layer (rmp::EvaluateCoupledLayer).
+  /// Throws InputError for q/q̇ of the wrong size or non-finite. Allocates nothing.
+  void EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd);
+
   /// sets the C-space target posture (nq finite values).
   void set_home(const Eigen::Ref<const Eigen::VectorXd>& home);
   const Eigen::VectorXd& home() const { return home_; }
@@ -97,6 +103,10 @@ class RmpflowPolicy {
   Eigen::Vector3d end_effector_position() const;
 
  private:
+  /// writes the leaves' RMPs after PushForward; without task_leaves, not the target's nor the obstacles'.
+  void WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                   const Scene& scene, bool task_leaves);
+
   struct JointLimitLeaf {
     int node;
     int dof;
@@ -114,6 +124,7 @@ class RmpflowPolicy {
   std::vector<int> obstacle_nodes_;
   std::vector<int> self_nodes_;
   RmpflowDiagnostics diagnostics_;
+  Scene no_task_;  ///< no target, no obstacles (EvaluateStructure)
 };
 
 }  // namespace rmpmarl::rmp

@@ -1,0 +1,167 @@
+// The coupled basic layer (EvaluateCoupledLayer) against independent references: RMPflow's own tree pullback and
+// resolve (every weight 1 on RMPflow's structure), the per-joint layer (one joint selecting), and hand-derived
+// scale invariances.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "rmp_test_util.h"
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rmp/joint_layer.h"
+#include "rmpmarl/rmp/rmpflow.h"
+
+namespace rmpmarl::rmp {
+namespace {
+
+using testing::RandomConfiguration;
+using testing::RandomVector3;
+using testing::RandomVelocity;
+using testing::Uniform;
+
+Scene RandomScene(std::mt19937_64& rng, int obstacles) {
+  Scene scene;
+  for (int k = 0; k < obstacles; ++k) {
+    scene.obstacles.push_back(Obstacle::MakeSphere(RandomVector3(rng, -0.5, 0.5) + Eigen::Vector3d(0, 0, 0.4),
+                                                   Uniform(rng, 0.03, 0.12), RandomVector3(rng, -1.0, 1.0)));
+  }
+  scene.p_WT = RandomVector3(rng, -0.5, 0.5) + Eigen::Vector3d(0, 0, 0.4);
+  scene.v_WT = RandomVector3(rng, -0.3, 0.3);
+  return scene;
+}
+
+// With every joint selecting both RMPs at unit scales, the coupled layer on RMPflow's structure is RMPflow: the
+// tree's pullback of the same target and collision RMPs resolved with the same regulariser.
+TEST(CoupledLayerTest, UnitWeightsOnRmpflowStructureEqualRmpflow) {
+  std::mt19937_64 rng(7);
+  for (const kinematics::Robot& robot : {testing::LoadArm(), testing::LoadTreeRobot()}) {
+    const int nq = robot.model.nq();
+    RmpflowOptions options;
+    options.collision.metric_modulation_radius = 0.4;
+    options.collision.repulsion_gain = 3200.0;
+    options.max_acceleration_norm = 1e12;  // compare before any cap
+    RmpflowPolicy rmpflow(robot, options, 4);
+    RmpflowPolicy structure(robot, options, 0);
+    BasicRmpParams params;
+    params.target = options.target;
+    params.collision = options.collision;
+    const std::vector<JointLayerWeights> weights(nq);  // both RMPs, unit scales
+    kinematics::Data kin(robot.model);
+    CoupledLayerWorkspace workspace(nq);
+    int with_collisions = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+      const Scene scene = RandomScene(rng, 4);
+      const Eigen::VectorXd q = RandomConfiguration(robot.model, rng, 0.05);
+      const Eigen::VectorXd qd = RandomVelocity(robot.model, rng);
+      Eigen::VectorXd expected(nq), got(nq);
+      rmpflow.Evaluate(q, qd, scene, expected);
+      with_collisions += rmpflow.diagnostics().active_obstacle_pairs > 0 ? 1 : 0;
+      structure.EvaluateStructure(q, qd);
+      kinematics::CalcVelocityKinematics(robot.model, q, qd, &kin);
+      EvaluateCoupledLayer(robot, kin, scene, params, weights, structure.data().f_root, structure.data().M_root,
+                           options.resolve.relative_regularizer, &workspace, got);
+      ASSERT_TRUE(got.allFinite());
+      EXPECT_LT((got - expected).norm(), 1e-7 * (1.0 + expected.norm())) << robot.name << " trial " << trial;
+    }
+    EXPECT_GT(with_collisions, 10) << "the scenes must exercise the collision leaves";
+  }
+}
+
+// With no structure and only joint i selecting RMPs, the system decouples: q̈_i is the per-joint layer's and every
+// other joint stays at rest (up to the regulariser, which differs: λ(1 + trace/n) vs λ(1 + metric_i)).
+TEST(CoupledLayerTest, OneSelectingJointEqualsThePerJointLayer) {
+  std::mt19937_64 rng(11);
+  const kinematics::Robot robot = testing::LoadArm();
+  const int nq = robot.model.nq();
+  kinematics::Data kin(robot.model);
+  CoupledLayerWorkspace workspace(nq);
+  const Eigen::VectorXd f0 = Eigen::VectorXd::Zero(nq);
+  const Eigen::MatrixXd M0 = Eigen::MatrixXd::Zero(nq, nq);
+  BasicRmpParams params;
+  params.collision.metric_modulation_radius = 0.4;
+  for (int trial = 0; trial < 30; ++trial) {
+    const Scene scene = RandomScene(rng, 5);
+    kinematics::CalcVelocityKinematics(robot.model, RandomConfiguration(robot.model, rng),
+                                       RandomVelocity(robot.model, rng), &kin);
+    const int dof = static_cast<int>(rng() % nq);
+    std::vector<JointLayerWeights> weights(nq);
+    for (JointLayerWeights& w : weights) w.use_target = w.use_collision = false;
+    JointLayerWeights& w = weights[dof];
+    w.use_target = w.use_collision = true;
+    w.target_accel_scale = Uniform(rng, 0.25, 4.0);
+    w.target_metric_scale = Uniform(rng, 0.25, 4.0);
+    w.collision_accel_scale = Uniform(rng, 0.25, 4.0);
+    w.collision_metric_scale = Uniform(rng, 0.25, 4.0);
+    w.collision_length_scale = Uniform(rng, 0.5, 2.0);
+    Eigen::VectorXd qdd(nq);
+    EvaluateCoupledLayer(robot, kin, scene, params, weights, f0, M0, 1e-9, &workspace, qdd);
+    const JointLayerResult one = EvaluateJointLayer(robot, kin, dof, scene, params, w, 1e-9);
+    EXPECT_NEAR(qdd[dof], one.qdd, 1e-5 * (1.0 + std::abs(one.qdd))) << "trial " << trial;
+    for (int i = 0; i < nq; ++i) {
+      if (i != dof) {
+        EXPECT_EQ(qdd[i], 0.0);
+      }
+    }
+  }
+}
+
+// Hand-derived: a common metric scale on every joint cancels in the resolve (no structure), and at rest (J̇q̇ = 0)
+// a common target accel scale scales q̈ by itself.
+TEST(CoupledLayerTest, CommonScalesActAsDerived) {
+  std::mt19937_64 rng(5);
+  const kinematics::Robot robot = testing::LoadArm();
+  const int nq = robot.model.nq();
+  kinematics::Data kin(robot.model);
+  CoupledLayerWorkspace workspace(nq);
+  const Eigen::VectorXd f0 = Eigen::VectorXd::Zero(nq);
+  const Eigen::MatrixXd M0 = Eigen::MatrixXd::Zero(nq, nq);
+  const BasicRmpParams params;
+  auto solve = [&](double accel, double metric) {
+    std::vector<JointLayerWeights> weights(nq);
+    for (JointLayerWeights& w : weights) {
+      w.use_collision = false;
+      w.target_accel_scale = accel;
+      w.target_metric_scale = metric;
+    }
+    Eigen::VectorXd qdd(nq);
+    EvaluateCoupledLayer(robot, kin, RandomScene(rng, 0), params, weights, f0, M0, 1e-12, &workspace, qdd);
+    return qdd;
+  };
+  for (int trial = 0; trial < 10; ++trial) {
+    kinematics::CalcVelocityKinematics(robot.model, RandomConfiguration(robot.model, rng, 0.1),
+                                       Eigen::VectorXd::Zero(nq), &kin);
+    const std::mt19937_64 saved = rng;
+    const Eigen::VectorXd base = solve(1.0, 1.0);
+    rng = saved;
+    const Eigen::VectorXd heavier = solve(1.0, 3.0);
+    rng = saved;
+    const Eigen::VectorXd faster = solve(2.5, 1.0);
+    // the target task is 3-D on a redundant arm: compare the task-space accelerations J q̈ (the null space of the
+    // singular metric is set by the tiny regulariser alone)
+    const kinematics::Data& k = kin;
+    const Eigen::Vector3d p_WE = k.X_WL[robot.end_effector.link] * robot.end_effector.X_LE.translation();
+    Eigen::Matrix3Xd J(3, nq);
+    for (int i = 0; i < nq; ++i) {
+      J.col(i) = kinematics::CalcPointJacobianColumn(robot.model, k, i, robot.end_effector.link, p_WE);
+    }
+    const Eigen::Vector3d a = J * base;
+    EXPECT_LT((J * heavier - a).norm(), 1e-6 * (1.0 + a.norm()));
+    EXPECT_LT((J * faster - 2.5 * a).norm(), 1e-6 * (1.0 + a.norm()));
+  }
+}
+
+TEST(CoupledLayerTest, RejectsWrongSizes) {
+  const kinematics::Robot robot = testing::LoadArm();
+  const int nq = robot.model.nq();
+  kinematics::Data kin(robot.model);
+  kinematics::CalcVelocityKinematics(robot.model, Eigen::VectorXd::Zero(nq), Eigen::VectorXd::Zero(nq), &kin);
+  CoupledLayerWorkspace workspace(nq);
+  Eigen::VectorXd qdd(nq + 1);
+  EXPECT_THROW(EvaluateCoupledLayer(robot, kin, Scene{}, BasicRmpParams{}, std::vector<JointLayerWeights>(nq),
+                                    Eigen::VectorXd::Zero(nq), Eigen::MatrixXd::Zero(nq, nq), 1e-6, &workspace, qdd),
+               InputError);
+}
+
+}  // namespace
+}  // namespace rmpmarl::rmp
