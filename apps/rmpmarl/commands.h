@@ -41,6 +41,8 @@ void RegisterTrain(CLI::App& app);
 void RegisterEval(CLI::App& app);
 /// `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor for the torch-free runtime.
 void RegisterExportPolicy(CLI::App& app);
+/// `rmpmarl upgrade-checkpoint FILE...`: format-1 checkpoints (torch::serialize) rewritten as format 2, in place.
+void RegisterUpgradeCheckpoint(CLI::App& app);
 /// `rmpmarl experiment NAME ...`: the paper's tables and figures (docs/experiments.md); argv goes into the report.
 void RegisterExperiment(CLI::App& app, int argc, char** argv);
 #endif

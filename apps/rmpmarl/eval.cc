@@ -90,5 +90,20 @@ void RegisterExportPolicy(CLI::App& app) {
   });
 }
 
+void RegisterUpgradeCheckpoint(CLI::App& app) {
+  auto files = std::make_shared<std::vector<std::string>>();
+  auto* cmd = app.add_subcommand(
+      "upgrade-checkpoint",
+      "Rewrite checkpoints of format 1 (torch::serialize archives, before session 5) as format 2, in place. Format 1 "
+      "is read through TorchScript's importer, which is not safe on untrusted files: upgrade only files you trust");
+  cmd->add_option("checkpoints", *files, "checkpoint files (.ckpt)")->required();
+  cmd->callback([files] {
+    for (const std::string& f : *files) {
+      rl::UpgradeCheckpoint(f, f);
+      fmt::print("upgraded {}\n", f);
+    }
+  });
+}
+
 }  // namespace rmpmarl::apps
 #endif  // RMPMARL_HAS_TORCH

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterTrain(app);
   rmpmarl::apps::RegisterEval(app);
   rmpmarl::apps::RegisterExportPolicy(app);
+  rmpmarl::apps::RegisterUpgradeCheckpoint(app);
   rmpmarl::apps::RegisterExperiment(app, argc, argv);
 #endif
   try {

@@ -350,10 +350,20 @@ torch::Tensor RunningMeanStd::Denormalize(const torch::Tensor& x) const {
   return y;
 }
 
-void RunningMeanStd::Save(torch::serialize::OutputArchive& archive, const std::string& key) const {
-  archive.write(key + "/mean", mean_);
-  archive.write(key + "/var", var_);
-  archive.write(key + "/count", torch::tensor({count_}, torch::kDouble));
+void RunningMeanStd::Save(TensorArchive& archive, const std::string& key) const {
+  archive.Put(key + "/mean", mean_);
+  archive.Put(key + "/var", var_);
+  archive.Put(key + "/count", torch::tensor({count_}, torch::kDouble));
+}
+
+void RunningMeanStd::Load(const TensorArchive& archive, const std::string& key) {
+  mean_ = archive.Tensor(key + "/mean", torch::kDouble, {dim_}).clone();
+  var_ = archive.Tensor(key + "/var", torch::kDouble, {dim_}).clone();
+  count_ = archive.Tensor(key + "/count", torch::kDouble, {1}).item<double>();
+  if (!std::isfinite(count_) || count_ < 0.0 || !torch::isfinite(mean_).all().item<bool>() ||
+      !(var_ >= 0.0).all().item<bool>()) {
+    throw InputError(fmt::format("normaliser {}: expected finite statistics with var >= 0 and count >= 0", key));
+  }
 }
 
 void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::string& key) {
@@ -575,18 +585,91 @@ void Ppo::InitActorFrom(Ppo& other) {
   obs_norm_ = other.obs_norm_;
 }
 
-void Ppo::Save(torch::serialize::OutputArchive& archive) const {
-  torch::serialize::OutputArchive actor, critic, optimizer;
-  actor_->save(actor);
-  critic_->save(critic);
-  optimizer_->save(optimizer);
-  archive.write("actor", actor);
-  archive.write("critic", critic);
-  archive.write("optimizer", optimizer);
+namespace {
+
+void PutModule(TensorArchive& archive, const std::string& prefix, const torch::nn::Module& module) {
+  for (const auto& p : module.named_parameters()) archive.Put(prefix + "/" + p.key(), p.value());
+  for (const auto& b : module.named_buffers()) archive.Put(prefix + "/buffer/" + b.key(), b.value());
+}
+
+void GetModule(const TensorArchive& archive, const std::string& prefix, torch::nn::Module& module) {
+  torch::NoGradGuard no_grad;
+  for (auto& p : module.named_parameters()) {
+    p.value().copy_(archive.Tensor(prefix + "/" + p.key(), p.value().scalar_type(), p.value().sizes()));
+  }
+  for (auto& b : module.named_buffers()) {
+    b.value().copy_(archive.Tensor(prefix + "/buffer/" + b.key(), b.value().scalar_type(), b.value().sizes()));
+  }
+}
+
+// Adam's per-parameter state (step, first and second moments), parameters numbered over the groups in order
+std::string AdamKey(const torch::Tensor& p) { return c10::guts::to_string(p.unsafeGetTensorImpl()); }
+
+void PutAdam(TensorArchive& archive, const torch::optim::Adam& optimizer) {
+  std::int64_t i = 0;
+  for (const auto& group : optimizer.param_groups()) {
+    for (const torch::Tensor& p : group.params()) {
+      const std::string key = fmt::format("optimizer/{}", i++);
+      const auto it = optimizer.state().find(AdamKey(p));
+      if (it == optimizer.state().end()) continue;
+      const auto& s = static_cast<const torch::optim::AdamParamState&>(*it->second);
+      archive.Put(key + "/step", static_cast<std::int64_t>(s.step()));
+      archive.Put(key + "/exp_avg", s.exp_avg());
+      archive.Put(key + "/exp_avg_sq", s.exp_avg_sq());
+      if (s.max_exp_avg_sq().defined()) archive.Put(key + "/max_exp_avg_sq", s.max_exp_avg_sq());
+    }
+  }
+  archive.Put("optimizer/parameters", i);
+}
+
+void GetAdam(const TensorArchive& archive, torch::optim::Adam& optimizer) {
+  std::int64_t count = 0;
+  for (const auto& group : optimizer.param_groups()) count += static_cast<std::int64_t>(group.params().size());
+  if (archive.Int("optimizer/parameters") != count) {
+    throw InputError(fmt::format("optimizer state for {} parameter tensors, expected {}",
+                                 archive.Int("optimizer/parameters"), count));
+  }
+  optimizer.state().clear();
+  std::int64_t i = 0;
+  for (const auto& group : optimizer.param_groups()) {
+    for (const torch::Tensor& p : group.params()) {
+      const std::string key = fmt::format("optimizer/{}", i++);
+      if (!archive.Has(key + "/step")) continue;  // a parameter Adam has not stepped yet
+      auto s = std::make_unique<torch::optim::AdamParamState>();
+      const std::int64_t step = archive.Int(key + "/step");
+      if (step < 0) throw InputError(fmt::format("{}/step: expected >= 0, got {}", key, step));
+      s->step(step);
+      s->exp_avg(archive.Tensor(key + "/exp_avg", p.scalar_type(), p.sizes()).clone());
+      s->exp_avg_sq(archive.Tensor(key + "/exp_avg_sq", p.scalar_type(), p.sizes()).clone());
+      if (archive.Has(key + "/max_exp_avg_sq")) {
+        s->max_exp_avg_sq(archive.Tensor(key + "/max_exp_avg_sq", p.scalar_type(), p.sizes()).clone());
+      }
+      optimizer.state()[AdamKey(p)] = std::move(s);
+    }
+  }
+}
+
+}  // namespace
+
+void Ppo::Save(TensorArchive& archive) const {
+  PutModule(archive, "actor", *actor_);
+  PutModule(archive, "critic", *critic_);
+  PutAdam(archive, *optimizer_);
   obs_norm_.Save(archive, "obs_norm");
   state_norm_.Save(archive, "state_norm");
   value_norm_.Save(archive, "value_norm");
-  archive.write("generator", generator_.get_state());
+  archive.Put("generator", generator_.get_state());
+}
+
+void Ppo::Load(const TensorArchive& archive) {
+  GetModule(archive, "actor", *actor_);
+  GetModule(archive, "critic", *critic_);
+  GetAdam(archive, *optimizer_);
+  obs_norm_.Load(archive, "obs_norm");
+  state_norm_.Load(archive, "state_norm");
+  value_norm_.Load(archive, "value_norm");
+  const torch::Tensor current = generator_.get_state();
+  generator_.set_state(archive.Tensor("generator", current.scalar_type(), current.sizes()));
 }
 
 void Ppo::Load(torch::serialize::InputArchive& archive) {

@@ -22,13 +22,17 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/rl/torch/ppo.h"
+#include "rmpmarl/rl/torch/tensor_archive.h"
 #include "rmpmarl/rl/torch/tensorboard.h"
 
 namespace rmpmarl::rl {
 namespace {
 
 constexpr char kCheckpointMagic[8] = {'R', 'M', 'P', 'M', 'C', 'K', 'P', 'T'};
-constexpr std::uint32_t kCheckpointVersion = 1;
+/// format 2: a TensorArchive payload; format 1 (until session 5): a torch::serialize archive, read only by
+/// UpgradeCheckpoint (TorchScript's reader is not safe on untrusted files, tensor_archive.h)
+constexpr std::uint32_t kCheckpointVersion = 2;
+constexpr std::uint32_t kTorchArchiveVersion = 1;
 constexpr std::size_t kCheckpointHeader = 8 + 4 + 8 + 4;  // magic, version, payload size, crc32c
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -45,7 +49,7 @@ std::string SpecFingerprint(const EnvSpec& s) {
                      s.action.num_options, s.action.num_continuous, s.action.has_termination, s.reward_terms.size());
 }
 
-// ---- the checkpoint container: header + torch archive bytes
+// ---- the checkpoint container: header + archive bytes (TensorArchive; format 1: torch::serialize)
 void WriteFileAtomically(const std::string& path, const std::string& bytes) {
   const std::filesystem::path p(path);
   if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
@@ -80,8 +84,13 @@ std::string WrapPayload(const std::string& payload) {
   return out + payload;
 }
 
-// reads a checkpoint file, checks its header and checksum, and opens its archive.
-torch::serialize::InputArchive OpenCheckpoint(const std::string& path) {
+// a checkpoint file's payload after its header and checksum were checked.
+struct CheckpointPayload {
+  std::uint32_t version = 0;
+  std::string bytes;
+};
+
+CheckpointPayload ReadCheckpointPayload(const std::string& path) {
   const std::string bytes = ReadFile(path, "checkpoint");
   if (bytes.size() < kCheckpointHeader || std::memcmp(bytes.data(), kCheckpointMagic, 8) != 0) {
     throw InputError(fmt::format("checkpoint {}: not an rmpmarl checkpoint (expected magic \"RMPMCKPT\")", path));
@@ -91,7 +100,7 @@ torch::serialize::InputArchive OpenCheckpoint(const std::string& path) {
   std::memcpy(&version, bytes.data() + 8, 4);
   std::memcpy(&size, bytes.data() + 12, 8);
   std::memcpy(&crc, bytes.data() + 20, 4);
-  if (version != kCheckpointVersion) {
+  if (version != kCheckpointVersion && version != kTorchArchiveVersion) {
     throw InputError(fmt::format("checkpoint {}: format version {} is not supported (expected {})", path, version,
                                  kCheckpointVersion));
   }
@@ -104,62 +113,86 @@ torch::serialize::InputArchive OpenCheckpoint(const std::string& path) {
     throw InputError(fmt::format("checkpoint {} is corrupt: checksum mismatch (stored crc32c {:08x}, computed {:08x})",
                                  path, crc, computed));
   }
-  torch::serialize::InputArchive archive;
-  try {
-    std::istringstream stream(bytes.substr(kCheckpointHeader));
-    archive.load_from(stream);
-  } catch (const c10::Error& e) {
-    throw InputError(fmt::format("checkpoint {}: cannot read its archive: {}", path, e.what_without_backtrace()));
+  return {version, bytes.substr(kCheckpointHeader)};
+}
+
+// reads a checkpoint file, checks its header and checksum, and parses its archive (format 2 only).
+TensorArchive OpenCheckpoint(const std::string& path) {
+  CheckpointPayload payload = ReadCheckpointPayload(path);
+  if (payload.version == kTorchArchiveVersion) {
+    throw InputError(fmt::format(
+        "checkpoint {}: format 1 (a torch::serialize archive, written before rmpmarl's checkpoint format 2) is not "
+        "read by training, export or evaluation, because TorchScript's reader is not safe on untrusted files; if you "
+        "trust the file, convert it once with `rmpmarl upgrade-checkpoint {}`", path, path));
   }
-  return archive;
+  return TensorArchive::Parse(payload.bytes, "checkpoint " + path);
 }
 
-std::string ReadString(torch::serialize::InputArchive& archive, const std::string& key) {
-  c10::IValue v;
-  archive.read(key, v);
-  return v.toStringRef();
-}
-
-std::int64_t ReadInt(torch::serialize::InputArchive& archive, const std::string& key) {
-  c10::IValue v;
-  archive.read(key, v);
-  return v.toInt();
+// bounds of a stored env layout: no env of this project comes near them, a corrupt file may go far beyond
+void CheckSpecValue(const std::string& key, std::int64_t value, std::int64_t lo, std::int64_t hi) {
+  if (value < lo || value > hi) {
+    throw InputError(fmt::format("{}: expected an integer in [{}, {}], got {}", key, lo, hi, value));
+  }
 }
 
 // the env layout stored in a checkpoint (enough to rebuild the networks).
-EnvSpec ReadSpec(torch::serialize::InputArchive& archive) {
+EnvSpec ReadSpec(const TensorArchive& archive) {
   EnvSpec s;
-  s.task = ReadString(archive, "spec/task");
-  s.num_agents = static_cast<int>(ReadInt(archive, "spec/num_agents"));
-  s.local_obs_dim = static_cast<int>(ReadInt(archive, "spec/local_obs_dim"));
-  s.global_state_dim = static_cast<int>(ReadInt(archive, "spec/global_state_dim"));
-  s.action.num_options = static_cast<int>(ReadInt(archive, "spec/num_options"));
-  s.action.num_continuous = static_cast<int>(ReadInt(archive, "spec/num_continuous"));
-  s.action.has_termination = ReadInt(archive, "spec/has_termination") != 0;
-  const int terms = static_cast<int>(ReadInt(archive, "spec/reward_terms"));
-  s.reward_terms.assign(terms, "");
-  torch::Tensor low, high;
-  archive.read("spec/low", low);
-  archive.read("spec/high", high);
-  s.action.low.assign(low.data_ptr<float>(), low.data_ptr<float>() + low.numel());
-  s.action.high.assign(high.data_ptr<float>(), high.data_ptr<float>() + high.numel());
+  auto read = [&](const char* key, std::int64_t lo, std::int64_t hi) {
+    const std::int64_t v = archive.Int(key);
+    CheckSpecValue(key, v, lo, hi);
+    return static_cast<int>(v);
+  };
+  s.task = archive.String("spec/task");
+  s.num_agents = read("spec/num_agents", 1, 256);
+  s.local_obs_dim = read("spec/local_obs_dim", 1, 1 << 16);
+  s.global_state_dim = read("spec/global_state_dim", 1, 1 << 16);
+  s.action.num_options = read("spec/num_options", 0, 256);
+  s.action.num_continuous = read("spec/num_continuous", 0, 256);
+  s.action.has_termination = read("spec/has_termination", 0, 1) != 0;
+  s.reward_terms.assign(read("spec/reward_terms", 0, 256), "");
+  const std::int64_t n = s.action.num_continuous;
+  const torch::Tensor low = archive.Tensor("spec/low", torch::kFloat, {n});
+  const torch::Tensor high = archive.Tensor("spec/high", torch::kFloat, {n});
+  s.action.low.assign(low.data_ptr<float>(), low.data_ptr<float>() + n);
+  s.action.high.assign(high.data_ptr<float>(), high.data_ptr<float>() + n);
   return s;
 }
 
-void WriteSpec(torch::serialize::OutputArchive& archive, const EnvSpec& s) {
-  archive.write("spec/task", c10::IValue(s.task));
-  archive.write("spec/num_agents", c10::IValue(static_cast<std::int64_t>(s.num_agents)));
-  archive.write("spec/local_obs_dim", c10::IValue(static_cast<std::int64_t>(s.local_obs_dim)));
-  archive.write("spec/global_state_dim", c10::IValue(static_cast<std::int64_t>(s.global_state_dim)));
-  archive.write("spec/num_options", c10::IValue(static_cast<std::int64_t>(s.action.num_options)));
-  archive.write("spec/num_continuous", c10::IValue(static_cast<std::int64_t>(s.action.num_continuous)));
-  archive.write("spec/has_termination", c10::IValue(static_cast<std::int64_t>(s.action.has_termination)));
-  archive.write("spec/reward_terms", c10::IValue(static_cast<std::int64_t>(s.reward_terms.size())));
-  archive.write("spec/low", torch::tensor(s.action.low, torch::kFloat));
-  archive.write("spec/high", torch::tensor(s.action.high, torch::kFloat));
+void WriteSpec(TensorArchive& archive, const EnvSpec& s) {
+  archive.Put("spec/task", s.task);
+  archive.Put("spec/num_agents", std::int64_t{s.num_agents});
+  archive.Put("spec/local_obs_dim", std::int64_t{s.local_obs_dim});
+  archive.Put("spec/global_state_dim", std::int64_t{s.global_state_dim});
+  archive.Put("spec/num_options", std::int64_t{s.action.num_options});
+  archive.Put("spec/num_continuous", std::int64_t{s.action.num_continuous});
+  archive.Put("spec/has_termination", std::int64_t{s.action.has_termination});
+  archive.Put("spec/reward_terms", static_cast<std::int64_t>(s.reward_terms.size()));
+  archive.Put("spec/low", torch::tensor(s.action.low, torch::kFloat));
+  archive.Put("spec/high", torch::tensor(s.action.high, torch::kFloat));
 }
 
-// a learner restored from a checkpoint, with the config and env layout it was trained with.
+// Before networks are built from a stored config and layout: their weight matrices alone (consecutive layer sizes,
+// float32) must fit in the archive that holds them, so a corrupt config cannot make the reader allocate more than
+// the file's size in networks.
+void CheckNetworkFitsArchive(const TrainConfig& config, const EnvSpec& spec, std::size_t archive_bytes,
+                             const std::string& path) {
+  auto weights = [](std::int64_t in, const std::vector<int>& hidden) {
+    double n = 0.0;
+    for (int h : hidden) {
+      n += static_cast<double>(in) * h;
+      in = h;
+    }
+    return n;
+  };
+  const double bytes = 4.0 * (weights(spec.local_obs_dim, config.network.actor_hidden()) +
+                              weights(spec.global_state_dim, config.network.critic_hidden()));
+  if (bytes > static_cast<double>(archive_bytes)) {
+    throw InputError(fmt::format("checkpoint {}: its stored networks would need {:.0f} bytes of weights but the "
+                                 "archive holds {} bytes (corrupt config or layout)", path, bytes, archive_bytes));
+  }
+}
+
 struct LoadedCheckpoint {
   TrainConfig config;
   EnvSpec spec;
@@ -167,11 +200,13 @@ struct LoadedCheckpoint {
 };
 
 LoadedCheckpoint LoadLearner(const std::string& path) {
-  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  const std::size_t file_bytes = std::filesystem::file_size(path);
+  const TensorArchive archive = OpenCheckpoint(path);
   LoadedCheckpoint c;
   try {
-    c.config = ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
+    c.config = ParseTrainConfig(archive.String("meta/config"), path + " (stored config)");
     c.spec = ReadSpec(archive);
+    CheckNetworkFitsArchive(c.config, c.spec, file_bytes, path);
     c.ppo = std::make_unique<Ppo>(c.spec, c.config.network, c.config.ppo, c.config.seed);
     c.ppo->Load(archive);
   } catch (const c10::Error& e) {
@@ -407,39 +442,53 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   return s;
 }
 
-void Trainer::SaveCheckpoint(const std::string& path) const {
-  const Impl& m = *impl_;
-  torch::serialize::OutputArchive archive;
-  archive.write("meta/format", c10::IValue(std::string("rmpmarl-checkpoint")));
-  archive.write("meta/config", c10::IValue(ToYaml(m.config)));
-  archive.write("meta/fingerprint", c10::IValue(SpecFingerprint(m.spec)));
-  archive.write("meta/update", c10::IValue(static_cast<std::int64_t>(m.update)));
-  archive.write("meta/env_steps", c10::IValue(m.env_steps));
-  WriteSpec(archive, m.spec);
-  torch::Tensor recent = torch::zeros({static_cast<int64_t>(m.recent.size()), 8}, torch::kDouble);
-  for (size_t i = 0; i < m.recent.size(); ++i) {
-    const EpisodeMetrics& e = m.recent[i];
+namespace {
+
+// the recent-episode window as a tensor (8 numbers per episode)
+torch::Tensor RecentEpisodesTensor(const std::deque<EpisodeMetrics>& recent) {
+  torch::Tensor t = torch::zeros({static_cast<int64_t>(recent.size()), 8}, torch::kDouble);
+  for (size_t i = 0; i < recent.size(); ++i) {
+    const EpisodeMetrics& e = recent[i];
     const double row[8] = {double(e.success), double(e.invalid), double(e.collisions), e.mean_tracking_error_mm,
                            e.final_tracking_error_mm, e.min_clearance_m, double(e.length), e.episode_return};
-    for (int j = 0; j < 8; ++j) recent[i][j] = row[j];
+    for (int j = 0; j < 8; ++j) t[i][j] = row[j];
   }
-  archive.write("meta/recent_episodes", recent);
-  m.ppo->Save(archive);
-  std::ostringstream payload;
-  archive.save_to(payload);
-  WriteFileAtomically(path, WrapPayload(payload.str()));
+  return t;
+}
+
+// the payload of a format-2 checkpoint
+std::string CheckpointArchiveBytes(const TrainConfig& config, const EnvSpec& spec, std::int64_t update,
+                                   std::int64_t env_steps, const torch::Tensor& recent, const Ppo& ppo) {
+  TensorArchive archive;
+  archive.Put("meta/format", std::string("rmpmarl-checkpoint"));
+  archive.Put("meta/config", ToYaml(config));
+  archive.Put("meta/fingerprint", SpecFingerprint(spec));
+  archive.Put("meta/update", update);
+  archive.Put("meta/env_steps", env_steps);
+  WriteSpec(archive, spec);
+  archive.Put("meta/recent_episodes", recent);
+  ppo.Save(archive);
+  return archive.Serialize();
+}
+
+}  // namespace
+
+void Trainer::SaveCheckpoint(const std::string& path) const {
+  const Impl& m = *impl_;
+  WriteFileAtomically(path, WrapPayload(CheckpointArchiveBytes(m.config, m.spec, m.update, m.env_steps,
+                                                               RecentEpisodesTensor(m.recent), *m.ppo)));
 }
 
 void Trainer::Resume(const std::string& path) {
   Impl& m = *impl_;
-  torch::serialize::InputArchive archive = OpenCheckpoint(path);
+  const TensorArchive archive = OpenCheckpoint(path);
   try {
-    const std::string fingerprint = ReadString(archive, "meta/fingerprint");
+    const std::string fingerprint = archive.String("meta/fingerprint");
     if (fingerprint != SpecFingerprint(m.spec)) {
       throw InputError(fmt::format("checkpoint {} does not match this task's env layout:\n  checkpoint: {}\n  env:        "
                                    "{}", path, fingerprint, SpecFingerprint(m.spec)));
     }
-    const TrainConfig stored = ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
+    const TrainConfig stored = ParseTrainConfig(archive.String("meta/config"), path + " (stored config)");
     const auto a = FlattenTrainConfig(stored), b = FlattenTrainConfig(m.config);
     std::string differences;
     for (size_t i = 0; i < a.size(); ++i) {
@@ -455,8 +504,10 @@ void Trainer::Resume(const std::string& path) {
                          "the last bits\n", m.config.torch_threads, stored.torch_threads);
     }
     m.ppo->Load(archive);
-    torch::Tensor recent;
-    archive.read("meta/recent_episodes", recent);
+    const torch::Tensor recent = archive.Tensor("meta/recent_episodes");
+    if (recent.scalar_type() != torch::kDouble || recent.dim() != 2 || recent.size(1) != 8) {
+      throw InputError(fmt::format("checkpoint {}: meta/recent_episodes: expected a double tensor of N x 8", path));
+    }
     m.recent.clear();
     const torch::Tensor r = recent.contiguous();
     for (int64_t i = 0; i < r.size(0); ++i) {
@@ -472,8 +523,8 @@ void Trainer::Resume(const std::string& path) {
       e.episode_return = row[7];
       m.recent.push_back(e);
     }
-    m.update = static_cast<int>(ReadInt(archive, "meta/update"));
-    m.env_steps = ReadInt(archive, "meta/env_steps");
+    m.update = static_cast<int>(archive.Int("meta/update"));
+    m.env_steps = archive.Int("meta/env_steps");
   } catch (const c10::Error& e) {
     throw InputError(fmt::format("checkpoint {}: cannot restore the training state: {}", path,
                                  e.what_without_backtrace()));
@@ -515,12 +566,57 @@ std::vector<double> Trainer::StateVector() const {
 }
 
 TrainConfig ReadCheckpointConfig(const std::string& path) {
-  torch::serialize::InputArchive archive = OpenCheckpoint(path);
-  try {
-    return ParseTrainConfig(ReadString(archive, "meta/config"), path + " (stored config)");
-  } catch (const c10::Error& e) {
-    throw InputError(fmt::format("checkpoint {}: no readable config: {}", path, e.what_without_backtrace()));
+  return ParseTrainConfig(OpenCheckpoint(path).String("meta/config"), path + " (stored config)");
+}
+
+void UpgradeCheckpoint(const std::string& path, const std::string& out_path) {
+  CheckpointPayload payload = ReadCheckpointPayload(path);
+  if (payload.version == kCheckpointVersion) {
+    throw InputError(fmt::format("checkpoint {}: already format {}", path, kCheckpointVersion));
   }
+  torch::serialize::InputArchive archive;
+  std::string bytes;
+  try {
+    std::istringstream stream(payload.bytes);
+    archive.load_from(stream);
+    auto string = [&](const std::string& key) {
+      c10::IValue v;
+      archive.read(key, v);
+      return v.toStringRef();
+    };
+    auto integer = [&](const std::string& key) {
+      c10::IValue v;
+      archive.read(key, v);
+      return v.toInt();
+    };
+    const TrainConfig config = ParseTrainConfig(string("meta/config"), path + " (stored config)");
+    EnvSpec spec;
+    spec.task = string("spec/task");
+    spec.num_agents = static_cast<int>(integer("spec/num_agents"));
+    spec.local_obs_dim = static_cast<int>(integer("spec/local_obs_dim"));
+    spec.global_state_dim = static_cast<int>(integer("spec/global_state_dim"));
+    spec.action.num_options = static_cast<int>(integer("spec/num_options"));
+    spec.action.num_continuous = static_cast<int>(integer("spec/num_continuous"));
+    spec.action.has_termination = integer("spec/has_termination") != 0;
+    spec.reward_terms.assign(static_cast<int>(integer("spec/reward_terms")), "");
+    torch::Tensor low, high, recent;
+    archive.read("spec/low", low);
+    archive.read("spec/high", high);
+    spec.action.low.assign(low.data_ptr<float>(), low.data_ptr<float>() + low.numel());
+    spec.action.high.assign(high.data_ptr<float>(), high.data_ptr<float>() + high.numel());
+    archive.read("meta/recent_episodes", recent);
+    Ppo ppo(spec, config.network, config.ppo, config.seed);
+    ppo.Load(archive);
+    bytes = CheckpointArchiveBytes(config, spec, integer("meta/update"), integer("meta/env_steps"), recent, ppo);
+  } catch (const c10::Error& e) {
+    throw InputError(fmt::format("checkpoint {}: cannot read its format-1 archive: {}", path,
+                                 e.what_without_backtrace()));
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("checkpoint {}: cannot read its format-1 archive: {}", path, e.what()));
+  }
+  WriteFileAtomically(out_path, WrapPayload(bytes));
 }
 
 void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path) {

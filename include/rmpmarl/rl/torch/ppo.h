@@ -9,6 +9,8 @@
 #include <torch/optim/adam.h>
 #include <torch/serialize/archive.h>
 
+#include "rmpmarl/rl/torch/tensor_archive.h"
+
 #include <cstdint>
 #include <memory>
 
@@ -67,7 +69,10 @@ class RunningMeanStd {
   const torch::Tensor& mean() const { return mean_; }
   const torch::Tensor& var() const { return var_; }
   double count() const { return count_; }
-  void Save(torch::serialize::OutputArchive& archive, const std::string& key) const;
+  void Save(TensorArchive& archive, const std::string& key) const;
+  /// InputError when the stored statistics are not of this normaliser's size.
+  void Load(const TensorArchive& archive, const std::string& key);
+  /// from a format-1 (torch::serialize) checkpoint, for UpgradeCheckpoint only
   void Load(torch::serialize::InputArchive& archive, const std::string& key);
 
  private:
@@ -160,7 +165,13 @@ class Ppo {
   /// InputError when the observation size or head layout differ.
   void InitActorFrom(Ppo& other);
 
-  void Save(torch::serialize::OutputArchive& archive) const;
+  /// the learner's whole state (networks, Adam moments, normalisers, sampling generator) under "actor/", "critic/",
+  /// "optimizer/", "*_norm/", "generator".
+  void Save(TensorArchive& archive) const;
+  /// the state Save wrote; InputError when a tensor is missing or of another dtype or size than this learner's.
+  void Load(const TensorArchive& archive);
+  /// from a format-1 (torch::serialize) checkpoint, for UpgradeCheckpoint only: TorchScript's reader is not safe
+  /// on untrusted files (tensor_archive.h)
   void Load(torch::serialize::InputArchive& archive);
 
   const EnvSpec& spec() const { return spec_; }

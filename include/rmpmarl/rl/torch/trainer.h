@@ -163,6 +163,11 @@ struct EvalResult {
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
 EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options);
 
+/// rewrites a format-1 checkpoint (a torch::serialize archive, before session 5) as format 2 (TensorArchive) at
+/// out_path (may equal path). Format 1 is read through TorchScript's importer, which is not safe on untrusted files
+/// (tensor_archive.h): upgrade only files you trust. Throws InputError for a corrupt file or one already format 2.
+void UpgradeCheckpoint(const std::string& path, const std::string& out_path);
+
 /// writes the actor of a checkpoint as a policy file for the torch-free runtime (policy_runtime.h).
 void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path);
 
