@@ -258,6 +258,19 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 10}"},
+      {"marl-rmp-v2c-params-hold-phi20k",
+       "MAPPO over the coupled v2 layer (parameters only, held, mixed, phi 20000)", "marl-rmp-v2c-params-hold-phi20k",
+       "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true, &kLayerV2CoupledParamsHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 20000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
+      {"marl-rmp-v2c-params-hold-phi5k-w2",
+       "MAPPO over the coupled v2 layer (parameters only, held, mixed, phi 5000, w = 2)",
+       "marl-rmp-v2c-params-hold-phi5k-w2", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledParamsHold,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 2}",
+       300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 2}"},
       {"marl-rmp-v3c", "MARL-RMP (v3 on the coupled v2 layer)", "marl-rmp-v3c", "mappo-reach-avoid",
        InterfaceMode::kPerJointRmp, "hrl-rmp-2link-v2", true, &kLayerV2CoupledHold,
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
@@ -432,6 +445,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             basic_ttc_v2c, basic_ttc_v2c_gentle, learned("marl-rmp-v2c-params-hold", "marl-rmp-v2c-params-hold"),
             learned("marl-rmp-v2c-params-hold-w2", "marl-rmp-v2c-params-hold-w2"),
             learned("marl-rmp-v2c-params-hold-phi5k", "marl-rmp-v2c-params-hold-phi5k"),
+            learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
+            learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2"),
             learned("marl-rmp-v3c", "marl-rmp-v3c")};
   }
   if (experiment == "fig3") {
