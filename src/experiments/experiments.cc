@@ -142,12 +142,6 @@ const LayerVariant kLayerV2CoupledParamsHold{
       kLayerV2ParamsHold.apply(task);
       ApplyCoupled(task);
     }};
-/// kLayerV2Hold (options learned) on the coupled layer.
-const LayerVariant kLayerV2CoupledHold{V2CoupledLayerYaml(", parameter_period: 25"), [](rl::TaskConfig& task) {
-                                         kLayerV2Hold.apply(task);
-                                         ApplyCoupled(task);
-                                       }};
-
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
 /// of eq (8)'s gains and length scales tried on the basic layer and RMPflow (docs/learning.md).
@@ -236,8 +230,8 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 1000, tracking_weight: 10}",
        0, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
-      // the coupled resolve (kLayerV2Coupled*): the -hold recipe, and MARL-RMP v3, on the v2 layer with the joints
-      // resolved together
+      // the coupled resolve (kLayerV2CoupledParamsHold): the -hold recipe on the v2 layer with the joints resolved
+      // together, at four collision/tracking trade-offs (chosen among on evaluation seed 7, docs/learning.md)
       {"marl-rmp-v2c-params-hold", "MAPPO over the coupled v2 layer (parameters only, held, mixed scenes)",
        "marl-rmp-v2c-params-hold", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledParamsHold,
@@ -271,11 +265,6 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 2}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 2}"},
-      {"marl-rmp-v3c", "MARL-RMP (v3 on the coupled v2 layer)", "marl-rmp-v3c", "mappo-reach-avoid",
-       InterfaceMode::kPerJointRmp, "hrl-rmp-2link-v2", true, &kLayerV2CoupledHold,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {collision_penalty: 1000, tracking_weight: 10}",
-       300, "cluttered", "reward: {collision_penalty: 1000, tracking_weight: 10}"},
   };
   return recipes;
 }
@@ -447,7 +436,7 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-v2c-params-hold-phi5k", "marl-rmp-v2c-params-hold-phi5k"),
             learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
             learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2"),
-            learned("marl-rmp-v3c", "marl-rmp-v3c")};
+};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
