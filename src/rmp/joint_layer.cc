@@ -87,6 +87,61 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
 }
 
 
+namespace {
+
+/// One collision leaf (eqs 8–9): a capsule–obstacle pair within the deactivation radius r.
+struct CollisionLeaf {
+  const kinematics::LinkCapsule* capsule;  ///< the robot capsule
+  const std::vector<int>* dofs;            ///< the dofs that move its link
+  math::DistanceResult distance;           ///< witness points and distance
+  Eigen::Vector3d n;                       ///< ∂d/∂p_W1 (gradient_norm · n_W)
+  double xd;                               ///< ḋ relative to the obstacle
+  Rmp1 rmp;                                ///< the unscaled RMP
+  double jdqd;                             ///< J̇q̇ of the distance
+};
+
+/// every capsule × obstacle pair of the capsules some joint selecting collision RMPs moves, each distance computed
+/// once: on_distance(dofs, d) with the distance or, past a bounding-sphere test, its lower bound (> r); then
+/// on_leaf(leaf) for the pairs within r.
+template <class OnDistance, class OnLeaf>
+void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                          const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                          OnDistance&& on_distance, OnLeaf&& on_leaf) {
+  const double r = params.collision.metric_modulation_radius;
+  for (const kinematics::LinkCapsule& lc : robot.capsules) {
+    const std::vector<int>& dofs = robot.model.link_dofs(lc.link);
+    if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
+    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+    const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
+    const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
+    for (const Obstacle& obstacle : scene.obstacles) {
+      const double lower = (centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+      if (lower > r) {
+        on_distance(dofs, lower);
+        continue;
+      }
+      CollisionLeaf leaf{&lc, &dofs, CapsuleObstacleDistance(capsule, obstacle), {}, 0.0, {}, 0.0};
+      on_distance(dofs, leaf.distance.distance);
+      if (leaf.distance.distance > r) continue;
+      leaf.n = leaf.distance.gradient_norm * leaf.distance.n_W;
+      leaf.xd = leaf.n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, leaf.distance.p_W1) - obstacle.v_WO);
+      leaf.rmp = EvalCollisionRmp(params.collision, leaf.distance.distance, leaf.xd);
+      leaf.jdqd = leaf.n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, leaf.distance.p_W1));
+      on_leaf(leaf);
+    }
+  }
+}
+
+/// the collision RMP's acceleration with joint w's length scale (rmp.a itself at scale 1)
+double ScaledCollisionAccel(const BasicRmpParams& params, const CollisionLeaf& leaf, const JointLayerWeights& w) {
+  return w.collision_length_scale == 1.0
+             ? leaf.rmp.a
+             : EvalScaledCollisionRmp(params.collision, leaf.distance.distance, leaf.xd, w.collision_length_scale).a;
+}
+
+}  // namespace
+
 void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                          const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                          std::span<JointLayerResult> results, double relative_regularizer) {
@@ -120,46 +175,26 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   }
 
   // each capsule–obstacle distance once, shared by every joint that moves the capsule
-  const double r = params.collision.metric_modulation_radius;
-  for (const kinematics::LinkCapsule& lc : robot.capsules) {
-    const std::vector<int>& dofs = model.link_dofs(lc.link);
-    if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
-    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
-    const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
-    const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
-    const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
-    for (const Obstacle& obstacle : scene.obstacles) {
-      const double lower = (centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
-      if (lower > r) {
+  ForEachCollisionLeaf(
+      robot, kin, scene, params, weights,
+      [&](const std::vector<int>& dofs, double d) {
         for (int dof : dofs) {
-          if (weights[dof].use_collision) results[dof].min_distance = std::min(results[dof].min_distance, lower);
+          if (weights[dof].use_collision) results[dof].min_distance = std::min(results[dof].min_distance, d);
         }
-        continue;
-      }
-      const math::DistanceResult res = CapsuleObstacleDistance(capsule, obstacle);
-      for (int dof : dofs) {
-        if (weights[dof].use_collision) results[dof].min_distance = std::min(results[dof].min_distance, res.distance);
-      }
-      if (res.distance > r) continue;
-      const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-      const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
-      const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
-      const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
-      for (int dof : dofs) {
-        const JointLayerWeights& w = weights[dof];
-        if (!w.use_collision) continue;
-        const double m = w.collision_metric_scale * rmp.m;
-        const double a = w.collision_length_scale == 1.0
-                             ? rmp.a
-                             : EvalScaledCollisionRmp(params.collision, res.distance, xd, w.collision_length_scale).a;
-        const double f = m * w.collision_accel_scale * a;
-        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, lc.link, res.p_W1));
-        results[dof].force += j * (f - m * jdqd);
-        results[dof].metric += j * m * j;
-        ++results[dof].collision_terms;
-      }
-    }
-  }
+      },
+      [&](const CollisionLeaf& leaf) {
+        for (int dof : *leaf.dofs) {
+          const JointLayerWeights& w = weights[dof];
+          if (!w.use_collision) continue;
+          const double m = w.collision_metric_scale * leaf.rmp.m;
+          const double f = m * w.collision_accel_scale * ScaledCollisionAccel(params, leaf, w);
+          const double j =
+              leaf.n.dot(CalcPointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+          results[dof].force += j * (f - m * leaf.jdqd);
+          results[dof].metric += j * m * j;
+          ++results[dof].collision_terms;
+        }
+      });
 
   for (JointLayerResult& res : results) {
     res.lambda = relative_regularizer * (1.0 + res.metric);
@@ -212,36 +247,21 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   }
 
   // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r
-  const double r = params.collision.metric_modulation_radius;
-  for (const kinematics::LinkCapsule& lc : robot.capsules) {
-    const std::vector<int>& dofs = model.link_dofs(lc.link);
-    if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
-    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
-    const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
-    const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
-    const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
-    for (const Obstacle& obstacle : scene.obstacles) {
-      if ((centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle) > r) continue;
-      const math::DistanceResult res = CapsuleObstacleDistance(capsule, obstacle);
-      if (res.distance > r) continue;
-      const Eigen::Vector3d n = res.gradient_norm * res.n_W;
-      const double xd = n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, res.p_W1) - obstacle.v_WO);
-      const Rmp1 rmp = EvalCollisionRmp(params.collision, res.distance, xd);
-      const double jdqd = n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, res.p_W1));
-      ws.g.setZero();
-      for (int dof : dofs) {
-        const JointLayerWeights& w = weights[dof];
-        if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
-        const double a = w.collision_length_scale == 1.0
-                             ? rmp.a
-                             : EvalScaledCollisionRmp(params.collision, res.distance, xd, w.collision_length_scale).a;
-        const double j = n.dot(CalcPointJacobianColumn(model, kin, dof, lc.link, res.p_W1));
-        ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
-        ws.b[dof] += w.collision_metric_scale * j * rmp.m * (w.collision_accel_scale * a - jdqd);
-      }
-      ws.A.noalias() += rmp.m * ws.g * ws.g.transpose();
-    }
-  }
+  ForEachCollisionLeaf(
+      robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
+      [&](const CollisionLeaf& leaf) {
+        ws.g.setZero();
+        for (int dof : *leaf.dofs) {
+          const JointLayerWeights& w = weights[dof];
+          if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
+          const double a = ScaledCollisionAccel(params, leaf, w);
+          const double j =
+              leaf.n.dot(CalcPointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+          ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
+          ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
+        }
+        ws.A.noalias() += leaf.rmp.m * ws.g * ws.g.transpose();
+      });
 
   const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);
   ws.A.diagonal().array() += lambda;
