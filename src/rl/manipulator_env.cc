@@ -433,6 +433,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
     case InterfaceMode::kPerJointRmp: {
       q_cmd_before_ = controller_->q_cmd();
       const double g = config_.options.gain_range;
+      const double g_target = config_.options.target_gain_range > 0.0 ? config_.options.target_gain_range : g;
       const double length_exponent = config_.options.collision_length_exponent;
       for (int i = 0; i < nq_; ++i) {
         const float* u = actions + i * size;
@@ -460,8 +461,8 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
         const double target_weight = sel.use_collision ? config_.options.collision_target_weight : 1.0;
         w.use_target = sel.use_target || target_weight > 0.0;
         w.use_collision = sel.use_collision;
-        w.target_accel_scale = GainScale(p(RmpActionLayout::kTargetAccelScale), g);
-        w.target_metric_scale = target_weight * GainScale(p(RmpActionLayout::kTargetMetricScale), g);
+        w.target_accel_scale = GainScale(p(RmpActionLayout::kTargetAccelScale), g_target);
+        w.target_metric_scale = target_weight * GainScale(p(RmpActionLayout::kTargetMetricScale), g_target);
         w.collision_accel_scale = GainScale(p(RmpActionLayout::kCollisionAccelScale), g);
         w.collision_metric_scale = GainScale(p(RmpActionLayout::kCollisionMetricScale), g);
         w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);

@@ -423,6 +423,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                                                                               : OptionTermination::kFixed;
                   }},
                  Int(r, "horizon", &o.horizon), Num(r, "gain_range", &o.gain_range),
+                 Num(r, "target_gain_range", &o.target_gain_range),
                  Num(r, "collision_target_weight", &o.collision_target_weight),
                  Num(r, "collision_length_exponent", &o.collision_length_exponent),
                  Int(r, "fixed_option", &o.fixed_option),
@@ -539,6 +540,10 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         c.options.horizon);
   check(std::isfinite(c.options.gain_range) && c.options.gain_range >= 1.0 && c.options.gain_range <= 1e6,
         "options.gain_range", "a factor in [1, 1e6]", c.options.gain_range);
+  check(std::isfinite(c.options.target_gain_range) &&
+            (c.options.target_gain_range == 0.0 ||
+             (c.options.target_gain_range >= 1.0 && c.options.target_gain_range <= 1e6)),
+        "options.target_gain_range", "0 (options.gain_range) or a factor in [1, 1e6]", c.options.target_gain_range);
   check(std::isfinite(c.options.collision_target_weight) && c.options.collision_target_weight >= 0.0 &&
             c.options.collision_target_weight <= 1.0,
         "options.collision_target_weight", "a weight in [0, 1]", c.options.collision_target_weight);

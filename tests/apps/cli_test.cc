@@ -58,6 +58,20 @@ TEST(CliTest, MissingArgumentsIsAUsageError) {
   EXPECT_NE(r.output.find("required"), std::string::npos) << r.output;
 }
 
+// `make demo`'s job: the shipped coupled-layer agents (marl-rmp-v2c, on the basic layer written beside them) and
+// RMPflow on one reach-avoid episode; at seed 7 the cube comes within 5 mm of RMPflow's arm and both succeed
+TEST(CliTest, DefaultDemoRunsTheShippedCoupledAgentsBesideRmpflow) {
+  const CommandResult r = RunCli("demo --seed 7");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("models/policies/marl-rmp-v2c.rmpp"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("resolve: coupled"), std::string::npos) << r.output;
+  const size_t result = r.output.find("  result ");
+  ASSERT_NE(result, std::string::npos) << r.output;
+  const std::string line = r.output.substr(result, r.output.find('\n', result) - result);
+  EXPECT_EQ(line.find("FAILURE"), std::string::npos) << line;
+  EXPECT_NE(line.find("success"), line.rfind("success")) << line;  // both columns
+}
+
 // values no user means are refused at once with the allowed range, instead of running for minutes
 TEST(CliTest, DemoRefusesUnreasonableSizesWithTheAllowedRange) {
   for (const char* args : {"demo --obstacles 100000", "demo --duration 1e9", "demo --width 100000",

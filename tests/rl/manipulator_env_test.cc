@@ -335,6 +335,45 @@ TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
   EXPECT_GT(early, 0);          // and read early where options start or warnings change
 }
 
+// options.target_gain_range 1: the target RMP's two scales are unit whatever the action, so two episodes whose
+// actions differ only there are identical, step for step; with the default range the same difference changes the
+// motion (the check can fail)
+TEST(ManipulatorEnvTest, TargetGainRangeOneIgnoresTheTargetScales) {
+  for (const double range : {1.0, 0.0}) {
+    TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "panda", 1);
+    c.scenario.crossing.num_obstacles = 2;
+    c.options.target_gain_range = range;
+    auto context = MakeTaskContext(c);
+    ManipulatorEnv a(context), b(context);
+    const EnvSpec& s = a.spec();
+    const ActionSpec& as = s.action;
+    Buffers ba(s), bb(s);
+    std::mt19937_64 rng_a(31), rng_b(31), arng(32);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    a.Reset(rng_a, ba.out());
+    b.Reset(rng_b, bb.out());
+    std::vector<float> actions(s.num_agents * as.size()), other(actions.size());
+    double max_difference = 0.0;
+    for (int step = 0; step < 150; ++step) {
+      RandomActions(s, arng, actions.data());
+      other = actions;
+      for (int i = 0; i < s.num_agents; ++i) {
+        other[i * as.size() + RmpActionLayout::kTargetAccelScale] = u(arng);
+        other[i * as.size() + RmpActionLayout::kTargetMetricScale] = u(arng);
+      }
+      a.Step(actions.data(), rng_a, ba.out());
+      b.Step(other.data(), rng_b, bb.out());
+      max_difference = std::max(max_difference, (a.world().q() - b.world().q()).cwiseAbs().maxCoeff());
+      if (ba.terminated || ba.truncated || bb.terminated || bb.truncated) break;
+    }
+    if (range == 1.0) {
+      EXPECT_EQ(max_difference, 0.0);
+    } else {
+      EXPECT_GT(max_difference, 1e-3);
+    }
+  }
+}
+
 // a learning task on a user's robot (issue 10): `robot: <file>.urdf` loads it as `demo --urdf` does — here a URDF
 // with mimic joints and no YAML, so capsules, exclusions and home are fitted in memory; one agent per independent
 // joint, and random per-joint RMP actions step it without invalid steps or collisions of the robot with itself.

@@ -35,6 +35,7 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["options.termination"] = static_cast<double>(c.options.termination);
   f["options.horizon"] = c.options.horizon;
   f["options.gain_range"] = c.options.gain_range;
+  f["options.target_gain_range"] = c.options.target_gain_range;
   f["options.collision_target_weight"] = c.options.collision_target_weight;
   f["options.warnings"] = static_cast<double>(c.options.warnings);
   f["direct.max_speed_fraction"] = c.direct.max_speed_fraction;
@@ -256,6 +257,7 @@ TEST(TaskConfigTest, BadValuesSayExpectedAndGot) {
       {"task: reach-avoid\noptions: {termination: sometimes}\n", "'options.termination'", "got 'sometimes'"},
       {"task: reach-avoid\nepisode: {integrator: rk4}\n", "'episode.integrator'", "got 'rk4'"},
       {"task: reach-avoid\noptions: {gain_range: 0.5}\n", "'options.gain_range'", "got 0.5"},
+      {"task: reach-avoid\noptions: {target_gain_range: 0.5}\n", "'options.target_gain_range'", "got 0.5"},
       {"task: reach-avoid\noptions: {collision_target_weight: 2}\n", "'options.collision_target_weight'", "got 2"},
       {"task: reach-avoid\noptions: {warnings: some}\n", "'options.warnings'", "got 'some'"},
       {"task: reach-avoid\noptions: {collision_length_exponent: -1}\n", "'options.collision_length_exponent'",

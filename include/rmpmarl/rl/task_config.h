@@ -83,6 +83,10 @@ struct OptionConfig {
   int horizon = 10;
   /// scale = exp(clip(u, −1, 1) · ln gain_range) for every gain/priority parameter u, so scale ∈ [1/g, g]. ≥ 1.
   double gain_range = 4.0;
+  /// the gain range of the target RMP's two scales (accel, metric) alone; 0: `gain_range`. 1: the target RMP keeps
+  /// unit scales whatever the action (the agents modulate the collision RMPs only, so an arm with no obstacle near
+  /// tracks exactly as the unscaled layer does). 0 or in [1, 1e6].
+  double target_gain_range = 0.0;
   /// priority of the target RMP while the collision RMPs run (collision option, composite phase b): the target RMP
   /// stays active with its metric × this weight, so it only prevails where the collision RMPs' metric has faded
   /// (obstacle receding or beyond the warning distance) and an arm inside the warning band returns to tracking
