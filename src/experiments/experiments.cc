@@ -115,10 +115,10 @@ const LayerVariant kLayerV2Hold{V2LayerYaml(", parameter_period: 25"), [](rl::Ta
 /// sensing radius r = 0.5 m (configs/rmpflow/default.yaml). At unit scales the layer is RMPflow with the tuned
 /// collision gains; the agents scale its leaves per joint. Chosen on evaluation seed 7 (never a reported seed)
 /// among per-joint/coupled, r 0.35/0.5 and quadratic/linear damping (docs/learning.md, session 5).
-std::string V2CoupledLayerYaml(const std::string& more_options) {
+std::string V2CoupledLayerYaml(const std::string& more_options, const std::string& more_rmp = "") {
   return "controller: {max_substep: 0.002}, observation: {warning_distance: 0.5}, "
          "options: {collision_length_exponent: 0.75, collision_target_weight: 1" + more_options + "}, "
-         "rmp: {resolve: coupled, target_rmp: {damping: linear, accel_d_gain: 85}, collision_rmp: "
+         "rmp: {resolve: coupled" + more_rmp + ", target_rmp: {damping: linear, accel_d_gain: 85}, collision_rmp: "
          "{metric_modulation_radius: 0.5, metric_scalar: 10000, repulsion_gain: 3200, damping_gain: 200, "
          "repulsion_std_dev: 0.0283, damping_std_dev: 0.1131}}";
 }
@@ -151,6 +151,17 @@ const LayerVariant kLayerV2CoupledCollisionOnly{
     [](rl::TaskConfig& task) {
       kLayerV2CoupledParamsHold.apply(task);
       task.options.target_gain_range = 1.0;
+    }};
+/// kLayerV2CoupledParamsHold with the target accel scale on the attraction only (rmp.target_scale stiffness): the
+/// agents set k_p in [7.5, 120] (gain range 4) and with it how fast the arm closes on the target; the damping stays
+/// k_d 85. Session 6: with no obstacle, RMPflow settles 0.5–55 mm from a target moving at 0.1 m/s at k_p 30 (the demo's
+/// seeds 0–9) and 0.2–3.4 mm at k_p 120; what k_p 120 costs near obstacles the agents decide.
+const LayerVariant kLayerV2CoupledStiffness{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50",
+                       ", target_scale: stiffness"),
+    [](rl::TaskConfig& task) {
+      kLayerV2CoupledParamsHold.apply(task);
+      task.basic_layer.params.target_scale = rmp::TargetScale::kStiffness;
     }};
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
@@ -284,16 +295,25 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 20000, tracking_weight: 10}",
        0, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
-      // the agents learn the collision RMPs' scales only (kLayerV2CoupledCollisionOnly), at phi 20000 and 5000
+      // the agents learn the collision RMPs' scales only (kLayerV2CoupledCollisionOnly), phi 20000
       {"marl-rmp-v2c-collision", "MAPPO over the coupled v2 layer (collision scales only, held, mixed, phi 20000)",
        "marl-rmp-v2c-collision", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledCollisionOnly,
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 20000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
-      {"marl-rmp-v2c-collision-phi5k",
-       "MAPPO over the coupled v2 layer (collision scales only, held, mixed, phi 5000)", "marl-rmp-v2c-collision-phi5k",
-       "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true, &kLayerV2CoupledCollisionOnly,
+      // the agents set the target RMP's stiffness (kLayerV2CoupledStiffness) beside its priority and the collision
+      // RMPs' scales, phi 20000
+      {"marl-rmp-v2c-stiffness", "MAPPO over the coupled v2 layer (target stiffness learned, held, mixed, phi 20000)",
+       "marl-rmp-v2c-stiffness", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffness,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 20000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
+      {"marl-rmp-v2c-stiffness-phi5k",
+       "MAPPO over the coupled v2 layer (target stiffness learned, held, mixed, phi 5000)",
+       "marl-rmp-v2c-stiffness-phi5k", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffness,
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 10}"},
@@ -446,6 +466,12 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   ttc_v2c_gentle.adjust_task = kLayerV2Coupled.apply;
   ttc_v2c_gentle.fixed_parameters = ttc_v2_gentle.fixed_parameters;
   const Entry basic_ttc_v2c_gentle = fixed("basic-ttc-v2c-gentle", ttc_v2c_gentle);
+  Method ttc_v2c_stiff =
+      Method::FixedOption("basic layer v2, coupled resolve (target-then-collision, target stiffness x4)", 2);
+  ttc_v2c_stiff.adjust_task = kLayerV2CoupledStiffness.apply;
+  ttc_v2c_stiff.fixed_parameters[rl::RmpActionLayout::kTargetAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
+      1.0f;  // u = +1: the target's k_p x gain_range (30 -> 120)
+  const Entry basic_ttc_v2c_stiff = fixed("basic-ttc-v2c-stiff", ttc_v2c_stiff);
   const Entry rmpflow = fixed("rmpflow", Method::Rmpflow());
   Method rmpflow_tuned_method = Method::Rmpflow("RMPflow (tuned collision gains)");
   rmpflow_tuned_method.adjust_rmpflow = TuneRmpflowCollision;
@@ -470,7 +496,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2"),
             learned("marl-rmp-v2c-params-hold-phi20k-600", "marl-rmp-v2c-params-hold-phi20k-600"),
             learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
-            learned("marl-rmp-v2c-collision-phi5k", "marl-rmp-v2c-collision-phi5k")};
+            basic_ttc_v2c_stiff, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
+            learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k")};
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
@@ -482,7 +509,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
             learned("marl-rmp-v2c-params-hold-phi20k-600", "marl-rmp-v2c-params-hold-phi20k-600"),
             learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
-            learned("marl-rmp-v2c-collision-phi5k", "marl-rmp-v2c-collision-phi5k")};
+            basic_ttc_v2c_stiff, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
+            learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k")};
   }
   throw InputError(fmt::format("unknown experiment \"{}\" (known: table3, table4, fig3, fig5, cluttered)", experiment));
 }

@@ -475,7 +475,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   }
   if (const YAML::Node n = root["scenario"]) ReadScenario(r, n, task, &c.scenario);
   if (const YAML::Node n = root["rmp"]) {
-    r.CheckKeys(n, "rmp", {"target_rmp", "collision_rmp", "relative_regularizer", "resolve"});
+    r.CheckKeys(n, "rmp", {"target_rmp", "collision_rmp", "relative_regularizer", "resolve", "target_scale"});
     if (const YAML::Node t = n["target_rmp"]) ReadTargetRmp(r, t, "rmp.target_rmp", &c.basic_layer.params.target);
     if (const YAML::Node t = n["collision_rmp"]) {
       ReadCollisionRmp(r, t, "rmp.collision_rmp", &c.basic_layer.params.collision);
@@ -486,6 +486,11 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
     if (const YAML::Node t = n["resolve"]) {
       c.basic_layer.resolve = r.Choice(t, "rmp.resolve", {"per-joint", "coupled"}) == 0 ? rmp::LayerResolve::kPerJoint
                                                                                          : rmp::LayerResolve::kCoupled;
+    }
+    if (const YAML::Node t = n["target_scale"]) {
+      c.basic_layer.params.target_scale = r.Choice(t, "rmp.target_scale", {"acceleration", "stiffness"}) == 0
+                                              ? rmp::TargetScale::kAcceleration
+                                              : rmp::TargetScale::kStiffness;
     }
   }
   ValidateTaskConfig(c, file);

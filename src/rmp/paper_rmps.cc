@@ -57,6 +57,11 @@ void ValidateCollisionRmpParams(const CollisionRmpParams& p, std::string_view wh
   Check(where, "metric_modulation_radius", p.metric_modulation_radius, p.metric_modulation_radius > 0.0, "> 0");
 }
 
+Eigen::Vector3d TargetAttraction(const TargetRmpParams& p, const Eigen::Vector3d& x, const Eigen::Vector3d& x0) {
+  const Eigen::Vector3d e = x0 - x;  // towards the target
+  return p.accel_p_gain / (e.norm() + p.accel_norm_eps) * e;
+}
+
 Rmp3 EvalTargetRmp(const TargetRmpParams& p, const Eigen::Vector3d& x, const Eigen::Vector3d& xd,
                    const Eigen::Vector3d& x0) {
   const Eigen::Vector3d e = x0 - x;  // towards the target
@@ -64,7 +69,7 @@ Rmp3 EvalTargetRmp(const TargetRmpParams& p, const Eigen::Vector3d& x, const Eig
   const double d = std::sqrt(d2);
   Rmp3 rmp;
   // eq (5): saturated attraction plus damping
-  rmp.a = p.accel_p_gain / (d + p.accel_norm_eps) * e;
+  rmp.a = TargetAttraction(p, x, x0);
   if (p.damping == TargetDamping::kQuadratic) {
     rmp.a -= p.accel_d_gain * xd.norm() * xd;
   } else {

@@ -187,7 +187,7 @@ episode: {max_steps: 77, terminate_on_collision: true}
 options: {termination: fixed, horizon: 3, collision_length_exponent: 0.5}
 reward: {distance_weight: 0.5, joint_reach_weights: [1, 2, 3, 4, 5, 6]}
 scenario: {speeds: [1.2], num_obstacles: 3}
-rmp: {collision_rmp: {metric_scalar: 2}, resolve: coupled}
+rmp: {collision_rmp: {metric_scalar: 2}, resolve: coupled, target_scale: stiffness}
 )"));
   EXPECT_EQ(c.task, TaskKind::kLineCrossing);
   EXPECT_EQ(c.robot, "ur5e");
@@ -203,6 +203,7 @@ rmp: {collision_rmp: {metric_scalar: 2}, resolve: coupled}
   EXPECT_EQ(c.scenario.line_crossing.num_obstacles, 3);
   EXPECT_EQ(c.basic_layer.params.collision.metric_scalar, 2.0);
   EXPECT_EQ(c.basic_layer.resolve, rmp::LayerResolve::kCoupled);
+  EXPECT_EQ(c.basic_layer.params.target_scale, rmp::TargetScale::kStiffness);
   // untouched keys keep the task's defaults
   EXPECT_EQ(c.observation.max_obstacles, DefaultTaskConfig(TaskKind::kLineCrossing).observation.max_obstacles);
   EXPECT_EQ(c.basic_layer.params.collision.metric_modulation_radius, 0.15);
@@ -277,6 +278,7 @@ TEST(TaskConfigTest, BadValuesSayExpectedAndGot) {
       {"task: line-crossing\nobservation: {max_obstacles: 2}\n", "'observation.max_obstacles'", "got 2"},
       {"task: reach-avoid\nrmp: {target_rmp: {accel_norm_eps: -1}}\n", "rmp.target_rmp", "-1"},
       {"task: reach-avoid\nrmp: {resolve: global}\n", "'rmp.resolve'", "got 'global'"},
+      {"task: reach-avoid\nrmp: {target_scale: damping}\n", "'rmp.target_scale'", "got 'damping'"},
       {"task: reach-avoid\nepisode: {terminate_on_collision: maybe}\n", "'episode.terminate_on_collision'",
        "got 'maybe'"},
       {"robot: panda\n", "'task'", "missing"},

@@ -151,6 +151,56 @@ TEST(CoupledLayerTest, CommonScalesActAsDerived) {
   }
 }
 
+// rmp.target_scale stiffness: s_a multiplies eq (5)'s attraction only, so every joint at s_a = c is the layer with
+// k_p → c k_p at unit scales, on the coupled and on the per-joint resolve; at s_a = 1 both modes agree, and at s_a ≠ 1
+// they differ (the damping is not scaled)
+TEST(CoupledLayerTest, StiffnessScaleActsAsAScaledProportionalGain) {
+  std::mt19937_64 rng(19);
+  const kinematics::Robot robot = testing::LoadArm();
+  const int nq = robot.model.nq();
+  kinematics::Data kin(robot.model);
+  CoupledLayerWorkspace workspace(nq);
+  RmpflowOptions options;
+  RmpflowPolicy structure(robot, options, 0);
+  BasicRmpParams stiffness;
+  stiffness.target = options.target;
+  stiffness.target_scale = TargetScale::kStiffness;
+  BasicRmpParams acceleration = stiffness;
+  acceleration.target_scale = TargetScale::kAcceleration;
+  double largest_mode_difference = 0.0;
+  for (int trial = 0; trial < 30; ++trial) {
+    const double c = Uniform(rng, 0.25, 4.0);
+    BasicRmpParams stiffer = acceleration;
+    stiffer.target.accel_p_gain *= c;
+    std::vector<JointLayerWeights> scaled(nq), unit(nq);
+    for (JointLayerWeights& w : scaled) w.target_accel_scale = c;
+    const Scene scene = RandomScene(rng, 2);
+    const Eigen::VectorXd q = RandomConfiguration(robot.model, rng, 0.05);
+    const Eigen::VectorXd qd = RandomVelocity(robot.model, rng);
+    structure.EvaluateStructure(q, qd);
+    kinematics::CalcVelocityKinematics(robot.model, q, qd, &kin);
+    Eigen::VectorXd got(nq), expected(nq), unscaled_damping(nq), unit_stiffness(nq), unit_acceleration(nq);
+    const Eigen::VectorXd& f0 = structure.data().f_root;
+    const Eigen::MatrixXd& M0 = structure.data().M_root;
+    EvaluateCoupledLayer(robot, kin, scene, stiffness, scaled, f0, M0, 1e-6, &workspace, got);
+    EvaluateCoupledLayer(robot, kin, scene, stiffer, unit, f0, M0, 1e-6, &workspace, expected);
+    EXPECT_LT((got - expected).norm(), 1e-9 * (1.0 + expected.norm())) << "trial " << trial;
+    EvaluateCoupledLayer(robot, kin, scene, acceleration, scaled, f0, M0, 1e-6, &workspace, unscaled_damping);
+    largest_mode_difference = std::max(largest_mode_difference, (unscaled_damping - got).norm());
+    EvaluateCoupledLayer(robot, kin, scene, stiffness, unit, f0, M0, 1e-6, &workspace, unit_stiffness);
+    EvaluateCoupledLayer(robot, kin, scene, acceleration, unit, f0, M0, 1e-6, &workspace, unit_acceleration);
+    EXPECT_EQ(unit_stiffness, unit_acceleration);
+    // the per-joint layer, joint by joint
+    for (int dof = 0; dof < nq; ++dof) {
+      const JointLayerResult a = EvaluateJointLayer(robot, kin, dof, scene, stiffness, scaled[dof], 1e-6);
+      const JointLayerResult b = EvaluateJointLayer(robot, kin, dof, scene, stiffer, unit[dof], 1e-6);
+      EXPECT_NEAR(a.force, b.force, 1e-9 * (1.0 + std::abs(b.force))) << "trial " << trial << " joint " << dof;
+      EXPECT_EQ(a.metric, b.metric);
+    }
+  }
+  EXPECT_GT(largest_mode_difference, 1e-3);  // the two modes are different layers
+}
+
 TEST(CoupledLayerTest, RejectsWrongSizes) {
   const kinematics::Robot robot = testing::LoadArm();
   const int nq = robot.model.nq();

@@ -22,11 +22,27 @@
 
 namespace rmpmarl::rmp {
 
+/// What a joint's target accel scale s_a multiplies.
+enum class TargetScale {
+  /// `acceleration`: the target RMP's whole acceleration, attraction and damping alike (the paper). The overdamped
+  /// tracking pole k_p / (ε k_d) and the cruise speed k_p / k_d are then out of the agent's reach.
+  kAcceleration,
+  /// `stiffness`: the attraction term of eq (5) only, k_p → s_a k_p, the damping unscaled: the agent sets how fast the
+  /// arm closes on the target (issue 9, reason 3; session 6).
+  kStiffness,
+};
+
 /// The two RMPs of the basic layer.
 struct BasicRmpParams {
   TargetRmpParams target;
   CollisionRmpParams collision;
+  TargetScale target_scale = TargetScale::kAcceleration;  ///< `rmp.target_scale`
 };
+
+/// the target RMP's acceleration with a joint's accel scale s_a applied as `scale` says: s_a · a, or
+/// a + (s_a − 1) · a_attraction (only the attraction term k_p (x_g − x) / (‖x_g − x‖ + ε) of eq (5) scaled).
+Eigen::Vector3d ScaledTargetAccel(const BasicRmpParams& params, const Eigen::Vector3d& a,
+                                  const Eigen::Vector3d& p_WE, const Eigen::Vector3d& p_WT, double accel_scale);
 
 /// Which RMPs a joint's agent selects, and its scalings (the meta-behaviour layer's action).
 struct JointLayerWeights {

@@ -65,6 +65,9 @@ void ValidateTargetRmpParams(const TargetRmpParams& params, std::string_view whe
 /// throws InputError naming `where` unless every field is finite and in its documented range.
 void ValidateCollisionRmpParams(const CollisionRmpParams& params, std::string_view where);
 
+/// the attraction term of eq (5), k_p (x_0 − x) / (‖x_0 − x‖ + ε): EvalTargetRmp's acceleration without damping.
+Eigen::Vector3d TargetAttraction(const TargetRmpParams& params, const Eigen::Vector3d& x, const Eigen::Vector3d& x0);
+
 /// Target RMP at position x with velocity ẋ (relative to the target's) and target x₀:
 ///   a = k_p (x₀ − x)/(‖x₀ − x‖ + ε) − k_d ‖ẋ‖ ẋ   (eq 5; −k_d ẋ with TargetDamping::kLinear),
 ///   M = [β b + (1 − β)] [α μ_near I + (1 − α) μ_far S],  S = (x₀ − x)(x₀ − x)ᵀ/‖x₀ − x‖²   (eqs 6–7),
