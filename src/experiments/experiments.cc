@@ -297,15 +297,6 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 2}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 2}"},
-      // ... phi 20000 (the recipe that met Table 4's success target) at the full reach-avoid budget of 600 updates
-      // instead of 300: does more training give back the precision it paid for? (session 6)
-      {"marl-rmp-v2c-params-hold-phi20k-600",
-       "MAPPO over the coupled v2 layer (parameters only, held, mixed, phi 20000, 600 updates)",
-       "marl-rmp-v2c-params-hold-phi20k-600", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledParamsHold,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {collision_penalty: 20000, tracking_weight: 10}",
-       0, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
       // the agents learn the collision RMPs' scales only (kLayerV2CoupledCollisionOnly), phi 20000
       {"marl-rmp-v2c-collision", "MAPPO over the coupled v2 layer (collision scales only, held, mixed, phi 20000)",
        "marl-rmp-v2c-collision", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
@@ -539,7 +530,6 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-v2c-params-hold-phi5k", "marl-rmp-v2c-params-hold-phi5k"),
             learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
             learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2"),
-            learned("marl-rmp-v2c-params-hold-phi20k-600", "marl-rmp-v2c-params-hold-phi20k-600"),
             learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
             basic_ttc_v2c_stiff, basic_ttc_v2c_stiff2, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
             learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k"),
@@ -556,7 +546,6 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
     return {learned("marl-rmp", "marl-rmp"), rmpflow, basic, basic_ttc, learned("marl-rmp-v2", "marl-rmp-v2"),
             basic_ttc_v2, rmpflow_tuned, basic_ttc_v2c,
             learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
-            learned("marl-rmp-v2c-params-hold-phi20k-600", "marl-rmp-v2c-params-hold-phi20k-600"),
             learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
             basic_ttc_v2c_stiff, basic_ttc_v2c_stiff2, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
             learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k"),
