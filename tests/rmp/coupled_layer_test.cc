@@ -197,6 +197,14 @@ TEST(CoupledLayerTest, StiffnessScaleActsAsAScaledProportionalGain) {
       EXPECT_NEAR(a.force, b.force, 1e-9 * (1.0 + std::abs(b.force))) << "trial " << trial << " joint " << dof;
       EXPECT_EQ(a.metric, b.metric);
     }
+    // and the batched per-joint layer (the env's per-joint resolve)
+    std::vector<JointLayerResult> batch_scaled(nq), batch_stiffer(nq);
+    EvaluateJointLayers(robot, kin, scene, stiffness, scaled, batch_scaled, 1e-6);
+    EvaluateJointLayers(robot, kin, scene, stiffer, unit, batch_stiffer, 1e-6);
+    for (int dof = 0; dof < nq; ++dof) {
+      EXPECT_NEAR(batch_scaled[dof].force, batch_stiffer[dof].force, 1e-9 * (1.0 + std::abs(batch_stiffer[dof].force)))
+          << "trial " << trial << " joint " << dof;
+    }
   }
   EXPECT_GT(largest_mode_difference, 1e-3);  // the two modes are different layers
 }
