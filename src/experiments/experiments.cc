@@ -513,12 +513,22 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   rmpflow_tuned_method.adjust_rmpflow = TuneRmpflowCollision;
   const Entry rmpflow_tuned = fixed("rmpflow-tuned", rmpflow_tuned_method);
   const Entry rrt = fixed("rrt", Method::Rrt());
+  // session 6 (docs/learning.md): the stiffness lever, fixed and learned; the last rows of table4, cluttered and fig5
+  const std::vector<Entry> stiffness_rows = {
+      learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"), basic_ttc_v2c_stiff, basic_ttc_v2c_stiff2,
+      learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
+      learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k"),
+      learned("marl-rmp-v2c-stiffness-phi5k-w20", "marl-rmp-v2c-stiffness-phi5k-w20"),
+      learned("marl-rmp-v2c-stiffness-phi5k-w50", "marl-rmp-v2c-stiffness-phi5k-w50"),
+      learned("marl-rmp-v2c-stiff-base", "marl-rmp-v2c-stiff-base"),
+      learned("marl-rmp-v2c-stiff-base-phi5k", "marl-rmp-v2c-stiff-base-phi5k")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};
   }
   if (experiment == "table4" || experiment == "cluttered") {
-    return {learned("ppo", "ppo"), learned("mappo", "mappo"), learned("marl-ppo", "marl-ppo"), rmpflow, rrt,
+    std::vector<Entry> entries = {
+            learned("ppo", "ppo"), learned("mappo", "mappo"), learned("marl-ppo", "marl-ppo"), rmpflow, rrt,
             learned("marl-rmp", "marl-rmp"), basic, basic_ttc, learned("marl-rmp-v0", "marl-rmp-v0"), basic_ttc_v0,
             learned("marl-rmp-2ms", "marl-rmp-2ms"), basic_ttc_2ms, learned("marl-rmp-v2", "marl-rmp-v2"),
             basic_ttc_v2, basic_ttc_v2_gentle, rmpflow_tuned, learned("marl-rmp-v2-params", "marl-rmp-v2-params"),
@@ -529,30 +539,21 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
             learned("marl-rmp-v2c-params-hold-w2", "marl-rmp-v2c-params-hold-w2"),
             learned("marl-rmp-v2c-params-hold-phi5k", "marl-rmp-v2c-params-hold-phi5k"),
             learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
-            learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2"),
-            learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
-            basic_ttc_v2c_stiff, basic_ttc_v2c_stiff2, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
-            learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k"),
-            learned("marl-rmp-v2c-stiffness-phi5k-w20", "marl-rmp-v2c-stiffness-phi5k-w20"),
-            learned("marl-rmp-v2c-stiffness-phi5k-w50", "marl-rmp-v2c-stiffness-phi5k-w50"),
-            learned("marl-rmp-v2c-stiff-base", "marl-rmp-v2c-stiff-base"),
-            learned("marl-rmp-v2c-stiff-base-phi5k", "marl-rmp-v2c-stiff-base-phi5k")};
+            learned("marl-rmp-v2c-params-hold-phi5k-w2", "marl-rmp-v2c-params-hold-phi5k-w2")};
+    entries.insert(entries.end(), stiffness_rows.begin(), stiffness_rows.end());
+    return entries;
   }
   if (experiment == "fig3") {
     return {learned("ppo", "ppo"), learned("marl-ppo", "marl-ppo"), learned("mappo", "mappo"),
             learned("marl-rmp", "marl-rmp")};
   }
   if (experiment == "fig5") {
-    return {learned("marl-rmp", "marl-rmp"), rmpflow, basic, basic_ttc, learned("marl-rmp-v2", "marl-rmp-v2"),
+    std::vector<Entry> entries = {
+            learned("marl-rmp", "marl-rmp"), rmpflow, basic, basic_ttc, learned("marl-rmp-v2", "marl-rmp-v2"),
             basic_ttc_v2, rmpflow_tuned, basic_ttc_v2c,
-            learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k"),
-            learned("marl-rmp-v2c-collision", "marl-rmp-v2c-collision"),
-            basic_ttc_v2c_stiff, basic_ttc_v2c_stiff2, learned("marl-rmp-v2c-stiffness", "marl-rmp-v2c-stiffness"),
-            learned("marl-rmp-v2c-stiffness-phi5k", "marl-rmp-v2c-stiffness-phi5k"),
-            learned("marl-rmp-v2c-stiffness-phi5k-w20", "marl-rmp-v2c-stiffness-phi5k-w20"),
-            learned("marl-rmp-v2c-stiffness-phi5k-w50", "marl-rmp-v2c-stiffness-phi5k-w50"),
-            learned("marl-rmp-v2c-stiff-base", "marl-rmp-v2c-stiff-base"),
-            learned("marl-rmp-v2c-stiff-base-phi5k", "marl-rmp-v2c-stiff-base-phi5k")};
+            learned("marl-rmp-v2c-params-hold-phi20k", "marl-rmp-v2c-params-hold-phi20k")};
+    entries.insert(entries.end(), stiffness_rows.begin(), stiffness_rows.end());
+    return entries;
   }
   throw InputError(fmt::format("unknown experiment \"{}\" (known: table3, table4, fig3, fig5, cluttered)", experiment));
 }

@@ -14,9 +14,9 @@
 namespace rmpmarl::rmp {
 
 Eigen::Vector3d ScaledTargetAccel(const BasicRmpParams& params, const Eigen::Vector3d& a,
-                                  const Eigen::Vector3d& p_WE, const Eigen::Vector3d& p_WT, double accel_scale) {
+                                  const Eigen::Vector3d& attraction, double accel_scale) {
   if (params.target_scale == TargetScale::kAcceleration) return accel_scale * a;
-  return a + (accel_scale - 1.0) * TargetAttraction(params.target, p_WE, p_WT);
+  return a + (accel_scale - 1.0) * attraction;
 }
 
 Rmp1 EvalScaledCollisionRmp(const CollisionRmpParams& params, double x, double xd, double length_scale) {
@@ -47,7 +47,8 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
     const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
-    const Eigen::Vector3d f = M * ScaledTargetAccel(params, rmp.a, p_WE, scene.p_WT, weights.target_accel_scale);
+    const Eigen::Vector3d attraction = TargetAttraction(params.target, p_WE, scene.p_WT);
+    const Eigen::Vector3d f = M * ScaledTargetAccel(params, rmp.a, attraction, weights.target_accel_scale);
     const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
     const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     force += j.dot(f - M * jdqd);
@@ -169,11 +170,12 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
     const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
+    const Eigen::Vector3d attraction = TargetAttraction(params.target, p_WE, scene.p_WT);
     for (int dof : model.link_dofs(link)) {
       const JointLayerWeights& w = weights[dof];
       if (!w.use_target) continue;
       const Eigen::Matrix3d M = w.target_metric_scale * rmp.M;
-      const Eigen::Vector3d f = M * ScaledTargetAccel(params, rmp.a, p_WE, scene.p_WT, w.target_accel_scale);
+      const Eigen::Vector3d f = M * ScaledTargetAccel(params, rmp.a, attraction, w.target_accel_scale);
       const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
       results[dof].force += j.dot(f - M * jdqd);
       results[dof].metric += j.dot(M * j);
@@ -236,9 +238,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Vector3d Mjdqd = rmp.M * CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     const Eigen::Vector3d Ma = rmp.M * rmp.a;
-    const Eigen::Vector3d Ma_attraction =
-        params.target_scale == TargetScale::kStiffness ? Eigen::Vector3d(rmp.M * TargetAttraction(params.target, p_WE, scene.p_WT))
-                                                       : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d M_attraction = rmp.M * TargetAttraction(params.target, p_WE, scene.p_WT);
     ws.G.setZero();
     bool any = false;
     for (int dof : model.link_dofs(link)) {
@@ -246,10 +246,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
       if (!w.use_target || w.target_metric_scale <= 0.0) continue;
       const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
       ws.G.col(dof) = std::sqrt(w.target_metric_scale) * j;
-      // s_a M a (acceleration) or M a + (s_a − 1) M a_attraction (stiffness), as ScaledTargetAccel
-      const Eigen::Vector3d Ma_scaled = params.target_scale == TargetScale::kStiffness
-                                            ? Eigen::Vector3d(Ma + (w.target_accel_scale - 1.0) * Ma_attraction)
-                                            : Eigen::Vector3d(w.target_accel_scale * Ma);
+      const Eigen::Vector3d Ma_scaled = ScaledTargetAccel(params, Ma, M_attraction, w.target_accel_scale);
       ws.b[dof] += w.target_metric_scale * j.dot(Ma_scaled - Mjdqd);
       any = true;
     }

@@ -39,10 +39,11 @@ struct BasicRmpParams {
   TargetScale target_scale = TargetScale::kAcceleration;  ///< `rmp.target_scale`
 };
 
-/// the target RMP's acceleration with a joint's accel scale s_a applied as `scale` says: s_a · a, or
-/// a + (s_a − 1) · a_attraction (only the attraction term k_p (x_g − x) / (‖x_g − x‖ + ε) of eq (5) scaled).
+/// the target RMP's acceleration with a joint's accel scale s_a applied as `params.target_scale` says: s_a · a, or
+/// a + (s_a − 1) · attraction, with `attraction` = TargetAttraction(...) (only eq (5)'s attraction term scaled). Linear
+/// in (a, attraction), so it also scales forces M a with M · attraction.
 Eigen::Vector3d ScaledTargetAccel(const BasicRmpParams& params, const Eigen::Vector3d& a,
-                                  const Eigen::Vector3d& p_WE, const Eigen::Vector3d& p_WT, double accel_scale);
+                                  const Eigen::Vector3d& attraction, double accel_scale);
 
 /// Which RMPs a joint's agent selects, and its scalings (the meta-behaviour layer's action).
 struct JointLayerWeights {
