@@ -53,6 +53,30 @@ class ConstantActor final : public Actor {
   std::vector<float> actions_;
 };
 
+/// the fixed option with Method::ThreatGate: per agent, the threat parameters while the look-ahead block predicts a
+/// pass within the gate's clearance, the fixed ones otherwise.
+class ThreatGateActor final : public Actor {
+ public:
+  ThreatGateActor(std::vector<float> clear, std::vector<float> threat, int obs_dim, int clearance_index,
+                  float clearance_threshold)
+      : clear_(std::move(clear)), threat_(std::move(threat)), obs_dim_(obs_dim), index_(clearance_index),
+        threshold_(clearance_threshold) {}
+  void Act(const rl::StepBuffers& step, float* actions) override {
+    const int agents = static_cast<int>(step.option_started.size());
+    const size_t as = clear_.size() / static_cast<size_t>(agents);
+    for (int a = 0; a < agents; ++a) {
+      const bool threat = step.local_obs[static_cast<size_t>(a) * obs_dim_ + index_] < threshold_;
+      const std::vector<float>& src = threat ? threat_ : clear_;
+      std::copy_n(src.begin() + a * as, as, actions + a * as);
+    }
+  }
+
+ private:
+  std::vector<float> clear_, threat_;
+  int obs_dim_, index_;
+  float threshold_;
+};
+
 rl::InterfaceMode EnvInterface(const Method& m) {
   return m.kind == MethodKind::kPolicy ? m.interface : rl::InterfaceMode::kPerJointRmp;
 }
@@ -121,14 +145,26 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
                                    weights.action_size(), spec.local_obs_dim, as));
     }
   }
-  std::vector<float> fixed(static_cast<size_t>(A) * as, 0.0f);
-  if (method.kind == MethodKind::kFixedOption) {
+  auto constant_actions = [&](const std::array<float, rl::RmpActionLayout::kNumContinuous>& parameters) {
+    std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
     for (int a = 0; a < A; ++a) {
-      float* u = fixed.data() + static_cast<size_t>(a) * as;
+      float* u = actions.data() + static_cast<size_t>(a) * as;
       u[rl::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
       for (int k = 0; k < rl::RmpActionLayout::kNumContinuous; ++k) {
-        u[rl::RmpActionLayout::kTargetAccelScale + k] = method.fixed_parameters[k];
+        u[rl::RmpActionLayout::kTargetAccelScale + k] = parameters[k];
       }
+    }
+    return actions;
+  };
+  std::vector<float> fixed, threat;
+  if (method.kind == MethodKind::kFixedOption) {
+    fixed = constant_actions(method.fixed_parameters);
+    if (method.threat_gate) {
+      if (!(config.observation.lookahead > 0.0)) {
+        throw InputError(fmt::format("{}: the threat gate reads the look-ahead block: expected observation.lookahead "
+                                     "> 0 s, got {}", method.name, config.observation.lookahead));
+      }
+      threat = constant_actions(method.threat_gate->parameters);
     }
   }
 
@@ -160,6 +196,11 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
   };
   auto make_actor = [&]() -> std::unique_ptr<Actor> {
     if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
+    if (method.threat_gate) {
+      return std::make_unique<ThreatGateActor>(
+          fixed, threat, spec.local_obs_dim, rl::LocalObs::kRmpSize + rl::LocalObs::kLookaheadClearance,
+          static_cast<float>(method.threat_gate->clearance / config.observation.length_scale));
+    }
     return std::make_unique<ConstantActor>(fixed);
   };
 

@@ -116,8 +116,8 @@ const LayerVariant kLayerV2Hold{V2LayerYaml(", parameter_period: 25"), [](rl::Ta
 /// collision gains; the agents scale its leaves per joint. Chosen on evaluation seed 7 (never a reported seed)
 /// among per-joint/coupled, r 0.35/0.5 and quadratic/linear damping (docs/learning.md, session 5).
 std::string V2CoupledLayerYaml(const std::string& more_options, const std::string& more_rmp = "",
-                               const std::string& more_target = "") {
-  return "controller: {max_substep: 0.002}, observation: {warning_distance: 0.5}, "
+                               const std::string& more_target = "", const std::string& more_observation = "") {
+  return "controller: {max_substep: 0.002}, observation: {warning_distance: 0.5" + more_observation + "}, "
          "options: {collision_length_exponent: 0.75, collision_target_weight: 1" + more_options + "}, "
          "rmp: {resolve: coupled" + more_rmp + ", target_rmp: {damping: linear, accel_d_gain: 85" + more_target + "}, collision_rmp: "
          "{metric_modulation_radius: 0.5, metric_scalar: 10000, repulsion_gain: 3200, damping_gain: 200, "
@@ -174,6 +174,35 @@ const LayerVariant kLayerV2CoupledStiffBase{
       kLayerV2CoupledStiffness.apply(task);
       task.basic_layer.params.target.accel_p_gain = 120.0;
     }};
+/// the look-ahead horizon of the session-7 variants: a moving obstacle's straight path over the next second
+constexpr double kLookahead = 1.0;
+/// kLayerV2CoupledStiffness with the moving-obstacle look-ahead block in every local observation (observation.lookahead
+/// 1 s). Session 6: no agent learned to soften the target before fast cubes; its local observation sensed obstacles
+/// only within the 0.5 m warning distance, which a cube at 2.8 m/s crosses in 0.18 s.
+const LayerVariant kLayerV2CoupledStiffnessLookahead{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50",
+                       ", target_scale: stiffness", "", ", lookahead: 1"),
+    [](rl::TaskConfig& task) {
+      kLayerV2CoupledStiffness.apply(task);
+      task.observation.lookahead = kLookahead;
+    }};
+/// kLayerV2CoupledStiffBase (k_p 120 at unit scales) with the look-ahead block.
+const LayerVariant kLayerV2CoupledStiffBaseLookahead{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50",
+                       ", target_scale: stiffness", ", accel_p_gain: 120", ", lookahead: 1"),
+    [](rl::TaskConfig& task) {
+      kLayerV2CoupledStiffBase.apply(task);
+      task.observation.lookahead = kLookahead;
+    }};
+/// the untrained coupled layer with the look-ahead block and the target stiffness scale, every step's parameters
+/// read (for the hand-gated rows).
+const LayerVariant kLayerV2CoupledStiffnessLookaheadEveryStep{
+    V2CoupledLayerYaml("", ", target_scale: stiffness", "", ", lookahead: 1"), [](rl::TaskConfig& task) {
+      kLayerV2Coupled.apply(task);
+      task.basic_layer.params.target_scale = rmp::TargetScale::kStiffness;
+      task.observation.lookahead = kLookahead;
+    }};
+
 /// collision-RMP gains for RMPflow tuned for fast obstacles (the "rmpflow-tuned" baseline): the v2 layer's centre,
 /// chosen on evaluation seed 7 (never a reported seed) on line-crossing, 40 episodes per speed, among seven settings
 /// of eq (8)'s gains and length scales tried on the basic layer and RMPflow (docs/learning.md).
@@ -347,6 +376,21 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 10}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 10}"},
+      // session 7: the same with the moving-obstacle look-ahead block (what comes within the next second)
+      {"marl-rmp-v2c-stiff-base-look",
+       "MAPPO over the stiff coupled v2 layer with look-ahead (k_p 120 x learned scale, phi 20000)",
+       "marl-rmp-v2c-stiff-base-look", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffBaseLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 20000, tracking_weight: 10}",
+       300, "cluttered", "reward: {collision_penalty: 20000, tracking_weight: 10}"},
+      {"marl-rmp-v2c-stiffness-look",
+       "MAPPO over the coupled v2 layer with look-ahead (target stiffness learned, phi 5000, w = 20)",
+       "marl-rmp-v2c-stiffness-look", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 20}",
+       300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 20}"},
   };
   return recipes;
 }
@@ -508,6 +552,20 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   ttc_v2c_stiff2.fixed_parameters[rl::RmpActionLayout::kTargetAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
       0.5f;  // u = 1/2: k_p x sqrt(gain_range) (30 -> 60)
   const Entry basic_ttc_v2c_stiff2 = fixed("basic-ttc-v2c-stiff2", ttc_v2c_stiff2);
+  // session 7: a hand rule on the look-ahead block: k_p 120 (u = +1) unless a moving obstacle is predicted to pass
+  // within `clearance` of a capsule the joint moves within 1 s, then k_p 30 (u = 0)
+  auto gated = [&](const std::string& key, double clearance) {
+    Method m = Method::FixedOption(
+        fmt::format("basic layer v2, coupled resolve (k_p 120, 30 while a cube is predicted within {:.0f} cm)",
+                    100.0 * clearance), 2);
+    m.adjust_task = kLayerV2CoupledStiffnessLookaheadEveryStep.apply;
+    m.fixed_parameters = ttc_v2c_stiff.fixed_parameters;
+    m.threat_gate = Method::ThreatGate{clearance, {}};
+    return fixed(key, m);
+  };
+  const Entry basic_ttc_v2c_gate = gated("basic-ttc-v2c-gate", 0.05);
+  const Entry basic_ttc_v2c_gate_wide = gated("basic-ttc-v2c-gate-wide", 0.15);
+  const Entry basic_ttc_v2c_gate_narrow = gated("basic-ttc-v2c-gate-narrow", 0.0);
   const Entry rmpflow = fixed("rmpflow", Method::Rmpflow());
   Method rmpflow_tuned_method = Method::Rmpflow("RMPflow (tuned collision gains)");
   rmpflow_tuned_method.adjust_rmpflow = TuneRmpflowCollision;
@@ -521,7 +579,11 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiffness-phi5k-w20", "marl-rmp-v2c-stiffness-phi5k-w20"),
       learned("marl-rmp-v2c-stiffness-phi5k-w50", "marl-rmp-v2c-stiffness-phi5k-w50"),
       learned("marl-rmp-v2c-stiff-base", "marl-rmp-v2c-stiff-base"),
-      learned("marl-rmp-v2c-stiff-base-phi5k", "marl-rmp-v2c-stiff-base-phi5k")};
+      learned("marl-rmp-v2c-stiff-base-phi5k", "marl-rmp-v2c-stiff-base-phi5k"),
+      // session 7: the look-ahead block
+      basic_ttc_v2c_gate, basic_ttc_v2c_gate_wide, basic_ttc_v2c_gate_narrow,
+      learned("marl-rmp-v2c-stiff-base-look", "marl-rmp-v2c-stiff-base-look"),
+      learned("marl-rmp-v2c-stiffness-look", "marl-rmp-v2c-stiffness-look")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};

@@ -104,7 +104,7 @@ bool OptionMachine::End(bool terminate_flag, bool warning_next) {
 
 // ------------------------------------------------------------------------------------------------- layouts
 
-std::vector<std::string> PerJointObservationNames(InterfaceMode mode) {
+std::vector<std::string> PerJointObservationNames(InterfaceMode mode, bool lookahead) {
   std::vector<std::string> n = {
       "ee_to_target_x", "ee_to_target_y", "ee_to_target_z", "ee_target_log_distance",
       "ee_rel_velocity_x", "ee_rel_velocity_y", "ee_rel_velocity_z",
@@ -123,6 +123,9 @@ std::vector<std::string> PerJointObservationNames(InterfaceMode mode) {
       n.push_back(s);
     }
     RMPMARL_ASSERT(static_cast<int>(n.size()) == LocalObs::kRmpSize, "local observation names out of sync");
+  }
+  if (lookahead) {
+    for (const char* s : {"lookahead_clearance", "lookahead_time", "lookahead_speed"}) n.push_back(s);
   }
   return n;
 }

@@ -157,7 +157,7 @@ TaskContext::TaskContext(TaskConfig config, ScenarioMaker scenario)
   if (config_.interface == InterfaceMode::kDirect) {
     spec_.local_obs_names = spec_.global_state_names;  // the single agent sees the whole state
   } else {
-    spec_.local_obs_names = PerJointObservationNames(config_.interface);
+    spec_.local_obs_names = PerJointObservationNames(config_.interface, config_.observation.lookahead > 0.0);
   }
   spec_.local_obs_dim = static_cast<int>(spec_.local_obs_names.size());
   spec_.action = MakeActionSpec(config_, nq_);
@@ -254,6 +254,13 @@ struct ManipulatorEnv::JointWarning {
   double gradient = 0.0;                           ///< ∂d/∂q_i [m/rad or m/m]
 };
 
+/// The closest predicted pass of a moving obstacle by the capsules joint i moves (LocalObs::kLookahead…).
+struct ManipulatorEnv::Lookahead {
+  double clearance = kInf;  ///< [m] capsule surface to the obstacle's bounding sphere at the closest approach
+  double time = 0.0;        ///< [s] when, in [0, T]
+  double speed = 0.0;       ///< [m/s] that obstacle's speed
+};
+
 ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
     : context_(std::move(context)),
       config_(context_->config()),
@@ -287,6 +294,8 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   J_WE_.setZero(3, nq_);
   J_WE_before_.setZero(3, nq_);
   warnings_.resize(nq_);
+  lookahead_.resize(nq_);
+  lookahead_offset_ = config_.interface == InterfaceMode::kPerJointRmp ? LocalObs::kRmpSize : LocalObs::kBaseSize;
   option_warning_.assign(nq_, 0);
   options_.assign(nq_, OptionMachine(config_.options.termination, config_.options.horizon));
   terminate_flags_.assign(nq_, 0);
@@ -586,6 +595,35 @@ void ManipulatorEnv::UpdateKinematics() {
     w.closing_speed = -w.n_W.dot(MaterialVelocity(kin_, w.link, w.p_W1) - v_other);
     w.gradient = w.n_W.dot(kinematics::CalcPointJacobianColumn(m, kin_, i, w.link, w.p_W1));
   }
+  if (config_.observation.lookahead > 0.0 && config_.interface != InterfaceMode::kDirect) UpdateLookahead();
+}
+
+void ManipulatorEnv::UpdateLookahead() {
+  // Each moving obstacle j sweeps the segment [c_j, c_j + T v_j] over the horizon (straight, constant speed, the arm
+  // held still). The closest points of that segment and a capsule's axis give the smallest distance between the
+  // obstacle's centre and the axis over [0, T], and when (the parameter along the swept segment × T); the clearance
+  // subtracts the capsule radius and the obstacle's bounding radius (a conservative sphere around a box).
+  const kinematics::Model& m = robot_->model;
+  const double horizon = config_.observation.lookahead;
+  for (Lookahead& l : lookahead_) l = Lookahead{};
+  for (const kinematics::LinkCapsule& lc : robot_->capsules) {
+    const Eigen::Isometry3d& X_WL = kin_.X_WL[lc.link];
+    const Eigen::Vector3d p_WA = X_WL * lc.p_LA, p_WB = X_WL * lc.p_LB;
+    for (const rmp::Obstacle& obstacle : scene_.obstacles) {
+      const double speed = obstacle.v_WO.norm();
+      if (!(speed > 0.0)) continue;  // static obstacles are the warning features' business
+      const Eigen::Vector3d c_W = rmp::Centre(obstacle);
+      const math::SegmentClosestPoints pass =
+          math::ClosestPointsSegmentSegment(c_W, c_W + horizon * obstacle.v_WO, p_WA, p_WB);
+      const double clearance = pass.distance - lc.radius - rmp::BoundingRadius(obstacle);
+      const double time = pass.s * horizon;
+      for (int i = 0; i < nq_; ++i) {
+        if (!m.DofMovesLink(i, lc.link)) continue;
+        Lookahead& l = lookahead_[i];
+        if (clearance < l.clearance || (clearance == l.clearance && time < l.time)) l = {clearance, time, speed};
+      }
+    }
+  }
 }
 
 void ManipulatorEnv::WriteLocal(int i, float* o) const {
@@ -631,6 +669,14 @@ void ManipulatorEnv::WriteLocal(int i, float* o) const {
     o[LocalObs::kOptionPhaseB] = om.phase_b() ? 1.0f : 0.0f;
     o[LocalObs::kOptionAge] =
         std::min(1.0f, static_cast<float>(om.age()) / static_cast<float>(config_.options.horizon));
+  }
+  if (config_.observation.lookahead > 0.0) {
+    const Lookahead& la = lookahead_[i];
+    float* b = o + lookahead_offset_;
+    const bool none = !std::isfinite(la.clearance);
+    b[LocalObs::kLookaheadClearance] = none ? 2.0f : static_cast<float>(std::clamp(la.clearance / l, -1.0, 2.0));
+    b[LocalObs::kLookaheadTime] = none ? 1.0f : static_cast<float>(la.time / config_.observation.lookahead);
+    b[LocalObs::kLookaheadSpeed] = none ? 0.0f : static_cast<float>(la.speed / vs);
   }
 }
 

@@ -440,7 +440,8 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
     ObservationConfig& o = c.observation;
     ReadSection(r, n, "observation",
                 {Num(r, "length_scale", &o.length_scale), Num(r, "speed_scale", &o.speed_scale),
-                 Num(r, "warning_distance", &o.warning_distance), Int(r, "max_obstacles", &o.max_obstacles)});
+                 Num(r, "warning_distance", &o.warning_distance), Int(r, "max_obstacles", &o.max_obstacles),
+                 Num(r, "lookahead", &o.lookahead)});
   }
   if (const YAML::Node n = root["reward"]) {
     RewardConfig& w = c.reward;
@@ -571,6 +572,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         o.speed_scale);
   check(std::isfinite(o.warning_distance) && o.warning_distance > 0.0 && o.warning_distance <= 1.0,
         "observation.warning_distance", "a distance in (0, 1] m", o.warning_distance);
+  check(std::isfinite(o.lookahead) && o.lookahead >= 0.0 && o.lookahead <= 10.0, "observation.lookahead",
+        "a horizon in [0, 10] s (0: off)", o.lookahead);
 
   // reward
   const RewardConfig& w = c.reward;

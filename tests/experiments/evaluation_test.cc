@@ -131,6 +131,51 @@ TEST(EvaluateMethodTest, APolicyOfTheWrongShapeIsRejectedWithAMessage) {
   EXPECT_THROW(EvaluateMethod(Method::Rmpflow(), task, {.episodes = 0}), InputError);
 }
 
+// The hand-gated fixed option (Method::ThreatGate) reads the look-ahead block: a gate that always fires is the fixed
+// option with the threat parameters, one that never fires is the fixed option with the clear ones, and on fast
+// crossings a 15 cm gate fires in some episodes and not in others.
+TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
+  rl::TaskConfig task = SmallTask(rl::TaskKind::kLineCrossing, 150);
+  task.scenario.line_speeds = {1.8};
+  auto lookahead = [](rl::TaskConfig& t) { t.observation.lookahead = 1.0; };
+  std::array<float, rl::RmpActionLayout::kNumContinuous> clear{}, threat{};
+  clear[0] = 1.0f;    // target accel scale x4
+  threat[2] = -1.0f;  // collision accel scale / 4
+  Method clear_fixed = Method::FixedOption("clear", 2), threat_fixed = Method::FixedOption("threat", 2);
+  clear_fixed.fixed_parameters = clear;
+  threat_fixed.fixed_parameters = threat;
+  clear_fixed.adjust_task = threat_fixed.adjust_task = lookahead;
+  auto gate = [&](double clearance) {
+    Method m = Method::FixedOption("gate", 2);
+    m.fixed_parameters = clear;
+    m.threat_gate = Method::ThreatGate{clearance, threat};
+    m.adjust_task = lookahead;
+    return m;
+  };
+  const EvalProtocol protocol{.episodes = 4, .eval_seed = 11, .jobs = 2};
+  const auto always = EvaluateMethod(gate(100.0), task, protocol), never = EvaluateMethod(gate(-100.0), task, protocol);
+  const auto sometimes = EvaluateMethod(gate(0.15), task, protocol);
+  const auto c = EvaluateMethod(clear_fixed, task, protocol), t = EvaluateMethod(threat_fixed, task, protocol);
+  int fired = 0, held = 0;  // episodes that differ from the clear / the threat parameters
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_EQ(always[i].metrics.mean_tracking_error_mm, t[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(always[i].metrics.min_clearance_m, t[i].metrics.min_clearance_m);
+    EXPECT_EQ(never[i].metrics.mean_tracking_error_mm, c[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(never[i].metrics.min_clearance_m, c[i].metrics.min_clearance_m);
+    const double m = sometimes[i].metrics.mean_tracking_error_mm;
+    fired += m != c[i].metrics.mean_tracking_error_mm ? 1 : 0;
+    held += m != t[i].metrics.mean_tracking_error_mm ? 1 : 0;
+  }
+  // measured (seed 11): two episodes whose arm works near the line's path (the gate fires), two away from it
+  EXPECT_GE(fired, 1);
+  EXPECT_GE(held, 1);
+  EXPECT_NE(c[0].metrics.mean_tracking_error_mm, t[0].metrics.mean_tracking_error_mm);
+  // without the look-ahead block the gate has nothing to read
+  Method blind = gate(0.15);
+  blind.adjust_task = nullptr;
+  EXPECT_THROW(EvaluateMethod(blind, task, protocol), InputError);
+}
+
 TEST(StatisticsTest, WilsonMatchesHandComputedIntervals) {
   // 8 of 10, z = 1.96: centre (0.8 + 0.19207) / 1.38415 = 0.71674, half 1.96 √(0.016 + 0.0096) / 1.38415 =
   // 0.22657 → [0.4902, 0.9433]  (E. B. Wilson 1927)

@@ -43,6 +43,7 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["observation.speed_scale"] = c.observation.speed_scale;
   f["observation.warning_distance"] = c.observation.warning_distance;
   f["observation.max_obstacles"] = c.observation.max_obstacles;
+  f["observation.lookahead"] = c.observation.lookahead;
   const RewardConfig& r = c.reward;
   for (size_t i = 0; i < r.joint_reach_weights.size(); ++i) {
     f["reward.joint_reach_weights." + std::to_string(i)] = r.joint_reach_weights[i];
@@ -258,6 +259,7 @@ TEST(TaskConfigTest, BadValuesSayExpectedAndGot) {
       {"task: reach-avoid\noptions: {termination: sometimes}\n", "'options.termination'", "got 'sometimes'"},
       {"task: reach-avoid\nepisode: {integrator: rk4}\n", "'episode.integrator'", "got 'rk4'"},
       {"task: reach-avoid\noptions: {gain_range: 0.5}\n", "'options.gain_range'", "got 0.5"},
+      {"task: reach-avoid\nobservation: {lookahead: -1}\n", "'observation.lookahead'", "got -1"},
       {"task: reach-avoid\noptions: {target_gain_range: 0.5}\n", "'options.target_gain_range'", "got 0.5"},
       {"task: reach-avoid\noptions: {collision_target_weight: 2}\n", "'options.collision_target_weight'", "got 2"},
       {"task: reach-avoid\noptions: {warnings: some}\n", "'options.warnings'", "got 'some'"},

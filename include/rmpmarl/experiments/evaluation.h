@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,14 @@ struct Method {
   /// kFixedOption: the raw continuous parameters u of every joint (rl::RmpActionLayout order: target accel, target
   /// metric, collision accel, collision metric); 0 = unit scales
   std::array<float, rl::RmpActionLayout::kNumContinuous> fixed_parameters{};
+  /// kFixedOption, a hand rule on the look-ahead block of the local observation (needs observation.lookahead > 0):
+  /// joint i acts with `parameters` while a moving obstacle is predicted to pass within `clearance` [m] of a capsule
+  /// joint i moves, and with fixed_parameters otherwise.
+  struct ThreatGate {
+    double clearance = 0.0;
+    std::array<float, rl::RmpActionLayout::kNumContinuous> parameters{};
+  };
+  std::optional<ThreatGate> threat_gate;
   /// kRmpflow: changes to the robot's RMPflow config (configs/rmpflow) for this method (e.g. tuned gains); empty: none
   std::function<void(rmp::RmpflowOptions&)> adjust_rmpflow;
   planning::RrtOptions rrt;                                 ///< kRrt

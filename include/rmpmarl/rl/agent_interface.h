@@ -114,10 +114,18 @@ struct LocalObs {
   static constexpr int kOptionPhaseB = 36;     ///< per-joint-rmp: composite in phase b, 1
   static constexpr int kOptionAge = 37;        ///< per-joint-rmp: min(age / options.horizon, 1), 1
   static constexpr int kRmpSize = 38;
+  /// observation.lookahead T > 0 appends a moving-obstacle look-ahead block after the mode's block (at kBaseSize or
+  /// kRmpSize). Of every moving obstacle's straight path over [0, T] against every capsule joint i moves (the arm
+  /// held still, the obstacle as its bounding sphere), the pass with the smallest clearance:
+  static constexpr int kLookaheadClearance = 0;  ///< predicted clearance / ℓ, clipped to [−1, 2] (2: none), 1
+  static constexpr int kLookaheadTime = 1;       ///< time of that closest approach / T, in [0, 1] (1: none), 1
+  static constexpr int kLookaheadSpeed = 2;      ///< that obstacle's speed / v_s (0: none), 1
+  static constexpr int kLookaheadSize = 3;
 };
 
-/// names of the local observation features of a per-joint mode (size LocalObs::kBaseSize or kRmpSize).
-std::vector<std::string> PerJointObservationNames(InterfaceMode mode);
+/// names of the local observation features of a per-joint mode (size LocalObs::kBaseSize or kRmpSize, plus
+/// kLookaheadSize with the look-ahead block).
+std::vector<std::string> PerJointObservationNames(InterfaceMode mode, bool lookahead = false);
 
 /// Layout of the global state (critic); offsets depend on nq and the obstacle slots M.
 struct GlobalStateLayout {

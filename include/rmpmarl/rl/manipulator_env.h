@@ -141,12 +141,14 @@ class ManipulatorEnv final : public Env {
 
  private:
   struct JointWarning;
+  struct Lookahead;
   void StartEpisode(std::mt19937_64& rng);
   bool ValidActions(const float* actions) const;
   void ApplyActions(const float* actions, float* option_started, float* parameters_read);
   bool AdvancePhysics();  // false when MuJoCo diverged
   void CountCollisions(const sim::ContactReport& report);
   void UpdateKinematics();
+  void UpdateLookahead();  // observation.lookahead > 0
   void WriteObservation(const StepOutput& out) const;
   void WriteLocal(int agent, float* o) const;
   void WriteGlobal(float* s) const;
@@ -184,6 +186,8 @@ class ManipulatorEnv final : public Env {
   Eigen::Vector3d e_before_ = Eigen::Vector3d::Zero();  // p_T − p_E at the start of the step
   std::vector<JointWarning> warnings_;      // nearest warning contact per joint (observations)
   std::vector<std::uint8_t> option_warning_; // W_i ≠ ∅ for the options (options.warnings)
+  std::vector<Lookahead> lookahead_;        // per joint: the closest predicted moving-obstacle pass (observations)
+  int lookahead_offset_ = 0;                // where the look-ahead block starts in o_i
   // options and reward state
   std::vector<OptionMachine> options_;
   std::vector<std::uint8_t> terminate_flags_;

@@ -118,6 +118,9 @@ struct ObservationConfig {
   double speed_scale = 1.0;       ///< v_s [m/s]: linear velocities are divided by it
   double warning_distance = 0.15; ///< [m] the sensing margin of the World (paper: 15 cm warning distance)
   int max_obstacles = 4;          ///< obstacle slots of the global state (≥ the scenario's obstacle count)
+  /// [s] horizon T of the moving-obstacle look-ahead block of every local observation (LocalObs::kLookahead…);
+  /// 0: off (the block is absent and the local observation keeps its paper size)
+  double lookahead = 0.0;
 };
 
 /// Reward of eq (14): r = Σ δ_i R_i + γ_d R_d + R_t − φ (every term logged separately).
