@@ -391,6 +391,37 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 20}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 20}"},
+      // ... with the dense precision term at w 50 (without the block, w 50 reached 19.5 mm but lost fast lines)
+      {"marl-rmp-v2c-stiffness-look-w50",
+       "MAPPO over the coupled v2 layer with look-ahead (target stiffness learned, phi 5000, w = 50)",
+       "marl-rmp-v2c-stiffness-look-w50", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 50}",
+       300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 50}"},
+      {"marl-rmp-v2c-stiff-base-look-w50",
+       "MAPPO over the stiff coupled v2 layer with look-ahead (k_p 120 x learned scale, phi 5000, w = 50)",
+       "marl-rmp-v2c-stiff-base-look-w50", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffBaseLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 50}",
+       300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 50}"},
+      // ... the two best look-ahead recipes with a 3.3x learning rate and 600 updates (mappo-params-lr-reach-avoid):
+      // at lr 3e-4 their training return stayed flat over 300 updates, with KL ~5e-4 per update
+      {"marl-rmp-v2c-stiff-base-look-w50-lr",
+       "MAPPO over the stiff coupled v2 layer with look-ahead (phi 5000, w = 50, lr 1e-3, 600 updates)",
+       "marl-rmp-v2c-stiff-base-look-w50-lr", "mappo-params-lr-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffBaseLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 50}",
+       0, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 50}"},
+      {"marl-rmp-v2c-stiffness-look-lr",
+       "MAPPO over the coupled v2 layer with look-ahead (stiffness learned, phi 5000, w = 20, lr 1e-3, 600 updates)",
+       "marl-rmp-v2c-stiffness-look-lr", "mappo-params-lr-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {collision_penalty: 5000, tracking_weight: 20}",
+       0, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 20}"},
   };
   return recipes;
 }
@@ -583,7 +614,11 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       // session 7: the look-ahead block
       basic_ttc_v2c_gate, basic_ttc_v2c_gate_wide, basic_ttc_v2c_gate_narrow,
       learned("marl-rmp-v2c-stiff-base-look", "marl-rmp-v2c-stiff-base-look"),
-      learned("marl-rmp-v2c-stiffness-look", "marl-rmp-v2c-stiffness-look")};
+      learned("marl-rmp-v2c-stiffness-look", "marl-rmp-v2c-stiffness-look"),
+      learned("marl-rmp-v2c-stiffness-look-w50", "marl-rmp-v2c-stiffness-look-w50"),
+      learned("marl-rmp-v2c-stiff-base-look-w50", "marl-rmp-v2c-stiff-base-look-w50"),
+      learned("marl-rmp-v2c-stiff-base-look-w50-lr", "marl-rmp-v2c-stiff-base-look-w50-lr"),
+      learned("marl-rmp-v2c-stiffness-look-lr", "marl-rmp-v2c-stiffness-look-lr")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};
