@@ -16,8 +16,9 @@
 namespace rmpmarl::rl {
 namespace {
 
-TaskConfig BenchConfig(InterfaceMode mode, ScenarioUpdate update, int physics_steps) {
+TaskConfig BenchConfig(InterfaceMode mode, ScenarioUpdate update, int physics_steps, double lookahead = 0.0) {
   TaskConfig c = LoadShippedTaskConfig("reach-avoid");
+  c.observation.lookahead = lookahead;
   c.robot = "panda";
   c.interface = mode;
   c.scenario.crossing.num_obstacles = 4;
@@ -33,7 +34,8 @@ void BM_EnvStep(benchmark::State& state) {
   const auto mode = static_cast<InterfaceMode>(state.range(0));
   const auto update = static_cast<ScenarioUpdate>(state.range(1));
   const int physics_steps = static_cast<int>(state.range(2));
-  auto context = MakeTaskContext(BenchConfig(mode, update, physics_steps));
+  const double lookahead = static_cast<double>(state.range(3));  // [s]: the look-ahead block (0: off)
+  auto context = MakeTaskContext(BenchConfig(mode, update, physics_steps, lookahead));
   ManipulatorEnv env(context);
   const EnvSpec& spec = env.spec();
   StepBuffers buffers(spec);
@@ -63,12 +65,13 @@ void BM_EnvStep(benchmark::State& state) {
   state.counters["contacts"] = benchmark::Counter(static_cast<double>(warnings) / state.iterations());
 }
 BENCHMARK(BM_EnvStep)
-    ->ArgNames({"mode", "update", "physics"})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 5})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 1})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 5})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 1})
+    ->ArgNames({"mode", "update", "physics", "lookahead"})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5, 0})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5, 1})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 5, 0})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 1, 0})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 5, 0})
+    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 1, 0})
     ->Unit(benchmark::kMicrosecond);
 
 // the batched engine: 32 envs (per-joint RMP agents, 1 physics step per env step) on 1 or 2 worker threads;
