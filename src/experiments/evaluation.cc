@@ -157,6 +157,10 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
     return actions;
   };
   std::vector<float> fixed, threat;
+  if (method.threat_gate && method.kind != MethodKind::kFixedOption) {
+    throw InputError(fmt::format("{}: a threat gate switches fixed-option parameters: expected a fixed-option method",
+                                 method.name));
+  }
   if (method.kind == MethodKind::kFixedOption) {
     fixed = constant_actions(method.fixed_parameters);
     if (method.threat_gate) {

@@ -174,6 +174,9 @@ TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
   Method blind = gate(0.15);
   blind.adjust_task = nullptr;
   EXPECT_THROW(EvaluateMethod(blind, task, protocol), InputError);
+  Method gated_rmpflow = Method::Rmpflow();
+  gated_rmpflow.threat_gate = Method::ThreatGate{0.15, threat};
+  EXPECT_THROW(EvaluateMethod(gated_rmpflow, task, protocol), InputError);
 }
 
 TEST(StatisticsTest, WilsonMatchesHandComputedIntervals) {

@@ -41,7 +41,8 @@ struct Method {
   std::array<float, rl::RmpActionLayout::kNumContinuous> fixed_parameters{};
   /// kFixedOption, a hand rule on the look-ahead block of the local observation (needs observation.lookahead > 0):
   /// joint i acts with `parameters` while a moving obstacle is predicted to pass within `clearance` [m] of a capsule
-  /// joint i moves, and with fixed_parameters otherwise.
+  /// joint i moves, and with fixed_parameters otherwise. The rule compares the clipped feature (clearance / ℓ in
+  /// [−1, 2]), so a clearance ≥ 2ℓ always fires; an obstacle moving away counts with its current clearance.
   struct ThreatGate {
     double clearance = 0.0;
     std::array<float, rl::RmpActionLayout::kNumContinuous> parameters{};
