@@ -202,7 +202,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
     if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
     if (method.threat_gate) {
       return std::make_unique<ThreatGateActor>(
-          fixed, threat, spec.local_obs_dim, rl::LocalObs::kRmpSize + rl::LocalObs::kLookaheadClearance,
+          fixed, threat, spec.local_obs_dim, rl::LookaheadOffset(config.interface) + rl::LocalObs::kLookaheadClearance,
           static_cast<float>(method.threat_gate->clearance / config.observation.length_scale));
     }
     return std::make_unique<ConstantActor>(fixed);

@@ -295,7 +295,6 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   J_WE_before_.setZero(3, nq_);
   warnings_.resize(nq_);
   lookahead_.resize(nq_);
-  lookahead_offset_ = config_.interface == InterfaceMode::kPerJointRmp ? LocalObs::kRmpSize : LocalObs::kBaseSize;
   option_warning_.assign(nq_, 0);
   options_.assign(nq_, OptionMachine(config_.options.termination, config_.options.horizon));
   terminate_flags_.assign(nq_, 0);
@@ -672,7 +671,7 @@ void ManipulatorEnv::WriteLocal(int i, float* o) const {
   }
   if (config_.observation.lookahead > 0.0) {
     const Lookahead& la = lookahead_[i];
-    float* b = o + lookahead_offset_;
+    float* b = o + LookaheadOffset(config_.interface);
     const bool none = !std::isfinite(la.clearance);
     b[LocalObs::kLookaheadClearance] = none ? 2.0f : static_cast<float>(std::clamp(la.clearance / l, -1.0, 2.0));
     b[LocalObs::kLookaheadTime] = none ? 1.0f : static_cast<float>(la.time / config_.observation.lookahead);

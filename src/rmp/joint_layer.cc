@@ -19,6 +19,18 @@ Eigen::Vector3d ScaledTargetAccel(const BasicRmpParams& params, const Eigen::Vec
   return a + (accel_scale - 1.0) * attraction;
 }
 
+namespace {
+
+/// eq (5)'s attraction where ScaledTargetAccel reads it (rmp.target_scale stiffness); zero in the acceleration mode,
+/// which ignores it, so the paper's default pays nothing for it in a control step.
+Eigen::Vector3d AttractionForScale(const BasicRmpParams& params, const Eigen::Vector3d& p_WE,
+                                   const Eigen::Vector3d& p_WT) {
+  return params.target_scale == TargetScale::kStiffness ? TargetAttraction(params.target, p_WE, p_WT)
+                                                        : Eigen::Vector3d::Zero();
+}
+
+}  // namespace
+
 Rmp1 EvalScaledCollisionRmp(const CollisionRmpParams& params, double x, double xd, double length_scale) {
   RMPMARL_DASSERT(length_scale > 0.0, "EvalScaledCollisionRmp: length_scale must be > 0");
   if (length_scale == 1.0) return EvalCollisionRmp(params, x, xd);
@@ -47,7 +59,7 @@ JointLayerResult EvaluateJointLayer(const kinematics::Robot& robot, const kinema
     const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Matrix3d M = weights.target_metric_scale * rmp.M;
-    const Eigen::Vector3d attraction = TargetAttraction(params.target, p_WE, scene.p_WT);
+    const Eigen::Vector3d attraction = AttractionForScale(params, p_WE, scene.p_WT);
     const Eigen::Vector3d f = M * ScaledTargetAccel(params, rmp.a, attraction, weights.target_accel_scale);
     const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
     const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
@@ -170,7 +182,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
     const Eigen::Vector3d v_rel = CalcPointVelocityAtWorldPoint(kin, link, p_WE) - scene.v_WT;
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Vector3d jdqd = CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
-    const Eigen::Vector3d attraction = TargetAttraction(params.target, p_WE, scene.p_WT);
+    const Eigen::Vector3d attraction = AttractionForScale(params, p_WE, scene.p_WT);
     for (int dof : model.link_dofs(link)) {
       const JointLayerWeights& w = weights[dof];
       if (!w.use_target) continue;
@@ -238,7 +250,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     const Rmp3 rmp = EvalTargetRmp(params.target, p_WE, v_rel, scene.p_WT);
     const Eigen::Vector3d Mjdqd = rmp.M * CalcPointJdotQdotAtWorldPoint(kin, link, p_WE);
     const Eigen::Vector3d Ma = rmp.M * rmp.a;
-    const Eigen::Vector3d M_attraction = rmp.M * TargetAttraction(params.target, p_WE, scene.p_WT);
+    const Eigen::Vector3d M_attraction = rmp.M * AttractionForScale(params, p_WE, scene.p_WT);
     ws.G.setZero();
     bool any = false;
     for (int dof : model.link_dofs(link)) {

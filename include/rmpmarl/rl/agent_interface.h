@@ -127,6 +127,11 @@ struct LocalObs {
 /// kLookaheadSize with the look-ahead block).
 std::vector<std::string> PerJointObservationNames(InterfaceMode mode, bool lookahead = false);
 
+/// where the look-ahead block starts in a per-joint mode's local observation (LocalObs::kLookahead… count from here).
+constexpr int LookaheadOffset(InterfaceMode mode) {
+  return mode == InterfaceMode::kPerJointRmp ? LocalObs::kRmpSize : LocalObs::kBaseSize;
+}
+
 /// Layout of the global state (critic); offsets depend on nq and the obstacle slots M.
 struct GlobalStateLayout {
   GlobalStateLayout(InterfaceMode mode, int nq, int max_obstacles);

@@ -187,7 +187,6 @@ class ManipulatorEnv final : public Env {
   std::vector<JointWarning> warnings_;      // nearest warning contact per joint (observations)
   std::vector<std::uint8_t> option_warning_; // W_i ≠ ∅ for the options (options.warnings)
   std::vector<Lookahead> lookahead_;        // per joint: the closest predicted moving-obstacle pass (observations)
-  int lookahead_offset_ = 0;                // where the look-ahead block starts in o_i
   // options and reward state
   std::vector<OptionMachine> options_;
   std::vector<std::uint8_t> terminate_flags_;
