@@ -45,6 +45,8 @@ void RegisterExportPolicy(CLI::App& app);
 void RegisterUpgradeCheckpoint(CLI::App& app);
 /// `rmpmarl experiment NAME ...`: the paper's tables and figures (docs/experiments.md); argv goes into the report.
 void RegisterExperiment(CLI::App& app, int argc, char** argv);
+/// `rmpmarl probe-lookahead POLICY --recipe KEY`: a learned agent's response to the look-ahead block (probe.h).
+void RegisterProbeLookahead(CLI::App& app);
 #endif
 
 }  // namespace rmpmarl::apps

@@ -1,16 +1,20 @@
 // `rmpmarl experiment NAME [--quick] [--seeds N] [--episodes N] [--eval-seed S] [--methods a,b] [--jobs N]
-// [--out DIR]`: the paper's tables and figures, one command each (docs/experiments.md).
+// [--out DIR]`: the paper's tables and figures, one command each (docs/experiments.md);
+// `rmpmarl probe-lookahead POLICY --recipe KEY`: what a learned agent does with the look-ahead block.
 #include "commands.h"
 
 #ifdef RMPMARL_HAS_TORCH
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "rmpmarl/experiments/experiments.h"
+#include "rmpmarl/experiments/probe.h"
+#include "rmpmarl/rl/task_config.h"
 
 namespace rmpmarl::apps {
 
@@ -53,6 +57,50 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
       start = comma + 1;
     }
     experiments::RunExperiment(*options);
+  });
+}
+
+void RegisterProbeLookahead(CLI::App& app) {
+  struct Args {
+    std::string policy, recipe, task = "line-crossing";
+    double speed = 2.8;
+    experiments::ProbeOptions probe;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("probe-lookahead",
+                                 "What a learned agent does with the look-ahead block: its target-stiffness action "
+                                 "with the block as observed, as 'no pass predicted' and as 'a pass now'");
+  cmd->add_option("policy", args->policy, "exported policy (.rmpp) of a recipe trained with observation.lookahead")
+      ->required();
+  cmd->add_option("--recipe", args->recipe, "the experiment recipe it was trained with (its basic layer), e.g. "
+                                            "marl-rmp-v2c-stiffness-look")->required();
+  cmd->add_option("--task", args->task, "task (configs/tasks)")->capture_default_str();
+  cmd->add_option("--speed", args->speed, "line-crossing: the line's speed [m/s], also the substituted pass's")
+      ->check(CLI::Range(0.0, 20.0))->capture_default_str();
+  cmd->add_option("--episodes", args->probe.episodes, "episodes")->check(CLI::Range(1, 100000))->capture_default_str();
+  cmd->add_option("--eval-seed", args->probe.eval_seed, "evaluation seed of the episodes")->capture_default_str();
+  cmd->add_option("--clearance", args->probe.threat_clearance, "substituted pass: predicted clearance [m]")
+      ->capture_default_str();
+  cmd->add_option("--time", args->probe.threat_time, "substituted pass: time of closest approach [s]")
+      ->capture_default_str();
+  cmd->callback([args] {
+    rl::TaskConfig task =
+        rl::LoadTaskConfig(rl::TaskConfigPath(args->task), experiments::RecipeLayerOverrides(args->recipe));
+    if (task.task == rl::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
+    args->probe.threat_speed = args->speed;
+    const experiments::LookaheadProbe p = experiments::ProbeLookahead(args->policy, task, args->probe);
+    const double g = task.options.target_gain_range > 0.0 ? task.options.target_gain_range : task.options.gain_range;
+    fmt::print("probe-lookahead {} ({}, {} episodes at {} m/s, {} with a collision)\n", args->policy, args->task,
+               p.episodes, args->speed, p.failures);
+    fmt::print("  target stiffness action u (scale = {}^u); block as observed: {:.3f} with a pass predicted within "
+               "{:.0f} cm ({} agent-steps), {:.3f} otherwise ({})\n", g, p.u_observed_threatened,
+               100.0 * args->probe.threat_threshold, p.threatened_steps, p.u_observed_clear, p.clear_steps);
+    fmt::print("  block substituted, other features as observed:\n");
+    fmt::print("  {:>6} {:>10} {:>10} {:>12}\n", "joint", "u none", "u pass", "k_p ratio");
+    for (size_t a = 0; a < p.u_none.size(); ++a) {
+      fmt::print("  {:>6} {:>10.3f} {:>10.3f} {:>12.2f}\n", a + 1, p.u_none[a], p.u_threat[a],
+                 std::pow(g, p.u_none[a] - p.u_threat[a]));
+    }
   });
 }
 

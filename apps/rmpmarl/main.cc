@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterExportPolicy(app);
   rmpmarl::apps::RegisterUpgradeCheckpoint(app);
   rmpmarl::apps::RegisterExperiment(app, argc, argv);
+  rmpmarl::apps::RegisterProbeLookahead(app);
 #endif
   try {
     app.parse(argc, argv);

@@ -1,0 +1,107 @@
+#include "rmpmarl/experiments/probe.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <random>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/evaluation.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_runtime.h"
+
+namespace rmpmarl::experiments {
+
+LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConfig& task, const ProbeOptions& o) {
+  if (!(task.observation.lookahead > 0.0)) {
+    throw InputError(fmt::format("look-ahead probe: expected a task with observation.lookahead > 0 s, got {}",
+                                 task.observation.lookahead));
+  }
+  if (task.interface != rl::InterfaceMode::kPerJointRmp && task.interface != rl::InterfaceMode::kPerJointDirect) {
+    throw InputError(fmt::format("look-ahead probe: expected a per-joint interface, got {}",
+                                 rl::InterfaceModeName(task.interface)));
+  }
+  if (o.episodes < 1) throw InputError(fmt::format("look-ahead probe: episodes: expected >= 1, got {}", o.episodes));
+  if (!(o.threat_time >= 0.0 && o.threat_time <= task.observation.lookahead)) {
+    throw InputError(fmt::format("look-ahead probe: threat time: expected [0, {}] s (observation.lookahead), got {}",
+                                 task.observation.lookahead, o.threat_time));
+  }
+  const auto context = rl::MakeTaskContext(task);
+  const rl::EnvSpec& spec = context->spec();
+  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path);
+  if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != spec.action.size()) {
+    throw InputError(fmt::format("look-ahead probe: policy {} takes obs {} and gives {} action floats; the task has "
+                                 "obs {} and actions of {}", policy_path, weights.obs_dim, weights.action_size(),
+                                 spec.local_obs_dim, spec.action.size()));
+  }
+  const int first = weights.num_options > 0 ? 1 : 0;  // the option index comes first in an RMP action
+  const int k = o.parameter - first;                   // index among the Gaussian means
+  if (k < 0 || k >= weights.num_continuous) {
+    throw InputError(fmt::format("look-ahead probe: parameter: expected a continuous action index in [{}, {}], got {}",
+                                 first, first + weights.num_continuous - 1, o.parameter));
+  }
+  const int A = spec.num_agents, D = spec.local_obs_dim, H = weights.head_size();
+  const int mean_at = weights.num_options + k;
+  const int c = rl::LookaheadOffset(task.interface);
+  const float ell = static_cast<float>(task.observation.length_scale);
+  // the block's encoding (docs/environments.md): clearance / ℓ clipped to [−1, 2], time / T, speed / v_s
+  const float none[3] = {2.0f, 1.0f, 0.0f};
+  const float threat[3] = {std::clamp(static_cast<float>(o.threat_clearance) / ell, -1.0f, 2.0f),
+                           static_cast<float>(o.threat_time / task.observation.lookahead),
+                           static_cast<float>(o.threat_speed / task.observation.speed_scale)};
+  const float threshold = static_cast<float>(o.threat_threshold) / ell;
+
+  rl::PolicyRuntime runtime(weights, A);
+  rl::ManipulatorEnv env(context);
+  rl::StepBuffers step(spec);
+  std::vector<float> actions(static_cast<size_t>(A) * spec.action.size());
+  std::vector<float> head(static_cast<size_t>(A) * H), edited(static_cast<size_t>(A) * D);
+  LookaheadProbe p;
+  p.u_none.assign(A, 0.0);
+  p.u_threat.assign(A, 0.0);
+  double sum_threatened = 0.0, sum_clear = 0.0;
+  long steps = 0;
+  auto head_with = [&](const float block[3]) {
+    const float* obs = step.local_obs.data();
+    std::copy(obs, obs + static_cast<size_t>(A) * D, edited.begin());
+    for (int a = 0; a < A; ++a) std::copy_n(block, 3, edited.begin() + static_cast<size_t>(a) * D + c);
+    runtime.EvaluateHead(edited.data(), A, head.data());
+  };
+  for (int e = 0; e < o.episodes; ++e) {
+    std::mt19937_64 rng(EpisodeSeed(o.eval_seed, e));
+    env.Reset(rng, step.out());
+    while (true) {
+      const float* obs = step.local_obs.data();
+      runtime.EvaluateHead(obs, A, head.data());
+      for (int a = 0; a < A; ++a) {
+        const double u = head[static_cast<size_t>(a) * H + mean_at];
+        if (obs[static_cast<size_t>(a) * D + c + rl::LocalObs::kLookaheadClearance] < threshold) {
+          sum_threatened += u;
+          ++p.threatened_steps;
+        } else {
+          sum_clear += u;
+          ++p.clear_steps;
+        }
+      }
+      head_with(none);
+      for (int a = 0; a < A; ++a) p.u_none[a] += head[static_cast<size_t>(a) * H + mean_at];
+      head_with(threat);
+      for (int a = 0; a < A; ++a) p.u_threat[a] += head[static_cast<size_t>(a) * H + mean_at];
+      ++steps;
+      runtime.Act(obs, A, actions.data());
+      env.Step(actions.data(), rng, step.out());
+      if (step.terminated || step.truncated) break;
+    }
+    ++p.episodes;
+    p.failures += step.metrics.success ? 0 : 1;
+  }
+  for (int a = 0; a < A; ++a) {
+    p.u_none[a] /= static_cast<double>(steps);
+    p.u_threat[a] /= static_cast<double>(steps);
+  }
+  p.u_observed_threatened = p.threatened_steps > 0 ? sum_threatened / p.threatened_steps : 0.0;
+  p.u_observed_clear = p.clear_steps > 0 ? sum_clear / p.clear_steps : 0.0;
+  return p;
+}
+
+}  // namespace rmpmarl::experiments
