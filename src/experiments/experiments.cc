@@ -485,6 +485,23 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {collision_penalty: 5000, tracking_weight: 20}",
        300, "cluttered", "reward: {collision_penalty: 5000, tracking_weight: 20}"},
+      // ... with eq (14)'s terms off and the bounded precision kernel exp(−d / 2 cm) per step instead of the linear
+      // term (reward.precision_weight 1), phi 1000: R_d's ±1 per mm per step and the other eq-14 terms add noise the
+      // size of the precision signal, and −w·d keeps paying while the arm dodges far from the target
+      {"marl-rmp-v2c-stiffness-look-kernel",
+       "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
+       "marl-rmp-v2c-stiffness-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
+       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}"},
+      {"marl-rmp-v2c-stiff-base-look-kernel",
+       "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
+       "marl-rmp-v2c-stiff-base-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffBaseLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
+       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}"},
   };
   return recipes;
 }
@@ -687,7 +704,9 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiffness-look-lc", "marl-rmp-v2c-stiffness-look-lc"),
       learned("marl-rmp-v2c-stiff-base-look-p5", "marl-rmp-v2c-stiff-base-look-p5"),
       learned("marl-rmp-v2c-stiffness-look-g16", "marl-rmp-v2c-stiffness-look-g16"),
-      learned("marl-rmp-v2c-stiffness-look-g16-p5", "marl-rmp-v2c-stiffness-look-g16-p5")};
+      learned("marl-rmp-v2c-stiffness-look-g16-p5", "marl-rmp-v2c-stiffness-look-g16-p5"),
+      learned("marl-rmp-v2c-stiffness-look-kernel", "marl-rmp-v2c-stiffness-look-kernel"),
+      learned("marl-rmp-v2c-stiff-base-look-kernel", "marl-rmp-v2c-stiff-base-look-kernel")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};

@@ -835,8 +835,10 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   JointReachRewards(e_before_, J_WE_before_, info_.dq_command, rc.joint_reach_tolerance, info_.joint_reach);
   RewardTerms& r = info_.reward;
   r.joint_reach = joint_weights_.dot(info_.joint_reach);
-  // R_d (eq 14) and the optional dense precision term − tracking_weight · d (RewardConfig::tracking_weight)
+  // R_d (eq 14) and the optional dense precision terms − tracking_weight · d and + precision_weight · exp(−d/δ)
+  // (RewardConfig::tracking_weight, precision_weight)
   r.distance = rc.distance_weight * DistanceReward(info_.distance_before, d, rc.distance_unit) - rc.tracking_weight * d;
+  if (rc.precision_weight > 0.0) r.distance += rc.precision_weight * std::exp(-d / rc.precision_length);
   r.time = cycles_.Update(d);
   r.collision = -rc.collision_penalty * step_collisions_;
   info_.collision_events = step_collisions_;

@@ -452,7 +452,8 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Num(r, "distance_weight", &w.distance_weight), Num(r, "distance_unit", &w.distance_unit),
                  Num(r, "time_reward", &w.time_reward), Num(r, "reach_tolerance", &w.reach_tolerance),
                  Num(r, "reach_release", &w.reach_release), Num(r, "collision_penalty", &w.collision_penalty),
-                 Num(r, "tracking_weight", &w.tracking_weight)});
+                 Num(r, "tracking_weight", &w.tracking_weight), Num(r, "precision_weight", &w.precision_weight),
+                 Num(r, "precision_length", &w.precision_length)});
   }
   if (const YAML::Node n = root["randomization"]) {
     RandomizationConfig& d = c.randomization;
@@ -597,6 +598,10 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a penalty >= 0", w.collision_penalty);
   check(std::isfinite(w.tracking_weight) && w.tracking_weight >= 0.0, "reward.tracking_weight",
         "a weight >= 0 [reward per metre per step]", w.tracking_weight);
+  check(std::isfinite(w.precision_weight) && w.precision_weight >= 0.0, "reward.precision_weight",
+        "a weight >= 0 [reward per step]", w.precision_weight);
+  check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
+        w.precision_length);
 
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

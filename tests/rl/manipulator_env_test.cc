@@ -281,6 +281,43 @@ TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
   EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError);
 }
 
+// the bounded precision term (reward.precision_weight w, precision_length δ): the distance term is R_d + w·exp(−d/δ),
+// d after the step; the same episode without it differs by exactly that (identical seeds and actions).
+TEST(ManipulatorEnvTest, PrecisionWeightAddsABoundedKernelOfTheDistance) {
+  TaskConfig plain = SmallConfig(TaskKind::kReachAvoid, "panda", 2);
+  TaskConfig kernel = plain;
+  kernel.reward.precision_weight = 2.0;
+  kernel.reward.precision_length = 0.05;
+  auto plain_context = MakeTaskContext(plain);
+  auto kernel_context = MakeTaskContext(kernel);
+  ManipulatorEnv a(plain_context), b_env(kernel_context);
+  Buffers ba(a.spec()), bb(b_env.spec());
+  std::mt19937_64 rng_a(9), rng_b(9), arng(10);
+  a.Reset(rng_a, ba.out());
+  b_env.Reset(rng_b, bb.out());
+  std::vector<float> actions(a.spec().num_agents * a.spec().action.size());
+  double smallest = 1e9, largest = 0.0;
+  for (int step = 0; step < 100; ++step) {
+    RandomActions(a.spec(), arng, actions.data());
+    a.Step(actions.data(), rng_a, ba.out());
+    b_env.Step(actions.data(), rng_b, bb.out());
+    const double d = b_env.last_step().distance_after;
+    ASSERT_NEAR(d, a.last_step().distance_after, 1e-12) << step;
+    const double k = 2.0 * std::exp(-d / 0.05);  // hand-derived: 2 at d = 0, 2/e at 5 cm
+    EXPECT_NEAR(bb.reward_terms[1] - ba.reward_terms[1], k, 1e-3) << step;
+    EXPECT_NEAR(bb.reward - ba.reward, k, 1e-3) << step;
+    smallest = std::min(smallest, k);
+    largest = std::max(largest, k);
+  }
+  EXPECT_GT(largest, smallest);  // the distance changed, and the term with it
+  for (auto [weight, length] : {std::pair{-1.0, 0.02}, std::pair{1.0, 0.0}, std::pair{1.0, -0.1}}) {
+    TaskConfig bad = plain;
+    bad.reward.precision_weight = weight;
+    bad.reward.precision_length = length;
+    EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError) << weight << " " << length;
+  }
+}
+
 // options.parameter_period: a joint reads its RMP parameters at the first step, at option starts, when W_i fills or
 // empties, and every N steps, and holds them in between. Reference: an env reading every step, fed the held values
 // (the action of each joint's last read) — the two trajectories are identical, step by step.

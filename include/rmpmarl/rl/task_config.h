@@ -136,6 +136,11 @@ struct RewardConfig {
   /// a dense precision term beside eq (14)'s (issue 9): − this × d per step, d the end-effector–target distance [m];
   /// logged with R_d in the `distance` term. ≥ 0 (0: eq 14 alone)
   double tracking_weight = 0.0;
+  /// a bounded dense precision term (session 8): + precision_weight × exp(−d / precision_length) per step, in
+  /// [0, precision_weight]; it saturates away from the target, so an arm dodging far from it loses nothing more
+  /// while one close to it is paid for every millimetre. Logged in the `distance` term. ≥ 0 (0: off)
+  double precision_weight = 0.0;
+  double precision_length = 0.02;  ///< δ [m] of the kernel, > 0
 };
 
 /// Planar two-link arm parameters (robot: planar2).
