@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <set>
 
 #include "rl_test_util.h"
@@ -252,15 +253,13 @@ TEST(ManipulatorEnvTest, RewardTermsFollowTheirDefinitions) {
   EXPECT_GT(reached_terms, 10);  // random motion does earn joint rewards sometimes
 }
 
-// the dense precision term (reward.tracking_weight w): the distance term is R_d − w·d, d after the step; the same
-// episode with w = 0 differs by exactly that, step by step (identical seeds, identical actions).
-TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
-  TaskConfig plain = SmallConfig(TaskKind::kReachAvoid, "panda", 2);
-  TaskConfig dense = plain;
-  dense.reward.tracking_weight = 10.0;
+/// runs `plain` and `changed` (a reward change only) for 100 steps from identical seeds with identical random
+/// actions and calls check(step, d, distance-term difference, reward difference) after each, d the distance after it.
+void CompareRewards(const TaskConfig& plain, const TaskConfig& changed,
+                    const std::function<void(int, double, double, double)>& check) {
   auto plain_context = MakeTaskContext(plain);
-  auto dense_context = MakeTaskContext(dense);
-  ManipulatorEnv a(plain_context), b_env(dense_context);
+  auto changed_context = MakeTaskContext(changed);
+  ManipulatorEnv a(plain_context), b_env(changed_context);
   Buffers ba(a.spec()), bb(b_env.spec());
   std::mt19937_64 rng_a(9), rng_b(9), arng(10);
   a.Reset(rng_a, ba.out());
@@ -272,10 +271,21 @@ TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
     b_env.Step(actions.data(), rng_b, bb.out());
     const double d = b_env.last_step().distance_after;
     ASSERT_NEAR(d, a.last_step().distance_after, 1e-12) << step;
-    EXPECT_NEAR(bb.reward_terms[1], ba.reward_terms[1] - 10.0 * d, 1e-3) << step;
-    EXPECT_NEAR(bb.reward, ba.reward - 10.0 * d, 1e-3) << step;
-    EXPECT_GT(d, 0.0);
+    check(step, d, bb.reward_terms[1] - ba.reward_terms[1], bb.reward - ba.reward);
   }
+}
+
+// the dense precision term (reward.tracking_weight w): the distance term is R_d − w·d, d after the step; the same
+// episode with w = 0 differs by exactly that, step by step (identical seeds, identical actions).
+TEST(ManipulatorEnvTest, TrackingWeightSubtractsTheDistanceEveryStep) {
+  TaskConfig plain = SmallConfig(TaskKind::kReachAvoid, "panda", 2);
+  TaskConfig dense = plain;
+  dense.reward.tracking_weight = 10.0;
+  CompareRewards(plain, dense, [](int step, double d, double term, double reward) {
+    EXPECT_NEAR(term, -10.0 * d, 1e-3) << step;
+    EXPECT_NEAR(reward, -10.0 * d, 1e-3) << step;
+    EXPECT_GT(d, 0.0);
+  });
   TaskConfig bad = plain;
   bad.reward.tracking_weight = -1.0;
   EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError);
@@ -288,27 +298,14 @@ TEST(ManipulatorEnvTest, PrecisionWeightAddsABoundedKernelOfTheDistance) {
   TaskConfig kernel = plain;
   kernel.reward.precision_weight = 2.0;
   kernel.reward.precision_length = 0.05;
-  auto plain_context = MakeTaskContext(plain);
-  auto kernel_context = MakeTaskContext(kernel);
-  ManipulatorEnv a(plain_context), b_env(kernel_context);
-  Buffers ba(a.spec()), bb(b_env.spec());
-  std::mt19937_64 rng_a(9), rng_b(9), arng(10);
-  a.Reset(rng_a, ba.out());
-  b_env.Reset(rng_b, bb.out());
-  std::vector<float> actions(a.spec().num_agents * a.spec().action.size());
   double smallest = 1e9, largest = 0.0;
-  for (int step = 0; step < 100; ++step) {
-    RandomActions(a.spec(), arng, actions.data());
-    a.Step(actions.data(), rng_a, ba.out());
-    b_env.Step(actions.data(), rng_b, bb.out());
-    const double d = b_env.last_step().distance_after;
-    ASSERT_NEAR(d, a.last_step().distance_after, 1e-12) << step;
+  CompareRewards(plain, kernel, [&](int step, double d, double term, double reward) {
     const double k = 2.0 * std::exp(-d / 0.05);  // hand-derived: 2 at d = 0, 2/e at 5 cm
-    EXPECT_NEAR(bb.reward_terms[1] - ba.reward_terms[1], k, 1e-3) << step;
-    EXPECT_NEAR(bb.reward - ba.reward, k, 1e-3) << step;
+    EXPECT_NEAR(term, k, 1e-3) << step;
+    EXPECT_NEAR(reward, k, 1e-3) << step;
     smallest = std::min(smallest, k);
     largest = std::max(largest, k);
-  }
+  });
   EXPECT_GT(largest, smallest);  // the distance changed, and the term with it
   for (auto [weight, length] : {std::pair{-1.0, 0.02}, std::pair{1.0, 0.0}, std::pair{1.0, -0.1}}) {
     TaskConfig bad = plain;
