@@ -7,6 +7,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -69,14 +70,15 @@ void RegisterProbeLookahead(CLI::App& app) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("probe-lookahead",
                                  "What a learned agent does with the look-ahead block: its target-stiffness action "
-                                 "with the block as observed, as 'no pass predicted' and as 'a pass now'");
+                                 "with the block as observed, as 'no pass predicted' and as 'a pass at --clearance "
+                                 "in --time'");
   cmd->add_option("policy", args->policy, "exported policy (.rmpp) of a recipe trained with observation.lookahead")
       ->required();
   cmd->add_option("--recipe", args->recipe, "the experiment recipe it was trained with (its basic layer), e.g. "
                                             "marl-rmp-v2c-stiffness-look")->required();
   cmd->add_option("--task", args->task, "task (configs/tasks)")->capture_default_str();
   cmd->add_option("--speed", args->speed, "line-crossing: the line's speed [m/s], also the substituted pass's")
-      ->check(CLI::Range(0.0, 20.0))->capture_default_str();
+      ->check(CLI::Range(0.01, 20.0))->capture_default_str();
   cmd->add_option("--episodes", args->probe.episodes, "episodes")->check(CLI::Range(1, 100000))->capture_default_str();
   cmd->add_option("--eval-seed", args->probe.eval_seed, "evaluation seed of the episodes")->capture_default_str();
   cmd->add_option("--clearance", args->probe.threat_clearance, "substituted pass: predicted clearance [m]")
@@ -98,8 +100,9 @@ void RegisterProbeLookahead(CLI::App& app) {
     fmt::print("  block substituted, other features as observed:\n");
     fmt::print("  {:>6} {:>10} {:>10} {:>12}\n", "joint", "u none", "u pass", "k_p ratio");
     for (size_t a = 0; a < p.u_none.size(); ++a) {
-      fmt::print("  {:>6} {:>10.3f} {:>10.3f} {:>12.2f}\n", a + 1, p.u_none[a], p.u_threat[a],
-                 std::pow(g, p.u_none[a] - p.u_threat[a]));
+      // the env clips u to [−1, 1] before the scale g^u
+      const double clipped = std::clamp(p.u_none[a], -1.0, 1.0) - std::clamp(p.u_threat[a], -1.0, 1.0);
+      fmt::print("  {:>6} {:>10.3f} {:>10.3f} {:>12.2f}\n", a + 1, p.u_none[a], p.u_threat[a], std::pow(g, clipped));
     }
   });
 }

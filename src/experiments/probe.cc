@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 #include "rmpmarl/common/error.h"
@@ -17,14 +18,25 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
     throw InputError(fmt::format("look-ahead probe: expected a task with observation.lookahead > 0 s, got {}",
                                  task.observation.lookahead));
   }
-  if (task.interface != rl::InterfaceMode::kPerJointRmp && task.interface != rl::InterfaceMode::kPerJointDirect) {
-    throw InputError(fmt::format("look-ahead probe: expected a per-joint interface, got {}",
+  if (task.interface != rl::InterfaceMode::kPerJointRmp) {
+    throw InputError(fmt::format("look-ahead probe: expected the per-joint-rmp interface (RMP parameters), got {}",
                                  rl::InterfaceModeName(task.interface)));
   }
   if (o.episodes < 1) throw InputError(fmt::format("look-ahead probe: episodes: expected >= 1, got {}", o.episodes));
   if (!(o.threat_time >= 0.0 && o.threat_time <= task.observation.lookahead)) {
-    throw InputError(fmt::format("look-ahead probe: threat time: expected [0, {}] s (observation.lookahead), got {}",
+    throw InputError(fmt::format("look-ahead probe: --time: expected [0, {}] s (observation.lookahead), got {}",
                                  task.observation.lookahead, o.threat_time));
+  }
+  if (!std::isfinite(o.threat_clearance)) {
+    throw InputError(fmt::format("look-ahead probe: --clearance: expected a finite distance [m], got {}",
+                                 o.threat_clearance));
+  }
+  if (!(std::isfinite(o.threat_speed) && o.threat_speed >= 0.0)) {
+    throw InputError(fmt::format("look-ahead probe: --speed: expected a speed >= 0 m/s, got {}", o.threat_speed));
+  }
+  if (!std::isfinite(o.threat_threshold)) {
+    throw InputError(fmt::format("look-ahead probe: threat threshold: expected a finite distance [m], got {}",
+                                 o.threat_threshold));
   }
   const auto context = rl::MakeTaskContext(task);
   const rl::EnvSpec& spec = context->spec();
@@ -34,11 +46,12 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
                                  "obs {} and actions of {}", policy_path, weights.obs_dim, weights.action_size(),
                                  spec.local_obs_dim, spec.action.size()));
   }
-  const int first = weights.num_options > 0 ? 1 : 0;  // the option index comes first in an RMP action
-  const int k = o.parameter - first;                   // index among the Gaussian means
+  // the action is [option | continuous… | termination] and the head [option logits… | Gaussian means… | termination]
+  const int k = o.parameter - rl::RmpActionLayout::kTargetAccelScale;  // index among the Gaussian means
   if (k < 0 || k >= weights.num_continuous) {
-    throw InputError(fmt::format("look-ahead probe: parameter: expected a continuous action index in [{}, {}], got {}",
-                                 first, first + weights.num_continuous - 1, o.parameter));
+    throw InputError(fmt::format("look-ahead probe: parameter: expected an RMP parameter index in [{}, {}], got {}",
+                                 rl::RmpActionLayout::kTargetAccelScale,
+                                 rl::RmpActionLayout::kTargetAccelScale + weights.num_continuous - 1, o.parameter));
   }
   const int A = spec.num_agents, D = spec.local_obs_dim, H = weights.head_size();
   const int mean_at = weights.num_options + k;

@@ -55,6 +55,9 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["reward.reach_tolerance"] = r.reach_tolerance;
   f["reward.reach_release"] = r.reach_release;
   f["reward.collision_penalty"] = r.collision_penalty;
+  f["reward.tracking_weight"] = r.tracking_weight;
+  f["reward.precision_weight"] = r.precision_weight;
+  f["reward.precision_length"] = r.precision_length;
   const RandomizationConfig& d = c.randomization;
   f["randomization.variants"] = d.variants;
   f["randomization.include_nominal"] = d.include_nominal;
