@@ -524,6 +524,15 @@ const std::vector<Recipe>& Recipes() {
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
        "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1, precision_length: 0.1}",
        300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1, precision_length: 0.1}"},
+      // ... the kernel recipe on quieter scenes: one cube at a time (0.2–2.8 m/s), no clutter, so the arm spends
+      // stretches near the target, where the kernel pays
+      {"marl-rmp-v2c-stiffness-look-kernel-quiet",
+       "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward, one cube at a time (phi 1000)",
+       "marl-rmp-v2c-stiffness-look-kernel-quiet", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 1, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
+       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
+       300},
   };
   return recipes;
 }
@@ -731,7 +740,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiff-base-look-kernel", "marl-rmp-v2c-stiff-base-look-kernel"),
       learned("marl-rmp-v2c-stiffness-look-kernel-lc", "marl-rmp-v2c-stiffness-look-kernel-lc"),
       learned("marl-rmp-v2c-stiffness-look-kernel-phi300", "marl-rmp-v2c-stiffness-look-kernel-phi300"),
-      learned("marl-rmp-v2c-stiffness-look-kernel10", "marl-rmp-v2c-stiffness-look-kernel10")};
+      learned("marl-rmp-v2c-stiffness-look-kernel10", "marl-rmp-v2c-stiffness-look-kernel10"),
+      learned("marl-rmp-v2c-stiffness-look-kernel-quiet", "marl-rmp-v2c-stiffness-look-kernel-quiet")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};
