@@ -91,7 +91,7 @@ void RegisterProbeLookahead(CLI::App& app) {
     if (task.task == rl::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
     args->probe.threat_speed = args->speed;
     const experiments::LookaheadProbe p = experiments::ProbeLookahead(args->policy, task, args->probe);
-    const double g = task.options.target_gain_range > 0.0 ? task.options.target_gain_range : task.options.gain_range;
+    const double g = task.options.TargetGainRange();
     fmt::print("probe-lookahead {} ({}, {} episodes at {} m/s, {} with a collision)\n", args->policy, args->task,
                p.episodes, args->speed, p.failures);
     fmt::print("  target stiffness action u (scale = {}^u); block as observed: {:.3f} with a pass predicted within "

@@ -241,6 +241,18 @@ void TuneRmpflowCollision(rmp::RmpflowOptions& o) {
   o.collision.damping_std_dev = kV2DampingLength;
 }
 
+/// session 8's kernel rewards: eq (14)'s terms off, the bounded precision term exp(−d / δ) per step
+/// (reward.precision_weight 1; δ 2 cm, or 10 cm) and φ per collision event
+constexpr const char* kKernelReward =
+    "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, "
+    "precision_weight: 1}";
+constexpr const char* kKernelRewardPhi300 =
+    "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 300, "
+    "precision_weight: 1}";
+constexpr const char* kKernel10Reward =
+    "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, "
+    "precision_weight: 1, precision_length: 0.1}";
+
 /// A learned method: a training recipe, seeds 1..N.
 struct Recipe {
   std::string key, label;
@@ -256,6 +268,9 @@ struct Recipe {
   /// overrides of its own; nullptr: none
   const char* mix_task = nullptr;
   const char* mix_overrides = nullptr;
+  /// the reward of training, on the training task and on the mix task alike (after their own overrides); nullptr:
+  /// the one those overrides give
+  const char* reward = nullptr;
 };
 
 const std::vector<Recipe>& Recipes() {
@@ -492,47 +507,42 @@ const std::vector<Recipe>& Recipes() {
        "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
        "marl-rmp-v2c-stiffness-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
-       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}"},
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernelReward},
       {"marl-rmp-v2c-stiff-base-look-kernel",
        "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
        "marl-rmp-v2c-stiff-base-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffBaseLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
-       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}"},
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernelReward},
       // ... the kernel reward on line-crossing scenes: in the reach-avoid mixture the arm is 180–270 mm from the target
       // on average while training, where exp(−d / 2 cm) pays nothing
       {"marl-rmp-v2c-stiffness-look-kernel-lc",
        "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward, trained on line-crossing (phi 1000)",
        "marl-rmp-v2c-stiffness-look-kernel-lc", "mappo-params-line-crossing", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffnessLookahead, "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}", 300},
+       &kLayerV2CoupledStiffnessLookahead, nullptr, 300, nullptr, nullptr, kKernelReward},
       // ... the kernel recipe at phi 300: at phi 1000 the agents bought safety with precision
       {"marl-rmp-v2c-stiffness-look-kernel-phi300",
        "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 300)",
        "marl-rmp-v2c-stiffness-look-kernel-phi300", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 300, precision_weight: 1}",
-       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 300, precision_weight: 1}"},
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernelRewardPhi300},
       // ... the kernel 5x wider (exp(−d / 10 cm)): at 2 cm it paid nothing where the training arm mostly is
       {"marl-rmp-v2c-stiffness-look-kernel10",
        "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward exp(-d / 10 cm) (eq 14 off, phi 1000)",
        "marl-rmp-v2c-stiffness-look-kernel10", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1, precision_length: 0.1}",
-       300, "cluttered", "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1, precision_length: 0.1}"},
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernel10Reward},
       // ... the kernel recipe on quieter scenes: one cube at a time (0.2–2.8 m/s), no clutter, so the arm spends
       // stretches near the target, where the kernel pays
       {"marl-rmp-v2c-stiffness-look-kernel-quiet",
        "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward, one cube at a time (phi 1000)",
        "marl-rmp-v2c-stiffness-look-kernel-quiet", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 1, obstacle_speed: 0.2, obstacle_speed_max: 2.8}, "
-       "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, precision_weight: 1}",
-       300},
+       "scenario: {num_obstacles: 1, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, nullptr, nullptr,
+       kKernelReward},
   };
   return recipes;
 }
@@ -609,6 +619,7 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
     if (r.experiment_slots) overrides.push_back(fmt::format("observation: {{max_obstacles: {}}}", kObstacleSlots));
     if (r.layer != nullptr) overrides.push_back(r.layer->yaml);
     if (r.train_overrides != nullptr) overrides.push_back(r.train_overrides);
+    if (r.reward != nullptr) overrides.push_back(r.reward);
     if (!overrides.empty()) run.task_overrides = MergeOverrides(overrides);
     if (r.mix_task != nullptr) {
       run.mix_task = r.mix_task;
@@ -616,6 +627,7 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
       if (r.experiment_slots) mix.push_back(fmt::format("observation: {{max_obstacles: {}}}", kObstacleSlots));
       if (r.layer != nullptr) mix.push_back(r.layer->yaml);
       if (r.mix_overrides != nullptr) mix.push_back(r.mix_overrides);
+      if (r.reward != nullptr) mix.push_back(r.reward);
       if (!mix.empty()) run.mix_overrides = MergeOverrides(mix);
     }
     runs.push_back(run);

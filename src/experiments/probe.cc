@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "rmpmarl/common/error.h"
@@ -56,13 +57,10 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
   const int A = spec.num_agents, D = spec.local_obs_dim, H = weights.head_size();
   const int mean_at = weights.num_options + k;
   const int c = rl::LookaheadOffset(task.interface);
-  const float ell = static_cast<float>(task.observation.length_scale);
-  // the block's encoding (docs/environments.md): clearance / ℓ clipped to [−1, 2], time / T, speed / v_s
-  const float none[3] = {2.0f, 1.0f, 0.0f};
-  const float threat[3] = {std::clamp(static_cast<float>(o.threat_clearance) / ell, -1.0f, 2.0f),
-                           static_cast<float>(o.threat_time / task.observation.lookahead),
-                           static_cast<float>(o.threat_speed / task.observation.speed_scale)};
-  const float threshold = static_cast<float>(o.threat_threshold) / ell;
+  float none[rl::LocalObs::kLookaheadSize], threat[rl::LocalObs::kLookaheadSize];
+  rl::WriteLookaheadBlock(std::numeric_limits<double>::infinity(), 0.0, 0.0, task.observation, none);
+  rl::WriteLookaheadBlock(o.threat_clearance, o.threat_time, o.threat_speed, task.observation, threat);
+  const float threshold = static_cast<float>(o.threat_threshold / task.observation.length_scale);
 
   rl::PolicyRuntime runtime(weights, A);
   rl::ManipulatorEnv env(context);
@@ -74,10 +72,12 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
   p.u_threat.assign(A, 0.0);
   double sum_threatened = 0.0, sum_clear = 0.0;
   long steps = 0;
-  auto head_with = [&](const float block[3]) {
+  auto head_with = [&](const float* block) {
     const float* obs = step.local_obs.data();
     std::copy(obs, obs + static_cast<size_t>(A) * D, edited.begin());
-    for (int a = 0; a < A; ++a) std::copy_n(block, 3, edited.begin() + static_cast<size_t>(a) * D + c);
+    for (int a = 0; a < A; ++a) {
+      std::copy_n(block, rl::LocalObs::kLookaheadSize, edited.begin() + static_cast<size_t>(a) * D + c);
+    }
     runtime.EvaluateHead(edited.data(), A, head.data());
   };
   for (int e = 0; e < o.episodes; ++e) {

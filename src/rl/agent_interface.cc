@@ -104,6 +104,15 @@ bool OptionMachine::End(bool terminate_flag, bool warning_next) {
 
 // ------------------------------------------------------------------------------------------------- layouts
 
+void WriteLookaheadBlock(double clearance, double time, double speed, const ObservationConfig& observation,
+                         float* block) {
+  const bool none = !std::isfinite(clearance);
+  block[LocalObs::kLookaheadClearance] =
+      none ? 2.0f : static_cast<float>(std::clamp(clearance / observation.length_scale, -1.0, 2.0));
+  block[LocalObs::kLookaheadTime] = none ? 1.0f : static_cast<float>(time / observation.lookahead);
+  block[LocalObs::kLookaheadSpeed] = none ? 0.0f : static_cast<float>(speed / observation.speed_scale);
+}
+
 std::vector<std::string> PerJointObservationNames(InterfaceMode mode, bool lookahead) {
   std::vector<std::string> n = {
       "ee_to_target_x", "ee_to_target_y", "ee_to_target_z", "ee_target_log_distance",

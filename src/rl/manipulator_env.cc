@@ -441,7 +441,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
     case InterfaceMode::kPerJointRmp: {
       q_cmd_before_ = controller_->q_cmd();
       const double g = config_.options.gain_range;
-      const double g_target = config_.options.target_gain_range > 0.0 ? config_.options.target_gain_range : g;
+      const double g_target = config_.options.TargetGainRange();
       const double length_exponent = config_.options.collision_length_exponent;
       for (int i = 0; i < nq_; ++i) {
         const float* u = actions + i * size;
@@ -671,11 +671,7 @@ void ManipulatorEnv::WriteLocal(int i, float* o) const {
   }
   if (config_.observation.lookahead > 0.0) {
     const Lookahead& la = lookahead_[i];
-    float* b = o + LookaheadOffset(config_.interface);
-    const bool none = !std::isfinite(la.clearance);
-    b[LocalObs::kLookaheadClearance] = none ? 2.0f : static_cast<float>(std::clamp(la.clearance / l, -1.0, 2.0));
-    b[LocalObs::kLookaheadTime] = none ? 1.0f : static_cast<float>(la.time / config_.observation.lookahead);
-    b[LocalObs::kLookaheadSpeed] = none ? 0.0f : static_cast<float>(la.speed / vs);
+    WriteLookaheadBlock(la.clearance, la.time, la.speed, oc, o + LookaheadOffset(config_.interface));
   }
 }
 

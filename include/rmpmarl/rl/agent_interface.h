@@ -132,6 +132,12 @@ constexpr int LookaheadOffset(InterfaceMode mode) {
   return mode == InterfaceMode::kPerJointRmp ? LocalObs::kRmpSize : LocalObs::kBaseSize;
 }
 
+/// writes the look-ahead block (LocalObs::kLookahead…, kLookaheadSize floats from `block`): the closest predicted pass
+/// at `clearance` [m] in `time` [s] (≤ observation.lookahead) by an obstacle moving at `speed` [m/s], or "none"
+/// (2, 1, 0) when `clearance` is not finite. The one encoding of ManipulatorEnv and experiments::ProbeLookahead.
+void WriteLookaheadBlock(double clearance, double time, double speed, const ObservationConfig& observation,
+                         float* block);
+
 /// Layout of the global state (critic); offsets depend on nq and the obstacle slots M.
 struct GlobalStateLayout {
   GlobalStateLayout(InterfaceMode mode, int nq, int max_obstacles);

@@ -87,6 +87,8 @@ struct OptionConfig {
   /// unit scales whatever the action (the agents modulate the collision RMPs only, so an arm with no obstacle near
   /// tracks exactly as the unscaled layer does). 0 or in [1, 1e6].
   double target_gain_range = 0.0;
+  /// the gain range the target RMP's scales use: target_gain_range, or gain_range when it is 0
+  double TargetGainRange() const { return target_gain_range > 0.0 ? target_gain_range : gain_range; }
   /// priority of the target RMP while the collision RMPs run (collision option, composite phase b): the target RMP
   /// stays active with its metric × this weight, so it only prevails where the collision RMPs' metric has faded
   /// (obstacle receding or beyond the warning distance) and an arm inside the warning band returns to tracking
