@@ -279,6 +279,9 @@ const std::vector<Recipe>& Recipes() {
       // pre-training on the two-link arm (IV.A)
       {"hrl-rmp", "HRL-RMP", "hrl-rmp-2link", "pretrain-2link", InterfaceMode::kPerJointRmp, "", false},
       {"ppo-2link", "PPO", "ppo-2link", "ppo-pretrain-2link", InterfaceMode::kDirect, "", false},
+      // ... with the bounded precision term beside eq (14) (session 9): eq (14) pays approach, not being there
+      {"hrl-rmp-precision", "HRL-RMP (eq 14 + precision kernel)", "hrl-rmp-2link-precision", "pretrain-2link",
+       InterfaceMode::kPerJointRmp, "", false, nullptr, nullptr, 0, nullptr, nullptr, "reward: {precision_weight: 1}"},
       {"marl-ppo-2link", "MARL-PPO pre-training", "marl-ppo-2link", "pretrain-2link-direct",
        InterfaceMode::kPerJointDirect, "", false},
       // the Panda (IV.B), trained on reach-avoid
@@ -672,6 +675,11 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   };
   const Entry basic = fixed("basic", Method::FixedOption("basic layer (target option)", 0));
   const Entry basic_ttc = fixed("basic-ttc", Method::FixedOption("basic layer (target-then-collision)", 2));
+  // the layer's tracking floor on pretrain-2link: the target option with the cube moved 5–6 m beside the path,
+  // far beyond the planar arm's 1.4 m reach (the scene keeps its one cube; nothing else changes)
+  Method target_free = Method::FixedOption("basic layer (target option, cube out of reach)", 0);
+  target_free.adjust_task = [](rl::TaskConfig& c) { c.scenario.pretrain.obstacle_path_offset = {5.0, 6.0}; };
+  const Entry basic_free = fixed("basic-free", target_free);
   Method ttc_v0 = Method::FixedOption("basic layer v0 (target-then-collision)", 2);
   ttc_v0.adjust_task = kLayerV0.apply;
   const Entry basic_ttc_v0 = fixed("basic-ttc-v0", ttc_v0);
@@ -756,6 +764,7 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiffness-look-kernel-quiet", "marl-rmp-v2c-stiffness-look-kernel-quiet")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
+            learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};
   }
   if (experiment == "table4" || experiment == "cluttered") {

@@ -43,6 +43,36 @@ Eigen::Vector3d ReflectedPosition(const Eigen::Vector3d& p, const Eigen::Vector3
   return out;
 }
 
+Eigen::Vector3d ReflectedDirection(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t,
+                                   const Eigen::AlignedBox3d& box) {
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  for (int a = 0; a < 3; ++a) {
+    const double lo = box.min()[a], hi = box.max()[a];
+    if (!(hi > lo)) continue;  // pinned axis (ReflectedPosition)
+    // the unfolded coordinate runs forward on the first half of each 2L period, backward on the second
+    const double L = hi - lo;
+    double x = std::fmod(p[a] - lo + v[a] * t, 2.0 * L);
+    if (x < 0.0) x += 2.0 * L;
+    d[a] = x <= L ? v[a] : -v[a];
+  }
+  const double n = d.norm();
+  return n > 0.0 ? Eigen::Vector3d(d / n) : d;
+}
+
+double PathCubeClearance(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double duration,
+                         const Eigen::AlignedBox3d& box, const Eigen::Vector3d& c, double h) {
+  const double speed = v.norm();
+  const int samples = speed > 0.0 ? 1 + static_cast<int>(std::ceil(speed * duration / 0.002)) : 1;
+  double d = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= samples; ++k) {
+    const double t = samples > 0 ? duration * k / samples : 0.0;
+    const Eigen::Vector3d x = ReflectedPosition(p, v, t, box);
+    // point–box distance: the norm of the per-axis excess over the half side
+    d = std::min(d, ((x - c).cwiseAbs().array() - h).max(0.0).matrix().norm());
+  }
+  return d;
+}
+
 PretrainScenario::PretrainScenario(const kinematics::Robot& robot, const PretrainScenarioOptions& options)
     : Scenario("pretrain-2link", robot, PretrainScene(options), 8.0, options.workspace, Eigen::VectorXd()),
       options_(options),
@@ -75,7 +105,23 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
   Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
   for (int attempt = 0; attempt < o.max_attempts; ++attempt) {
     const sim::TargetState t = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
-    const Eigen::Vector3d p = ReflectedPosition(t.p_WT, t.v_WT, Uniform(rng, o.obstacle_lead_time), t.bounds);
+    const double lead = Uniform(rng, o.obstacle_lead_time);
+    Eigen::Vector3d p = ReflectedPosition(t.p_WT, t.v_WT, lead, t.bounds);
+    if (o.obstacle_path_offset[1] > 0.0) {
+      // beside the path: move the cube along a random unit normal n of the motion there until its surface is
+      // `offset` from the path point (the support of an axis-aligned cube along n is h |n|_1)
+      const double offset = Uniform(rng, o.obstacle_path_offset);
+      const Eigen::Vector3d d = ReflectedDirection(t.p_WT, t.v_WT, lead, t.bounds);
+      Eigen::Vector3d n = RandomDirection(rng);
+      n -= n.dot(d) * d;
+      if (n.norm() < 1e-6) continue;
+      n.normalize();
+      p += (offset + 0.5 * o.obstacle_side * n.lpNorm<1>()) * n;
+      if (PathCubeClearance(t.p_WT, t.v_WT, default_duration(), t.bounds, p, 0.5 * o.obstacle_side) <
+          o.obstacle_path_offset[0] - 1e-9) {
+        continue;  // the reflected path comes back closer elsewhere
+      }
+    }
     if ((p - t.p_WT).norm() - half_diagonal < o.target_clearance) continue;
     const double clearance = RobotClearance(q_start_, 0, p);
     if (clearance > best_clearance) {

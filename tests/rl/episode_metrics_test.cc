@@ -65,6 +65,7 @@ TEST(EpisodeMetricsTest, TimeInCollisionIsPositiveExactlyWhenThereWereCollisions
   // pretrain-2link with the target option everywhere drives the planar arm into the cube on the target's path in
   // many episodes (docs/environments.md); count over a few seeds.
   TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 2);
+  c.scenario.pretrain.obstacle_path_offset = {0.0, 0.0};
   ManipulatorEnv env(MakeTaskContext(c));
   Buffers b(env.spec());
   std::vector<float> actions(static_cast<size_t>(env.spec().num_agents) * env.spec().action.size(), 0.0f);

@@ -688,7 +688,8 @@ TEST(ManipulatorEnvTest, ResetsReuseTheVariantPool) {
 }
 
 TEST(ManipulatorEnvTest, PretrainResetsRandomiseWithinTheirRanges) {
-  const TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  c.scenario.pretrain.obstacle_path_offset = {0.0, 0.0};  // the paper's scene: the cube on the path
   auto context = MakeTaskContext(c);
   ManipulatorEnv env(context);
   Buffers b(env.spec());
@@ -720,6 +721,54 @@ TEST(ManipulatorEnvTest, PretrainResetsRandomiseWithinTheirRanges) {
   }
   EXPECT_EQ(q0s.size(), 30u);
   EXPECT_EQ(speeds.size(), 30u);
+}
+
+TEST(ManipulatorEnvTest, PretrainPathOffsetPutsTheCubeBesideTheWholePath) {
+  TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  c.scenario.pretrain.obstacle_path_offset = {0.05, 0.10};
+  auto context = MakeTaskContext(c);
+  ManipulatorEnv env(context);
+  Buffers b(env.spec());
+  std::mt19937_64 rng(21);
+  const double h = 0.5 * c.scenario.pretrain.obstacle_side;
+  int left = 0, right = 0;
+  for (int r = 0; r < 30; ++r) {
+    env.Reset(rng, b.out());
+    const sim::TargetState& t = env.scenario().target();
+    const Eigen::Vector3d cube = env.scenario().obstacles()[0].p_WO();
+    // brute force, 1 ms steps: the whole path (the scenario's duration) keeps the range's minimum from the cube ...
+    double nearest_all = 1e9, nearest_lead = 1e9, time_lead = 0.0;
+    for (double time = 0.0; time <= env.scenario().default_duration(); time += 1e-3) {
+      const Eigen::Vector3d x = ReflectedPosition(t.p_WT, t.v_WT, time, t.bounds);
+      const double d = ((x - cube).cwiseAbs().array() - h).max(0.0).matrix().norm();
+      nearest_all = std::min(nearest_all, d);
+      if (time >= 1.0 && time <= 3.0 && d < nearest_lead) {
+        nearest_lead = d;
+        time_lead = time;
+      }
+    }
+    EXPECT_GE(nearest_all, 0.05 - 1e-3);
+    // ... and passes it within the range's maximum (plus a corner's excess over a face, h (sqrt 2 - 1)) 1–3 s ahead
+    EXPECT_LE(nearest_lead, 0.10 + h * (std::sqrt(2.0) - 1.0) + 1e-3);
+    const Eigen::Vector3d p = ReflectedPosition(t.p_WT, t.v_WT, time_lead, t.bounds);
+    const Eigen::Vector3d d = ReflectedDirection(t.p_WT, t.v_WT, time_lead, t.bounds);
+    (d.cross(cube - p).z() > 0.0 ? left : right)++;
+  }
+  EXPECT_GE(left, 5);  // both sides of the path
+  EXPECT_GE(right, 5);
+}
+
+TEST(ManipulatorEnvTest, ReflectedDirectionIsTheDerivativeOfTheReflectedPath) {
+  const Eigen::AlignedBox3d box(Eigen::Vector3d(0.2, -0.5, 0.0), Eigen::Vector3d(0.8, 0.5, 0.0));
+  const Eigen::Vector3d p(0.3, 0.1, 0.0), v(0.21, -0.13, 0.0);
+  for (double t = 0.0; t < 20.0; t += 0.137) {
+    const double e = 1e-6;
+    const Eigen::Vector3d fd =
+        (ReflectedPosition(p, v, t + e, box) - ReflectedPosition(p, v, t - e, box)) / (2.0 * e);
+    if (std::abs(fd.norm() - v.norm()) > 1e-6) continue;  // a reflection inside the difference stencil
+    EXPECT_LT((ReflectedDirection(p, v, t, box) - fd.normalized()).norm(), 1e-6) << "t " << t;
+  }
+  EXPECT_EQ(ReflectedDirection(p, Eigen::Vector3d::Zero(), 1.0, box), Eigen::Vector3d::Zero());
 }
 
 TEST(ManipulatorEnvTest, LineCrossingDrawsItsSpeedPerEpisode) {

@@ -1,7 +1,8 @@
 #pragma once
 /// The pre-training scenario of the paper (IV.A) as a sim::Scenario: a target ball without collision volume in
 /// uniform linear motion in a random in-plane direction (reflected in the workspace box), and one cube placed on the
-/// target's path, so tracking the target means going around the cube. Domain randomisation per episode: target
+/// target's path (or, with `obstacle_path_offset`, beside it), so tracking the target means going around the cube
+/// (or passing it closely). Domain randomisation per episode: target
 /// start and direction (Scenario helpers), speed, the cube's position along the path, its (optional) velocity, and
 /// the start configuration (SetNextStart, pre-training only).
 #include <Eigen/Core>
@@ -15,6 +16,15 @@ namespace rmpmarl::rl {
 /// `box` (as sim::Scenario::Advance moves the target); along degenerate box axes the coordinate is pinned.
 Eigen::Vector3d ReflectedPosition(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t,
                                   const Eigen::AlignedBox3d& box);
+
+/// the direction of motion after t seconds of the same reflected point (unit; zero where v is zero).
+Eigen::Vector3d ReflectedDirection(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double t,
+                                   const Eigen::AlignedBox3d& box);
+
+/// the smallest distance between an axis-aligned cube (centre c, half side h) and the reflected path of (p, v) over
+/// [0, duration], sampled every 2 mm of travel.
+double PathCubeClearance(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double duration,
+                         const Eigen::AlignedBox3d& box, const Eigen::Vector3d& c, double h);
 
 /// `pretrain-2link`.
 class PretrainScenario final : public sim::Scenario {

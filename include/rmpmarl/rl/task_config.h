@@ -175,6 +175,10 @@ struct PretrainScenarioOptions {
   std::array<double, 2> target_speed = {0.05, 0.25};   ///< [m/s], per episode
   double obstacle_side = 0.1;                          ///< cube side [m]
   std::array<double, 2> obstacle_lead_time = {1.0, 3.0};  ///< the cube sits where the target will be after t [s]
+  /// [m] the cube's surface is moved this far beside the target's path there (perpendicular to the target's motion,
+  /// to a random side), and the whole path over the scenario's duration keeps at least the range's minimum from it.
+  /// {0, 0}: the cube sits on the path (the paper's scene: tracking means leaving the target while it passes).
+  std::array<double, 2> obstacle_path_offset = {0.0, 0.0};
   std::array<double, 2> obstacle_speed = {0.0, 0.0};   ///< [m/s] (0: static), random in-plane direction
   double start_clearance = 0.05;  ///< cube ≥ this from the arm at q0 [m]
   double target_clearance = 0.0;  ///< cube surface ≥ this from the target's start [m]
