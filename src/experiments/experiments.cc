@@ -107,6 +107,14 @@ const LayerVariant kLayerV2Hold{V2LayerYaml(", parameter_period: 25"), [](rl::Ta
                                   task.options.parameter_period = 25;
                                 }};
 
+/// the paper's basic layer resolved with the joints coupled (rmp.resolve: coupled), nothing else changed: for the
+/// two-link arm, whose RMPflow structure (configs/rmpflow/planar2.yaml) has no posture attractor and a 3 rad/s cap.
+/// Session 9: with the target option and the cube out of reach it settles 13 mm from the target on pretrain-2link,
+/// against 28 mm resolved per joint and 175 mm on the coupled v2 layer (whose linear damping k_d 85 limits the
+/// approach to 0.35 m/s from the randomised starts); evaluation seed 7.
+const LayerVariant kLayerCoupled{"rmp: {resolve: coupled}",
+                                 [](rl::TaskConfig& task) { task.basic_layer.resolve = rmp::LayerResolve::kCoupled; }};
+
 /// the coupled v2 layer (issue 9, session 5): the v2 layer's collision gains, resolved with the joints coupled
 /// (rmp.resolve: coupled, rmp::EvaluateCoupledLayer) — one n × n resolve of every joint's selected RMPs on the
 /// robot's RMPflow structure (C-space target and damping, joint limits, velocity cap, self-collision) instead of n
@@ -279,6 +287,12 @@ const std::vector<Recipe>& Recipes() {
       // pre-training on the two-link arm (IV.A)
       {"hrl-rmp", "HRL-RMP", "hrl-rmp-2link", "pretrain-2link", InterfaceMode::kPerJointRmp, "", false},
       {"ppo-2link", "PPO", "ppo-2link", "ppo-pretrain-2link", InterfaceMode::kDirect, "", false},
+      // ... on the paper's layer resolved with the joints coupled (session 9, kLayerCoupled)
+      {"hrl-rmp-coupled", "HRL-RMP (coupled resolve)", "hrl-rmp-2link-coupled", "pretrain-2link",
+       InterfaceMode::kPerJointRmp, "", false, &kLayerCoupled},
+      {"hrl-rmp-coupled-precision", "HRL-RMP (coupled resolve, eq 14 + precision kernel)",
+       "hrl-rmp-2link-coupled-precision", "pretrain-2link", InterfaceMode::kPerJointRmp, "", false, &kLayerCoupled,
+       nullptr, 0, nullptr, nullptr, "reward: {precision_weight: 1}"},
       // ... with the bounded precision term beside eq (14) (session 9): eq (14) pays approach, not being there
       {"hrl-rmp-precision", "HRL-RMP (eq 14 + precision kernel)", "hrl-rmp-2link-precision", "pretrain-2link",
        InterfaceMode::kPerJointRmp, "", false, nullptr, nullptr, 0, nullptr, nullptr, "reward: {precision_weight: 1}"},
@@ -680,6 +694,18 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   Method target_free = Method::FixedOption("basic layer (target option, cube out of reach)", 0);
   target_free.adjust_task = [](rl::TaskConfig& c) { c.scenario.pretrain.obstacle_path_offset = {5.0, 6.0}; };
   const Entry basic_free = fixed("basic-free", target_free);
+  Method target_coupled = Method::FixedOption("basic layer, coupled resolve (target option)", 0);
+  target_coupled.adjust_task = kLayerCoupled.apply;
+  const Entry basic_coupled = fixed("basic-coupled", target_coupled);
+  Method ttc_coupled = Method::FixedOption("basic layer, coupled resolve (target-then-collision)", 2);
+  ttc_coupled.adjust_task = kLayerCoupled.apply;
+  const Entry basic_ttc_coupled = fixed("basic-ttc-coupled", ttc_coupled);
+  Method target_free_coupled = Method::FixedOption("basic layer, coupled resolve (target option, cube out of reach)", 0);
+  target_free_coupled.adjust_task = [target_free](rl::TaskConfig& c) {
+    kLayerCoupled.apply(c);
+    target_free.adjust_task(c);
+  };
+  const Entry basic_free_coupled = fixed("basic-free-coupled", target_free_coupled);
   Method ttc_v0 = Method::FixedOption("basic layer v0 (target-then-collision)", 2);
   ttc_v0.adjust_task = kLayerV0.apply;
   const Entry basic_ttc_v0 = fixed("basic-ttc-v0", ttc_v0);
@@ -765,6 +791,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,
+            learned("hrl-rmp-coupled", "hrl-rmp-coupled"), basic_coupled, basic_ttc_coupled, basic_free_coupled,
+            learned("hrl-rmp-coupled-precision", "hrl-rmp-coupled-precision"),
             learned("hrl-rmp-v0", "hrl-rmp-v0"), basic_ttc_v0, learned("hrl-rmp-v2", "hrl-rmp-v2"), basic_ttc_v2};
   }
   if (experiment == "table4" || experiment == "cluttered") {
