@@ -7,6 +7,8 @@
 #include <atomic>
 #include <chrono>
 #include <exception>
+#include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -14,6 +16,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/common/random.h"
+#include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/manipulator_env.h"
 #include "rmpmarl/rl/policy_runtime.h"
@@ -261,6 +264,33 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
   for (std::thread& t : pool) t.join();
   if (error) std::rethrow_exception(error);
   return records;
+}
+
+EpisodeSplit SplitByReference(const std::vector<EpisodeRecord>& episodes, const std::vector<EpisodeRecord>& reference) {
+  std::map<int, bool> blocked;  // reference episode index -> had a collision
+  for (const EpisodeRecord& r : reference) blocked[r.index] = r.metrics.collisions > 0;
+  std::vector<double> settled[2];
+  int successes[2] = {0, 0}, counts[2] = {0, 0};
+  for (const EpisodeRecord& e : episodes) {
+    const auto it = blocked.find(e.index);
+    if (it == blocked.end()) {
+      throw InputError(fmt::format("SplitByReference: episode {} is not among the reference's {} episodes", e.index,
+                                   reference.size()));
+    }
+    const int k = it->second ? 1 : 0;
+    ++counts[k];
+    successes[k] += e.metrics.success ? 1 : 0;
+    settled[k].push_back(e.metrics.settled_tracking_error_mm);
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EpisodeSplit s;
+  s.free_count = counts[0];
+  s.blocked_count = counts[1];
+  s.free_success = counts[0] > 0 ? static_cast<double>(successes[0]) / counts[0] : nan;
+  s.blocked_success = counts[1] > 0 ? static_cast<double>(successes[1]) / counts[1] : nan;
+  s.free_settled_mm = FiniteMean(settled[0]);
+  s.blocked_settled_mm = FiniteMean(settled[1]);
+  return s;
 }
 
 }  // namespace rmpmarl::experiments

@@ -248,5 +248,34 @@ TEST(StatisticsTest, HierarchicalBootstrapCarriesTheSpreadBetweenSeeds) {
   EXPECT_EQ(single.low, BootstrapMeanInterval(groups[0], 3).low);
 }
 
+
+TEST(EvaluationTest, SplitByReferenceMatchesEpisodesByIndex) {
+  auto record = [](int index, int collisions, double settled) {
+    EpisodeRecord r;
+    r.index = index;
+    r.metrics.collisions = collisions;
+    r.metrics.success = collisions == 0;
+    r.metrics.settled_tracking_error_mm = settled;
+    return r;
+  };
+  // the reference collides in episodes 1 and 3
+  const std::vector<EpisodeRecord> reference = {record(0, 0, 5), record(1, 2, 90), record(2, 0, 7), record(3, 1, 80)};
+  // a method's episodes, in another order and pooled over two seeds (each index twice); one NaN settled value
+  const std::vector<EpisodeRecord> method = {record(3, 0, 40), record(0, 0, 10), record(1, 1, 60), record(2, 0, 20),
+                                             record(0, 0, 30), record(1, 0, std::nan("")), record(2, 0, 10),
+                                             record(3, 0, 20)};
+  const EpisodeSplit s = SplitByReference(method, reference);
+  EXPECT_EQ(s.free_count, 4);
+  EXPECT_EQ(s.blocked_count, 4);
+  EXPECT_DOUBLE_EQ(s.free_success, 1.0);
+  EXPECT_DOUBLE_EQ(s.blocked_success, 0.75);
+  EXPECT_DOUBLE_EQ(s.free_settled_mm, (10.0 + 20.0 + 30.0 + 10.0) / 4);
+  EXPECT_DOUBLE_EQ(s.blocked_settled_mm, (40.0 + 60.0 + 20.0) / 3);  // the NaN is left out
+  const EpisodeSplit none = SplitByReference({}, reference);
+  EXPECT_EQ(none.free_count + none.blocked_count, 0);
+  EXPECT_TRUE(std::isnan(none.free_success));
+  EXPECT_THROW(SplitByReference({record(7, 0, 1)}, reference), InputError);
+}
+
 }  // namespace
 }  // namespace rmpmarl::experiments

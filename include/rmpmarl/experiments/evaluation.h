@@ -92,4 +92,15 @@ std::uint64_t EpisodeSeed(std::uint64_t eval_seed, int index);
 std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskConfig& task,
                                           const EvalProtocol& protocol);
 
+/// A method's episodes split by what a reference method did on the same episodes (matched by index): "free" are the
+/// episodes the reference finished without a collision, "blocked" the others. On pretrain-2link with the target
+/// option as the reference, blocked episodes are those where tracking the target drives a link into the cube.
+struct EpisodeSplit {
+  int free_count = 0, blocked_count = 0;
+  double free_success = 0.0, blocked_success = 0.0;          ///< success rates (NaN when no episode)
+  double free_settled_mm = 0.0, blocked_settled_mm = 0.0;    ///< mean settled tracking error (finite values only)
+};
+/// throws InputError when an episode's index is not among the reference's.
+EpisodeSplit SplitByReference(const std::vector<EpisodeRecord>& episodes, const std::vector<EpisodeRecord>& reference);
+
 }  // namespace rmpmarl::experiments
