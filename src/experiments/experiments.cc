@@ -257,6 +257,11 @@ constexpr const char* kKernelReward =
 constexpr const char* kKernelRewardPhi300 =
     "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 300, "
     "precision_weight: 1}";
+/// session 9: kKernelReward with the kernel paid only while no moving obstacle is predicted to pass within 15 cm of the
+/// arm (reward.precision_pass_clearance; the wide hand gate's clearance): precision where no evasion is due
+constexpr const char* kKernelRewardGated =
+    "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, "
+    "precision_weight: 1, precision_pass_clearance: 0.15}";
 constexpr const char* kKernel10Reward =
     "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, "
     "precision_weight: 1, precision_length: 0.1}";
@@ -526,6 +531,19 @@ const std::vector<Recipe>& Recipes() {
        &kLayerV2CoupledStiffnessLookahead,
        "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
        kKernelReward},
+      // ... with the kernel paid only where no pass is predicted within 15 cm (session 9), from k_p 30 and k_p 120
+      {"marl-rmp-v2c-stiffness-look-kernel-gated",
+       "MAPPO over the coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
+       "marl-rmp-v2c-stiffness-look-kernel-gated", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffnessLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernelRewardGated},
+      {"marl-rmp-v2c-stiff-base-look-kernel-gated",
+       "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
+       "marl-rmp-v2c-stiff-base-look-kernel-gated", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledStiffBaseLookahead,
+       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
+       kKernelRewardGated},
       {"marl-rmp-v2c-stiff-base-look-kernel",
        "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
        "marl-rmp-v2c-stiff-base-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
@@ -787,7 +805,10 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiffness-look-kernel-lc", "marl-rmp-v2c-stiffness-look-kernel-lc"),
       learned("marl-rmp-v2c-stiffness-look-kernel-phi300", "marl-rmp-v2c-stiffness-look-kernel-phi300"),
       learned("marl-rmp-v2c-stiffness-look-kernel10", "marl-rmp-v2c-stiffness-look-kernel10"),
-      learned("marl-rmp-v2c-stiffness-look-kernel-quiet", "marl-rmp-v2c-stiffness-look-kernel-quiet")};
+      learned("marl-rmp-v2c-stiffness-look-kernel-quiet", "marl-rmp-v2c-stiffness-look-kernel-quiet"),
+      // session 9: the kernel gated on the look-ahead block
+      learned("marl-rmp-v2c-stiffness-look-kernel-gated", "marl-rmp-v2c-stiffness-look-kernel-gated"),
+      learned("marl-rmp-v2c-stiff-base-look-kernel-gated", "marl-rmp-v2c-stiff-base-look-kernel-gated")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,

@@ -625,6 +625,14 @@ void ManipulatorEnv::UpdateLookahead() {
   }
 }
 
+bool ManipulatorEnv::PassesClear(double clearance) const {
+  if (!std::isfinite(clearance)) return true;  // −inf: not gated (validated: never +inf)
+  for (const Lookahead& l : lookahead_) {
+    if (l.clearance <= clearance) return false;
+  }
+  return true;
+}
+
 void ManipulatorEnv::WriteLocal(int i, float* o) const {
   const kinematics::Model& m = robot_->model;
   const ObservationConfig& oc = config_.observation;
@@ -834,7 +842,9 @@ void ManipulatorEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const 
   // R_d (eq 14) and the optional dense precision terms − tracking_weight · d and + precision_weight · exp(−d/δ)
   // (RewardConfig::tracking_weight, precision_weight)
   r.distance = rc.distance_weight * DistanceReward(info_.distance_before, d, rc.distance_unit) - rc.tracking_weight * d;
-  if (rc.precision_weight > 0.0) r.distance += rc.precision_weight * std::exp(-d / rc.precision_length);
+  if (rc.precision_weight > 0.0 && PassesClear(rc.precision_pass_clearance)) {
+    r.distance += rc.precision_weight * std::exp(-d / rc.precision_length);
+  }
   r.time = cycles_.Update(d);
   r.collision = -rc.collision_penalty * step_collisions_;
   info_.collision_events = step_collisions_;

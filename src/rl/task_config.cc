@@ -458,7 +458,8 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Num(r, "time_reward", &w.time_reward), Num(r, "reach_tolerance", &w.reach_tolerance),
                  Num(r, "reach_release", &w.reach_release), Num(r, "collision_penalty", &w.collision_penalty),
                  Num(r, "tracking_weight", &w.tracking_weight), Num(r, "precision_weight", &w.precision_weight),
-                 Num(r, "precision_length", &w.precision_length)});
+                 Num(r, "precision_length", &w.precision_length),
+                 Num(r, "precision_pass_clearance", &w.precision_pass_clearance, /*allow_inf=*/true)});
   }
   if (const YAML::Node n = root["randomization"]) {
     RandomizationConfig& d = c.randomization;
@@ -607,6 +608,12 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a weight >= 0 [reward per step]", w.precision_weight);
   check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
         w.precision_length);
+  check(!std::isnan(w.precision_pass_clearance) && w.precision_pass_clearance < kInf, "reward.precision_pass_clearance",
+        "a clearance [m] or -.inf (every step)", w.precision_pass_clearance);
+  check(!std::isfinite(w.precision_pass_clearance) || (o.lookahead > 0.0 && c.interface != InterfaceMode::kDirect),
+        "reward.precision_pass_clearance",
+        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}; a per-joint "
+                    "interface)", o.lookahead), w.precision_pass_clearance);
 
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

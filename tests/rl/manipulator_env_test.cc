@@ -315,6 +315,58 @@ TEST(ManipulatorEnvTest, PrecisionWeightAddsABoundedKernelOfTheDistance) {
   }
 }
 
+// reward.precision_pass_clearance c: the kernel is paid only on steps where every joint's look-ahead block predicts no
+// pass within c of the arm. Twin envs (ungated and gated, identical seeds and actions): their distance terms differ by
+// exactly the kernel on the steps where some joint's block (read from its observation) says clearance <= c, and by
+// nothing on the others; both kinds of step occur.
+TEST(ManipulatorEnvTest, PrecisionPassClearanceGatesTheKernelOnTheLookaheadBlock) {
+  TaskConfig plain = SmallConfig(TaskKind::kLineCrossing, "panda", 1);
+  plain.scenario.line_speeds = {1.2};
+  plain.observation.lookahead = 1.0;
+  plain.reward.precision_weight = 1.0;
+  TaskConfig gated = plain;
+  gated.reward.precision_pass_clearance = 0.15;
+  ManipulatorEnv a(MakeTaskContext(plain)), b(MakeTaskContext(gated));
+  const EnvSpec& spec = b.spec();
+  Buffers ba(a.spec()), bb(spec);
+  std::mt19937_64 rng_a(5), rng_b(5), arng(6);
+  a.Reset(rng_a, ba.out());
+  b.Reset(rng_b, bb.out());
+  std::vector<float> actions(spec.num_agents * spec.action.size());
+  const int clearance_feature = LookaheadOffset(gated.interface) + LocalObs::kLookaheadClearance;
+  int paid = 0, withheld = 0;
+  for (int step = 0; step < 300 && !bb.terminated && !bb.truncated; ++step) {
+    RandomActions(spec, arng, actions.data());
+    a.Step(actions.data(), rng_a, ba.out());
+    b.Step(actions.data(), rng_b, bb.out());
+    const double d = b.last_step().distance_after;
+    ASSERT_NEAR(d, a.last_step().distance_after, 1e-12) << step;
+    double nearest = 1e9;  // the smallest predicted clearance over the joints, decoded from the block [m]
+    for (int i = 0; i < spec.num_agents; ++i) {
+      nearest = std::min(nearest, bb.obs(spec, i, clearance_feature) * gated.observation.length_scale);
+    }
+    const double kernel = std::exp(-d / 0.02), term = bb.reward_terms[1] - ba.reward_terms[1];
+    if (nearest <= 0.15 + 1e-6) {
+      EXPECT_NEAR(term, -kernel, 1e-6) << step;
+      ++withheld;
+    } else {
+      EXPECT_NEAR(term, 0.0, 1e-9) << step;
+      ++paid;
+    }
+  }
+  EXPECT_GT(paid, 10);
+  EXPECT_GT(withheld, 10);
+  // a gate needs the block: refused without the look-ahead, or with a NaN / +inf clearance
+  TaskConfig blind = gated;
+  blind.observation.lookahead = 0.0;
+  EXPECT_THROW(ValidateTaskConfig(blind, "test"), rmpmarl::InputError);
+  for (double c : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    TaskConfig bad = gated;
+    bad.reward.precision_pass_clearance = c;
+    EXPECT_THROW(ValidateTaskConfig(bad, "test"), rmpmarl::InputError) << c;
+  }
+}
+
 // options.parameter_period: a joint reads its RMP parameters at the first step, at option starts, when W_i fills or
 // empties, and every N steps, and holds them in between. Reference: an env reading every step, fed the held values
 // (the action of each joint's last read) — the two trajectories are identical, step by step.

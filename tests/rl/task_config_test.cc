@@ -58,6 +58,7 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["reward.tracking_weight"] = r.tracking_weight;
   f["reward.precision_weight"] = r.precision_weight;
   f["reward.precision_length"] = r.precision_length;
+  f["reward.precision_pass_clearance"] = r.precision_pass_clearance;
   const RandomizationConfig& d = c.randomization;
   f["randomization.variants"] = d.variants;
   f["randomization.include_nominal"] = d.include_nominal;

@@ -149,6 +149,8 @@ class ManipulatorEnv final : public Env {
   void CountCollisions(const sim::ContactReport& report);
   void UpdateKinematics();
   void UpdateLookahead();  // observation.lookahead > 0
+  /// every joint's predicted pass (lookahead_) clears the arm by more than `clearance` [m] (−inf: always true).
+  bool PassesClear(double clearance) const;
   void WriteObservation(const StepOutput& out) const;
   void WriteLocal(int agent, float* o) const;
   void WriteGlobal(float* s) const;

@@ -143,6 +143,10 @@ struct RewardConfig {
   /// while one close to it is paid for every millimetre. Logged in the `distance` term. ≥ 0 (0: off)
   double precision_weight = 0.0;
   double precision_length = 0.02;  ///< δ [m] of the kernel, > 0
+  /// session 9: the kernel is paid only on steps where every moving obstacle's predicted pass (the look-ahead block,
+  /// observation.lookahead > 0) clears every capsule of the arm by more than this [m]. −inf (default): every step.
+  /// Precision is then asked for where no evasion is due, and never traded against one.
+  double precision_pass_clearance = -std::numeric_limits<double>::infinity();
 };
 
 /// Planar two-link arm parameters (robot: planar2).
