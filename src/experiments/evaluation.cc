@@ -268,7 +268,11 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
 
 EpisodeSplit SplitByReference(const std::vector<EpisodeRecord>& episodes, const std::vector<EpisodeRecord>& reference) {
   std::map<int, bool> blocked;  // reference episode index -> had a collision
-  for (const EpisodeRecord& r : reference) blocked[r.index] = r.metrics.collisions > 0;
+  for (const EpisodeRecord& r : reference) {
+    if (!blocked.emplace(r.index, r.metrics.collisions > 0).second) {
+      throw InputError(fmt::format("SplitByReference: the reference has episode {} twice", r.index));
+    }
+  }
   std::vector<double> settled[2];
   int successes[2] = {0, 0}, counts[2] = {0, 0};
   for (const EpisodeRecord& e : episodes) {

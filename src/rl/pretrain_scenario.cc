@@ -131,6 +131,11 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
     }
     if (clearance >= o.start_clearance) break;
   }
+  if (!std::isfinite(best_clearance) && o.obstacle_path_offset[1] > 0.0) {
+    throw InputError(fmt::format("scenario pretrain-2link: no draw in {} attempts kept the cube {}–{} m beside the "
+                                 "target's path and clear of its start; expected a smaller scenario.obstacle_path_offset",
+                                 o.max_attempts, o.obstacle_path_offset[0], o.obstacle_path_offset[1]));
+  }
   if (!std::isfinite(best_clearance)) {  // no draw kept its distance from the target: use a last plain draw
     best_target = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
     best_p = ReflectedPosition(best_target.p_WT, best_target.v_WT, Uniform(rng, o.obstacle_lead_time),
@@ -145,6 +150,7 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
   cube.direction = cube.speed > 0.0 ? RandomDirection(rng) : Eigen::Vector3d::UnitX();
   cube.path_length = cube.speed > 0.0 ? 100.0 : 0.0;  // far beyond any episode: it just keeps going
   cube.wrap = 0.0;
+  if (o.obstacle_out_of_reach) cube.p_start.z() += 10.0;  // after every draw: the episode is otherwise the same
 }
 
 }  // namespace rmpmarl::rl

@@ -135,7 +135,8 @@ void ReadScenario(const Reader& r, const YAML::Node& node, TaskKind task, Scenar
       ReadSection(r, node, key,
                   {Rng(r, "target_speed", &p.target_speed), Num(r, "obstacle_side", &p.obstacle_side),
                    Rng(r, "obstacle_lead_time", &p.obstacle_lead_time),
-                   Rng(r, "obstacle_path_offset", &p.obstacle_path_offset), Rng(r, "obstacle_speed", &p.obstacle_speed),
+                   Rng(r, "obstacle_path_offset", &p.obstacle_path_offset),
+                   Flag(r, "obstacle_out_of_reach", &p.obstacle_out_of_reach), Rng(r, "obstacle_speed", &p.obstacle_speed),
                    Num(r, "start_clearance", &p.start_clearance), Num(r, "target_clearance", &p.target_clearance),
                    Int(r, "max_attempts", &p.max_attempts), Workspace(r, &p.workspace)});
       break;
@@ -612,8 +613,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a clearance [m] or -.inf (every step)", w.precision_pass_clearance);
   check(!std::isfinite(w.precision_pass_clearance) || (o.lookahead > 0.0 && c.interface != InterfaceMode::kDirect),
         "reward.precision_pass_clearance",
-        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}; a per-joint "
-                    "interface)", o.lookahead), w.precision_pass_clearance);
+        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on a per-joint "
+                    "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), w.precision_pass_clearance);
 
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

@@ -275,6 +275,7 @@ TEST(EvaluationTest, SplitByReferenceMatchesEpisodesByIndex) {
   EXPECT_EQ(none.free_count + none.blocked_count, 0);
   EXPECT_TRUE(std::isnan(none.free_success));
   EXPECT_THROW(SplitByReference({record(7, 0, 1)}, reference), InputError);
+  EXPECT_THROW(SplitByReference({}, {record(0, 0, 1), record(0, 1, 2)}), InputError);  // a reference index twice
 }
 
 }  // namespace

@@ -324,6 +324,7 @@ TEST(ManipulatorEnvTest, PrecisionPassClearanceGatesTheKernelOnTheLookaheadBlock
   plain.scenario.line_speeds = {1.2};
   plain.observation.lookahead = 1.0;
   plain.reward.precision_weight = 1.0;
+  plain.reward.precision_length = 0.5;  // wide: the kernel is ≥ 0.1 wherever the arm is, so a withheld one shows
   TaskConfig gated = plain;
   gated.reward.precision_pass_clearance = 0.15;
   ManipulatorEnv a(MakeTaskContext(plain)), b(MakeTaskContext(gated));
@@ -345,7 +346,8 @@ TEST(ManipulatorEnvTest, PrecisionPassClearanceGatesTheKernelOnTheLookaheadBlock
     for (int i = 0; i < spec.num_agents; ++i) {
       nearest = std::min(nearest, bb.obs(spec, i, clearance_feature) * gated.observation.length_scale);
     }
-    const double kernel = std::exp(-d / 0.02), term = bb.reward_terms[1] - ba.reward_terms[1];
+    const double kernel = std::exp(-d / 0.5), term = bb.reward_terms[1] - ba.reward_terms[1];
+    ASSERT_GT(kernel, 0.1) << step;
     if (nearest <= 0.15 + 1e-6) {
       EXPECT_NEAR(term, -kernel, 1e-6) << step;
       ++withheld;
@@ -810,16 +812,42 @@ TEST(ManipulatorEnvTest, PretrainPathOffsetPutsTheCubeBesideTheWholePath) {
   EXPECT_GE(right, 5);
 }
 
+// the shipped scene's rejections (the cube must stay clear of the whole path) must not bias the target's speed: the
+// accepted episodes keep U(0.05, 0.25) m/s — mean 0.15, both quartiles near 0.10 and 0.20
+TEST(ManipulatorEnvTest, PretrainPathOffsetKeepsTheTargetSpeedDistribution) {
+  const TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
+  ASSERT_GT(c.scenario.pretrain.obstacle_path_offset[1], 0.0);
+  ManipulatorEnv env(MakeTaskContext(c));
+  Buffers b(env.spec());
+  std::mt19937_64 rng(31);
+  std::vector<double> speeds;
+  for (int r = 0; r < 400; ++r) {
+    env.Reset(rng, b.out());
+    speeds.push_back(env.scenario().target().v_WT.norm());
+  }
+  std::sort(speeds.begin(), speeds.end());
+  double mean = 0.0;
+  for (double v : speeds) mean += v / speeds.size();
+  std::printf("accepted target speeds: mean %.4f, quartiles %.4f %.4f %.4f\n", mean, speeds[100], speeds[200],
+              speeds[300]);
+  EXPECT_NEAR(mean, 0.15, 0.01);  // the standard error of 400 uniform draws is 0.0029
+  EXPECT_NEAR(speeds[100], 0.10, 0.015);
+  EXPECT_NEAR(speeds[300], 0.20, 0.015);
+}
+
 TEST(ManipulatorEnvTest, ReflectedDirectionIsTheDerivativeOfTheReflectedPath) {
   const Eigen::AlignedBox3d box(Eigen::Vector3d(0.2, -0.5, 0.0), Eigen::Vector3d(0.8, 0.5, 0.0));
   const Eigen::Vector3d p(0.3, 0.1, 0.0), v(0.21, -0.13, 0.0);
+  int checked = 0;
   for (double t = 0.0; t < 20.0; t += 0.137) {
     const double e = 1e-6;
     const Eigen::Vector3d fd =
         (ReflectedPosition(p, v, t + e, box) - ReflectedPosition(p, v, t - e, box)) / (2.0 * e);
     if (std::abs(fd.norm() - v.norm()) > 1e-6) continue;  // a reflection inside the difference stencil
     EXPECT_LT((ReflectedDirection(p, v, t, box) - fd.normalized()).norm(), 1e-6) << "t " << t;
+    ++checked;
   }
+  EXPECT_GT(checked, 130);  // of 146 times, all but those within 1 µs of a reflection
   EXPECT_EQ(ReflectedDirection(p, Eigen::Vector3d::Zero(), 1.0, box), Eigen::Vector3d::Zero());
 }
 

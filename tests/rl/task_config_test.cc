@@ -91,6 +91,7 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["pretrain.obstacle_lead_time.max"] = s.obstacle_lead_time[1];
   f["pretrain.obstacle_path_offset.min"] = s.obstacle_path_offset[0];
   f["pretrain.obstacle_path_offset.max"] = s.obstacle_path_offset[1];
+  f["pretrain.obstacle_out_of_reach"] = s.obstacle_out_of_reach;
   f["pretrain.obstacle_speed.min"] = s.obstacle_speed[0];
   f["pretrain.obstacle_speed.max"] = s.obstacle_speed[1];
   f["pretrain.start_clearance"] = s.start_clearance;

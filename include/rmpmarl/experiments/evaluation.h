@@ -100,7 +100,7 @@ struct EpisodeSplit {
   double free_success = 0.0, blocked_success = 0.0;          ///< success rates (NaN when no episode)
   double free_settled_mm = 0.0, blocked_settled_mm = 0.0;    ///< mean settled tracking error (finite values only)
 };
-/// throws InputError when an episode's index is not among the reference's.
+/// throws InputError when an episode's index is not among the reference's, or the reference has an index twice.
 EpisodeSplit SplitByReference(const std::vector<EpisodeRecord>& episodes, const std::vector<EpisodeRecord>& reference);
 
 }  // namespace rmpmarl::experiments

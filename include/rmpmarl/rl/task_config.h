@@ -32,7 +32,7 @@ enum class OptionTermination {
 
 /// Which scenario moves target and obstacles.
 enum class TaskKind {
-  kPretrain2Link,  ///< `pretrain-2link`: planar2, target in linear motion, one obstacle on the target's path (IV.A)
+  kPretrain2Link,  ///< `pretrain-2link`: planar2, target in linear motion, one obstacle beside (or on) the target's path (IV.A)
   kReachAvoid,     ///< `reach-avoid`: moving target, up to four crossing cubes (IV.B; sim::CrossingScenario)
   kLineCrossing,   ///< `line-crossing`: a line of cubes crossing at speed v, stop on impact (IV.C, Table 4)
   kCluttered,      ///< `cluttered`: static cubes 20–50 cm around the start end effector (IV.C)
@@ -144,7 +144,7 @@ struct RewardConfig {
   double precision_weight = 0.0;
   double precision_length = 0.02;  ///< δ [m] of the kernel, > 0
   /// session 9: the kernel is paid only on steps where every moving obstacle's predicted pass (the look-ahead block,
-  /// observation.lookahead > 0) clears every capsule of the arm by more than this [m]. −inf (default): every step.
+  /// observation.lookahead > 0) clears every capsule a joint moves by more than this [m]. −inf (default): every step.
   /// Precision is then asked for where no evasion is due, and never traded against one.
   double precision_pass_clearance = -std::numeric_limits<double>::infinity();
 };
@@ -181,8 +181,12 @@ struct PretrainScenarioOptions {
   std::array<double, 2> obstacle_lead_time = {1.0, 3.0};  ///< the cube sits where the target will be after t [s]
   /// [m] the cube's surface is moved this far beside the target's path there (perpendicular to the target's motion,
   /// to a random side), and the whole path over the scenario's duration keeps at least the range's minimum from it.
-  /// {0, 0}: the cube sits on the path (the paper's scene: tracking means leaving the target while it passes).
+  /// {0, 0}: the cube sits on the path (the paper's scene: tracking means leaving the target while it passes). With
+  /// obstacle_speed > 0 the offset holds where the cube is drawn only. No draw in max_attempts: InputError.
   std::array<double, 2> obstacle_path_offset = {0.0, 0.0};
+  /// the scene drawn as usual (same targets, starts and random draws), then the cube lifted 10 m out of the arm's
+  /// plane: the no-obstacle reference on the same episodes (Table 3's `basic-free`)
+  bool obstacle_out_of_reach = false;
   std::array<double, 2> obstacle_speed = {0.0, 0.0};   ///< [m/s] (0: static), random in-plane direction
   double start_clearance = 0.05;  ///< cube ≥ this from the arm at q0 [m]
   double target_clearance = 0.0;  ///< cube surface ≥ this from the target's start [m]
