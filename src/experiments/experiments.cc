@@ -266,6 +266,10 @@ constexpr const char* kKernel10Reward =
     "reward: {joint_reach_weights: [0], distance_weight: 0, time_reward: 0, collision_penalty: 1000, "
     "precision_weight: 1, precision_length: 0.1}";
 
+/// the training scene of the reach-avoid recipes since session 3: two cubes crossing at 0.2–2.8 m/s
+constexpr const char* kTwoFastCubes = "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}";
+
+
 /// A learned method: a training recipe, seeds 1..N.
 struct Recipe {
   std::string key, label;
@@ -285,6 +289,13 @@ struct Recipe {
   /// the one those overrides give
   const char* reward = nullptr;
 };
+
+/// a kernel-reward recipe (sessions 8–9): MAPPO over a parameters-only layer, reach-avoid with two fast cubes mixed
+/// with static clutter, 300 updates, the run prefix equal to the key
+Recipe KernelRecipe(const char* key, const char* label, const LayerVariant* layer, const char* reward) {
+  return {key, label, key, "mappo-params-reach-avoid", rl::InterfaceMode::kPerJointRmp, "", true, layer,
+          kTwoFastCubes, 300, "cluttered", nullptr, reward};
+}
 
 const std::vector<Recipe>& Recipes() {
   using rl::InterfaceMode;
@@ -322,12 +333,12 @@ const std::vector<Recipe>& Recipes() {
       {"hrl-rmp-v2", "HRL-RMP (v2)", "hrl-rmp-2link-v2", "pretrain-2link", InterfaceMode::kPerJointRmp, "", false,
        &kLayerV2, "scenario: {obstacle_speed: [0.0, 2.0]}"},
       {"marl-rmp-v2", "MARL-RMP (v2)", "marl-rmp-v2", "mappo-reach-avoid", InterfaceMode::kPerJointRmp,
-       "hrl-rmp-2link-v2", true, &kLayerV2, "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}"},
+       "hrl-rmp-2link-v2", true, &kLayerV2, kTwoFastCubes},
       // ablation of the option layer: every joint runs the composite option, MAPPO learns only the RMP parameters,
       // from scratch (its initial deterministic policy is the v2 layer at its centre, basic-ttc-v2); half budget
       {"marl-rmp-v2-params", "MAPPO over the v2 layer (composite option fixed, parameters learned, 300 updates)",
        "marl-rmp-v2-params", "mappo-nopretrain-reach-avoid", InterfaceMode::kPerJointRmp, "", true, &kLayerV2Params,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300},
+       kTwoFastCubes, 300},
       // the same with a collision penalty near an episode's return (phi 1000 instead of 75: one collision fails the
       // episode, as it does the success metric) and exploration noise sigma 0.22 instead of 0.61 on the parameters
       {"marl-rmp-v2-params-phi", "MAPPO over the v2 layer (parameters only, phi 1000, sigma 0.22, 300 updates)",
@@ -525,31 +536,19 @@ const std::vector<Recipe>& Recipes() {
       // ... with eq (14)'s terms off and the bounded precision kernel exp(−d / 2 cm) per step instead of the linear
       // term (reward.precision_weight 1), phi 1000: R_d's ±1 per mm per step and the other eq-14 terms add noise the
       // size of the precision signal, and −w·d keeps paying while the arm dodges far from the target
-      {"marl-rmp-v2c-stiffness-look-kernel",
-       "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
-       "marl-rmp-v2c-stiffness-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernelReward},
+      KernelRecipe("marl-rmp-v2c-stiffness-look-kernel",
+                   "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
+                   &kLayerV2CoupledStiffnessLookahead, kKernelReward),
       // ... with the kernel paid only where no pass is predicted within 15 cm (session 9), from k_p 30 and k_p 120
-      {"marl-rmp-v2c-stiffness-look-kernel-gated",
-       "MAPPO over the coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
-       "marl-rmp-v2c-stiffness-look-kernel-gated", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernelRewardGated},
-      {"marl-rmp-v2c-stiff-base-look-kernel-gated",
-       "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
-       "marl-rmp-v2c-stiff-base-look-kernel-gated", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffBaseLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernelRewardGated},
-      {"marl-rmp-v2c-stiff-base-look-kernel",
-       "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
-       "marl-rmp-v2c-stiff-base-look-kernel", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffBaseLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernelReward},
+      KernelRecipe("marl-rmp-v2c-stiffness-look-kernel-gated",
+                   "MAPPO over the coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
+                   &kLayerV2CoupledStiffnessLookahead, kKernelRewardGated),
+      KernelRecipe("marl-rmp-v2c-stiff-base-look-kernel-gated",
+                   "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel paid only while no pass is predicted",
+                   &kLayerV2CoupledStiffBaseLookahead, kKernelRewardGated),
+      KernelRecipe("marl-rmp-v2c-stiff-base-look-kernel",
+                   "MAPPO over the stiff coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 1000)",
+                   &kLayerV2CoupledStiffBaseLookahead, kKernelReward),
       // ... the kernel reward on line-crossing scenes: in the reach-avoid mixture the arm is 180–270 mm from the target
       // on average while training, where exp(−d / 2 cm) pays nothing
       {"marl-rmp-v2c-stiffness-look-kernel-lc",
@@ -557,19 +556,13 @@ const std::vector<Recipe>& Recipes() {
        "marl-rmp-v2c-stiffness-look-kernel-lc", "mappo-params-line-crossing", InterfaceMode::kPerJointRmp, "", true,
        &kLayerV2CoupledStiffnessLookahead, nullptr, 300, nullptr, nullptr, kKernelReward},
       // ... the kernel recipe at phi 300: at phi 1000 the agents bought safety with precision
-      {"marl-rmp-v2c-stiffness-look-kernel-phi300",
-       "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 300)",
-       "marl-rmp-v2c-stiffness-look-kernel-phi300", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernelRewardPhi300},
+      KernelRecipe("marl-rmp-v2c-stiffness-look-kernel-phi300",
+                   "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward (eq 14 off, phi 300)",
+                   &kLayerV2CoupledStiffnessLookahead, kKernelRewardPhi300),
       // ... the kernel 5x wider (exp(−d / 10 cm)): at 2 cm it paid nothing where the training arm mostly is
-      {"marl-rmp-v2c-stiffness-look-kernel10",
-       "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward exp(-d / 10 cm) (eq 14 off, phi 1000)",
-       "marl-rmp-v2c-stiffness-look-kernel10", "mappo-params-reach-avoid", InterfaceMode::kPerJointRmp, "", true,
-       &kLayerV2CoupledStiffnessLookahead,
-       "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}", 300, "cluttered", nullptr,
-       kKernel10Reward},
+      KernelRecipe("marl-rmp-v2c-stiffness-look-kernel10",
+                   "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward exp(-d / 10 cm) (eq 14 off, phi 1000)",
+                   &kLayerV2CoupledStiffnessLookahead, kKernel10Reward),
       // ... the kernel recipe on quieter scenes: one cube at a time (0.2–2.8 m/s), no clutter, so the arm spends
       // stretches near the target, where the kernel pays
       {"marl-rmp-v2c-stiffness-look-kernel-quiet",
@@ -712,27 +705,24 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   Method target_free = Method::FixedOption("basic layer (target option, cube out of reach)", 0);
   target_free.adjust_task = [](rl::TaskConfig& c) { c.scenario.pretrain.obstacle_out_of_reach = true; };
   const Entry basic_free = fixed("basic-free", target_free);
-  Method target_coupled = Method::FixedOption("basic layer, coupled resolve (target option)", 0);
-  target_coupled.adjust_task = kLayerCoupled.apply;
-  const Entry basic_coupled = fixed("basic-coupled", target_coupled);
-  Method ttc_coupled = Method::FixedOption("basic layer, coupled resolve (target-then-collision)", 2);
-  ttc_coupled.adjust_task = kLayerCoupled.apply;
-  const Entry basic_ttc_coupled = fixed("basic-ttc-coupled", ttc_coupled);
+  // a fixed option at every joint, unit scales, on a basic-layer variant
+  auto fixed_on = [&](const std::string& key, const std::string& label, int option, const LayerVariant& layer) {
+    Method m = Method::FixedOption(label, option);
+    m.adjust_task = layer.apply;
+    return fixed(key, m);
+  };
+  const Entry basic_coupled = fixed_on("basic-coupled", "basic layer, coupled resolve (target option)", 0, kLayerCoupled);
+  const Entry basic_ttc_coupled =
+      fixed_on("basic-ttc-coupled", "basic layer, coupled resolve (target-then-collision)", 2, kLayerCoupled);
   Method target_free_coupled = Method::FixedOption("basic layer, coupled resolve (target option, cube out of reach)", 0);
   target_free_coupled.adjust_task = [target_free](rl::TaskConfig& c) {
     kLayerCoupled.apply(c);
     target_free.adjust_task(c);
   };
   const Entry basic_free_coupled = fixed("basic-free-coupled", target_free_coupled);
-  Method ttc_v0 = Method::FixedOption("basic layer v0 (target-then-collision)", 2);
-  ttc_v0.adjust_task = kLayerV0.apply;
-  const Entry basic_ttc_v0 = fixed("basic-ttc-v0", ttc_v0);
-  Method ttc_2ms = Method::FixedOption("basic layer 2 ms (target-then-collision)", 2);
-  ttc_2ms.adjust_task = kLayer2ms.apply;
-  const Entry basic_ttc_2ms = fixed("basic-ttc-2ms", ttc_2ms);
-  Method ttc_v2 = Method::FixedOption("basic layer v2 (target-then-collision)", 2);
-  ttc_v2.adjust_task = kLayerV2.apply;
-  const Entry basic_ttc_v2 = fixed("basic-ttc-v2", ttc_v2);
+  const Entry basic_ttc_v0 = fixed_on("basic-ttc-v0", "basic layer v0 (target-then-collision)", 2, kLayerV0);
+  const Entry basic_ttc_2ms = fixed_on("basic-ttc-2ms", "basic layer 2 ms (target-then-collision)", 2, kLayer2ms);
+  const Entry basic_ttc_v2 = fixed_on("basic-ttc-v2", "basic layer v2 (target-then-collision)", 2, kLayerV2);
   Method ttc_v2_gentle = Method::FixedOption("basic layer v2 (target-then-collision, collision scale 1/4)", 2);
   ttc_v2_gentle.adjust_task = kLayerV2.apply;
   ttc_v2_gentle.fixed_parameters[rl::RmpActionLayout::kCollisionAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
