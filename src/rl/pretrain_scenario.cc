@@ -1,4 +1,4 @@
-// The pre-training scenario: moving target, one cube on its path.
+// The pre-training scenario: moving target, one cube beside (or on) its path.
 #include "rmpmarl/rl/pretrain_scenario.h"
 
 #include <fmt/format.h>

@@ -174,7 +174,8 @@ struct RandomizationConfig {
 };
 
 /// The `pretrain-2link` scenario (docs/environments.md): a target in uniform linear motion in a random in-plane
-/// direction (reflected in the workspace box) and one cube placed on the target's path.
+/// direction (reflected in the workspace box) and one cube placed beside (or, with a zero offset, on) the target's
+/// path.
 struct PretrainScenarioOptions {
   std::array<double, 2> target_speed = {0.05, 0.25};   ///< [m/s], per episode
   double obstacle_side = 0.1;                          ///< cube side [m]
