@@ -269,7 +269,6 @@ constexpr const char* kKernel10Reward =
 /// the training scene of the reach-avoid recipes since session 3: two cubes crossing at 0.2–2.8 m/s
 constexpr const char* kTwoFastCubes = "scenario: {num_obstacles: 2, obstacle_speed: 0.2, obstacle_speed_max: 2.8}";
 
-
 /// A learned method: a training recipe, seeds 1..N.
 struct Recipe {
   std::string key, label;
@@ -728,9 +727,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   ttc_v2_gentle.fixed_parameters[rl::RmpActionLayout::kCollisionAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
       -1.0f;  // u = −1: s_a = 1/gain_range, the paper-default collision RMP
   const Entry basic_ttc_v2_gentle = fixed("basic-ttc-v2-gentle", ttc_v2_gentle);
-  Method ttc_v2c = Method::FixedOption("basic layer v2, coupled resolve (target-then-collision)", 2);
-  ttc_v2c.adjust_task = kLayerV2Coupled.apply;
-  const Entry basic_ttc_v2c = fixed("basic-ttc-v2c", ttc_v2c);
+  const Entry basic_ttc_v2c =
+      fixed_on("basic-ttc-v2c", "basic layer v2, coupled resolve (target-then-collision)", 2, kLayerV2Coupled);
   Method ttc_v2c_gentle =
       Method::FixedOption("basic layer v2, coupled resolve (target-then-collision, collision scale 1/4)", 2);
   ttc_v2c_gentle.adjust_task = kLayerV2Coupled.apply;

@@ -11,6 +11,7 @@
 
 #include "rl_test_util.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/math/geometry.h"
 #include "rmpmarl/rl/pretrain_scenario.h"
 #include "rmpmarl/rl/vec_env.h"
 
@@ -790,11 +791,15 @@ TEST(ManipulatorEnvTest, PretrainPathOffsetPutsTheCubeBesideTheWholePath) {
     env.Reset(rng, b.out());
     const sim::TargetState& t = env.scenario().target();
     const Eigen::Vector3d cube = env.scenario().obstacles()[0].p_WO();
-    // brute force, 1 ms steps: the whole path (the scenario's duration) keeps the range's minimum from the cube ...
+    // brute force, 1 ms steps, the distance from the library's capsule–box query (a point: a zero-radius capsule):
+    // the whole path (the scenario's duration) keeps the range's minimum from the cube ...
+    math::Box box;
+    box.X_WB.translation() = cube;
+    box.half_size.setConstant(h);
     double nearest_all = 1e9, nearest_lead = 1e9, time_lead = 0.0;
     for (double time = 0.0; time <= env.scenario().default_duration(); time += 1e-3) {
       const Eigen::Vector3d x = ReflectedPosition(t.p_WT, t.v_WT, time, t.bounds);
-      const double d = ((x - cube).cwiseAbs().array() - h).max(0.0).matrix().norm();
+      const double d = math::CapsuleBoxDistance(math::Capsule{x, x, 0.0}, box).distance;
       nearest_all = std::min(nearest_all, d);
       if (time >= 1.0 && time <= 3.0 && d < nearest_lead) {
         nearest_lead = d;
