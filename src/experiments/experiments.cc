@@ -230,6 +230,21 @@ const LayerVariant kLayerV2CoupledStiffnessLookaheadWideP5{
       kLayerV2CoupledStiffnessLookaheadWide.apply(task);
       task.options.parameter_period = 5;
     }};
+/// session 10: kLayerV2CoupledStiffnessLookahead with session 7's wide hand gate as a prior under the agents' target
+/// accel parameter (options.target_gate_*: u_agent + 1, k_p 120, while no pass is predicted within 15 cm of a capsule
+/// the joint moves; u_agent + 0, k_p 30, while one is; read every step). Residual learning: the agents' initial mean
+/// u ≈ 0 makes the untrained layer the hand gate, and they learn what to add to it (target stiffness, metric and the
+/// collision scales). Sessions 7–9: no reward taught the agents the gate's switch from scratch (|Δu| ≤ 0.4).
+const LayerVariant kLayerV2CoupledGatePrior{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50, "
+                       "target_gate_clearance: 0.15, target_gate_clear: 1, target_gate_threat: 0",
+                       ", target_scale: stiffness", "", ", lookahead: 1"),
+    [](rl::TaskConfig& task) {
+      kLayerV2CoupledStiffnessLookahead.apply(task);
+      task.options.target_gate_clearance = 0.15;
+      task.options.target_gate_clear = 1.0;
+      task.options.target_gate_threat = 0.0;
+    }};
 /// the untrained coupled layer with the look-ahead block and the target stiffness scale, every step's parameters
 /// read (for the hand-gated rows).
 const LayerVariant kLayerV2CoupledStiffnessLookaheadEveryStep{
@@ -562,6 +577,24 @@ const std::vector<Recipe>& Recipes() {
       KernelRecipe("marl-rmp-v2c-stiffness-look-kernel10",
                    "MAPPO over the coupled v2 layer with look-ahead, precision kernel reward exp(-d / 10 cm) (eq 14 off, phi 1000)",
                    &kLayerV2CoupledStiffnessLookahead, kKernel10Reward),
+      // ... residual learning over the hand gate (session 10): the gate is the prior of the target stiffness
+      KernelRecipe("marl-rmp-v2c-gate-residual-kernel",
+                   "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward (phi 1000)",
+                   &kLayerV2CoupledGatePrior, kKernelReward),
+      KernelRecipe("marl-rmp-v2c-gate-residual-kernel-gated",
+                   "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid only while no "
+                   "pass is predicted",
+                   &kLayerV2CoupledGatePrior, kKernelRewardGated),
+      // ... at phi 300, and on line-crossing scenes: at phi 1000 on the reach-avoid mixture the residual softened the
+      // gate (u −0.1 … −0.46 with no pass predicted) and gave up its precision for safety
+      KernelRecipe("marl-rmp-v2c-gate-residual-kernel-phi300",
+                   "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward (phi 300)",
+                   &kLayerV2CoupledGatePrior, kKernelRewardPhi300),
+      {"marl-rmp-v2c-gate-residual-kernel-lc",
+       "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward, trained on "
+       "line-crossing (phi 1000)",
+       "marl-rmp-v2c-gate-residual-kernel-lc", "mappo-params-line-crossing", InterfaceMode::kPerJointRmp, "", true,
+       &kLayerV2CoupledGatePrior, nullptr, 300, nullptr, nullptr, kKernelReward},
       // ... the kernel recipe on quieter scenes: one cube at a time (0.2–2.8 m/s), no clutter, so the arm spends
       // stretches near the target, where the kernel pays
       {"marl-rmp-v2c-stiffness-look-kernel-quiet",
@@ -681,6 +714,10 @@ struct Entry {
   Method untrained;         ///< untrained: the method
 };
 
+/// the label of the pure tracker on the coupled stiff layer (fig5's split reference)
+constexpr const char* kPureTrackerLabel =
+    "basic layer v2, coupled resolve (target option only, target stiffness x4): a pure tracker";
+
 std::vector<Entry> Catalogue(const std::string& experiment) {
   auto learned = [](const std::string& key, const std::string& recipe) {
     Entry e;
@@ -740,6 +777,16 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
   ttc_v2c_stiff.fixed_parameters[rl::RmpActionLayout::kTargetAccelScale - rl::RmpActionLayout::kTargetAccelScale] =
       1.0f;  // u = +1: the target's k_p x gain_range (30 -> 120)
   const Entry basic_ttc_v2c_stiff = fixed("basic-ttc-v2c-stiff", ttc_v2c_stiff);
+  // session 10: the same layer with the target option alone (collision RMPs off): a pure tracker, the reference of
+  // fig5's split into episodes where tracking the target runs the arm into the cube and those where it does not
+  Method target_v2c_stiff = ttc_v2c_stiff;
+  target_v2c_stiff.name = kPureTrackerLabel;
+  target_v2c_stiff.fixed_option = 0;
+  target_v2c_stiff.adjust_task = [](rl::TaskConfig& task) {
+    kLayerV2CoupledStiffness.apply(task);
+    task.options.fixed_option = 0;  // the layer fixes the composite option; the target option instead
+  };
+  const Entry basic_target_v2c_stiff = fixed("basic-target-v2c-stiff", target_v2c_stiff);
   Method ttc_v2c_stiff2 =
       Method::FixedOption("basic layer v2, coupled resolve (target-then-collision, target stiffness x2)", 2);
   ttc_v2c_stiff2.adjust_task = kLayerV2CoupledStiffness.apply;
@@ -757,6 +804,10 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
     m.threat_gate = Method::ThreatGate{clearance, {}};
     return fixed(key, m);
   };
+  // session 10: the same gate as the prior of the residual recipes' layer, the agents' part zero (their start)
+  const Entry basic_ttc_v2c_prior = fixed_on(
+      "basic-ttc-v2c-prior", "basic layer v2, coupled resolve, the hand gate as a prior (agents' part zero)", 2,
+      kLayerV2CoupledGatePrior);
   const Entry basic_ttc_v2c_gate = gated("basic-ttc-v2c-gate", 0.05);
   const Entry basic_ttc_v2c_gate_wide = gated("basic-ttc-v2c-gate-wide", 0.15);
   const Entry basic_ttc_v2c_gate_narrow = gated("basic-ttc-v2c-gate-narrow", 0.0);
@@ -796,7 +847,12 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-stiffness-look-kernel-quiet", "marl-rmp-v2c-stiffness-look-kernel-quiet"),
       // session 9: the kernel gated on the look-ahead block
       learned("marl-rmp-v2c-stiffness-look-kernel-gated", "marl-rmp-v2c-stiffness-look-kernel-gated"),
-      learned("marl-rmp-v2c-stiff-base-look-kernel-gated", "marl-rmp-v2c-stiff-base-look-kernel-gated")};
+      learned("marl-rmp-v2c-stiff-base-look-kernel-gated", "marl-rmp-v2c-stiff-base-look-kernel-gated"),
+      // session 10: residual learning over the hand gate
+      basic_target_v2c_stiff, basic_ttc_v2c_prior, learned("marl-rmp-v2c-gate-residual-kernel", "marl-rmp-v2c-gate-residual-kernel"),
+      learned("marl-rmp-v2c-gate-residual-kernel-gated", "marl-rmp-v2c-gate-residual-kernel-gated"),
+      learned("marl-rmp-v2c-gate-residual-kernel-phi300", "marl-rmp-v2c-gate-residual-kernel-phi300"),
+      learned("marl-rmp-v2c-gate-residual-kernel-lc", "marl-rmp-v2c-gate-residual-kernel-lc")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,
@@ -863,6 +919,57 @@ std::string Table3Split(const std::vector<ResultRow>& rows, const std::string& b
     const EpisodeSplit s = SplitByReference(pooled[name], ref->episodes);
     out += fmt::format("| {} | {:.1f} % | {:.1f} | {:.1f} % | {:.1f} |\n", name, 100.0 * s.free_success,
                        s.free_settled_mm, 100.0 * s.blocked_success, s.blocked_settled_mm);
+  }
+  return out;
+}
+
+/// Fig. 5's split of each arm's episodes by what the pure tracker (kPureTrackerLabel) does on them: **free**, it
+/// tracks past the cube without a collision; **blocked**, tracking the target drives a link into the cube. Per method
+/// (training seeds pooled) and arm: mean settled tracking error and success over each part. "" when the reference is
+/// not among `rows`.
+std::string Fig5Split(const std::vector<ResultRow>& rows) {
+  std::map<std::string, const ResultRow*> reference;  // arm -> the pure tracker's row
+  for (const ResultRow& r : rows) {
+    if (r.method == kPureTrackerLabel) reference[r.condition] = &r;
+  }
+  if (reference.empty()) return "";
+  std::vector<std::string> order, arms;
+  std::map<std::pair<std::string, std::string>, std::vector<EpisodeRecord>> pooled;  // (method, arm) -> episodes
+  for (const ResultRow& r : rows) {
+    if (!reference.count(r.condition)) continue;
+    if (std::find(order.begin(), order.end(), r.method) == order.end()) order.push_back(r.method);
+    if (std::find(arms.begin(), arms.end(), r.condition) == arms.end()) arms.push_back(r.condition);
+    auto& e = pooled[{r.method, r.condition}];
+    e.insert(e.end(), r.episodes.begin(), r.episodes.end());
+  }
+  std::string out = fmt::format(
+      "\n## Where the cube blocks the arm\n\nEach arm's episodes split by what a pure tracker (`{}`) does on them: "
+      "**free**: it tracks past the cube without a collision; **blocked**: tracking the target drives a link into the "
+      "cube, so a controller that avoids it must leave the target there. Mean settled tracking error (t ≥ 1 s) in mm "
+      "and success over each part, training seeds pooled.\n\n| method |", kPureTrackerLabel);
+  std::string rule = "|---|";
+  for (const std::string& arm : arms) {
+    const EpisodeSplit counts = SplitByReference(reference[arm]->episodes, reference[arm]->episodes);
+    out += fmt::format(" {}: free ({}) | {}: blocked ({}) |", arm, counts.free_count, arm, counts.blocked_count);
+    rule += "---|---|";
+  }
+  out += "\n" + rule + "\n";
+  auto cell = [](double settled, double success) {
+    return std::isnan(success) ? std::string("–") : fmt::format("{:.1f} ({:.0f} %)", settled, 100.0 * success);
+  };
+  for (const std::string& method : order) {
+    out += fmt::format("| {} |", method);
+    for (const std::string& arm : arms) {
+      const auto it = pooled.find({method, arm});
+      if (it == pooled.end()) {
+        out += " | |";
+        continue;
+      }
+      const EpisodeSplit s = SplitByReference(it->second, reference[arm]->episodes);
+      out += fmt::format(" {} | {} |", cell(s.free_settled_mm, s.free_success),
+                         cell(s.blocked_settled_mm, s.blocked_success));
+    }
+    out += "\n";
   }
   return out;
 }
@@ -1132,6 +1239,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
       task.scenario.crossing.num_obstacles = 1;
       RenderFig5Frames(arms, task, final_policy(FindRecipe("marl-rmp"), 1), o.eval_seed, o.out, &text.notes);
     }
+    text.notes += Fig5Split(rows);
   }
   if (!runs.empty()) text.notes += "\n## Training runs\n\n" + DescribeRuns(runs, runner);
   WriteResultFiles(rows, o.out);

@@ -434,6 +434,8 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
                  Num(r, "collision_length_exponent", &o.collision_length_exponent),
                  Int(r, "fixed_option", &o.fixed_option),
                  Int(r, "parameter_period", &o.parameter_period),
+                 Num(r, "target_gate_clearance", &o.target_gate_clearance, /*allow_inf=*/true),
+                 Num(r, "target_gate_clear", &o.target_gate_clear), Num(r, "target_gate_threat", &o.target_gate_threat),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -615,6 +617,17 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "reward.precision_pass_clearance",
         fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on a per-joint "
                     "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), w.precision_pass_clearance);
+  const OptionConfig& og = c.options;
+  check(!std::isnan(og.target_gate_clearance) && og.target_gate_clearance < kInf, "options.target_gate_clearance",
+        "a clearance [m] or -.inf (no prior)", og.target_gate_clearance);
+  check(!og.TargetGated() || (o.lookahead > 0.0 && c.interface == InterfaceMode::kPerJointRmp),
+        "options.target_gate_clearance",
+        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on the per-joint-rmp "
+                    "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), og.target_gate_clearance);
+  check(std::isfinite(og.target_gate_clear) && std::abs(og.target_gate_clear) <= 1.0, "options.target_gate_clear",
+        "a parameter u in [-1, 1]", og.target_gate_clear);
+  check(std::isfinite(og.target_gate_threat) && std::abs(og.target_gate_threat) <= 1.0, "options.target_gate_threat",
+        "a parameter u in [-1, 1]", og.target_gate_threat);
 
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

@@ -38,6 +38,9 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["options.target_gain_range"] = c.options.target_gain_range;
   f["options.collision_target_weight"] = c.options.collision_target_weight;
   f["options.warnings"] = static_cast<double>(c.options.warnings);
+  f["options.target_gate_clearance"] = c.options.target_gate_clearance;
+  f["options.target_gate_clear"] = c.options.target_gate_clear;
+  f["options.target_gate_threat"] = c.options.target_gate_threat;
   f["direct.max_speed_fraction"] = c.direct.max_speed_fraction;
   f["observation.length_scale"] = c.observation.length_scale;
   f["observation.speed_scale"] = c.observation.speed_scale;

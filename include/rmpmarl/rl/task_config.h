@@ -4,6 +4,7 @@
 /// DefaultTaskConfig(task) equals the shipped file (checked by a test); LoadTaskConfig starts from those defaults,
 /// applies the keys present and rejects unknown keys and out-of-range values with an InputError naming file and key.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
@@ -107,6 +108,16 @@ struct OptionConfig {
   /// StepOutput::parameters_read). 1: every step (the paper). In [1, 1000].
   int parameter_period = 1;
   OptionWarnings warnings = OptionWarnings::kObstacles;
+  /// A hand prior under the learned target accel scale (residual learning over session 7's threat gate,
+  /// docs/learning.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
+  /// predicted by the look-ahead block (observation.lookahead) to pass within target_gate_clearance [m] of a capsule
+  /// joint i moves, and u_agent + target_gate_threat while one is; the sum is clipped to [−1, 1]. The prior is read
+  /// every step, the agent's part as options.parameter_period says. With u_agent = 0 the layer is the hand gate.
+  /// −inf: off (the agent's u alone). Needs observation.lookahead > 0 and the per-joint-rmp interface.
+  double target_gate_clearance = -std::numeric_limits<double>::infinity();
+  double target_gate_clear = 0.0;   ///< the prior's u with no pass predicted, in [−1, 1]
+  double target_gate_threat = 0.0;  ///< the prior's u while a pass is predicted, in [−1, 1]
+  bool TargetGated() const { return std::isfinite(target_gate_clearance); }
 };
 
 /// The direct and per-joint-direct actions: Δq_i = clip(u_i, −1, 1) · max_speed_fraction · v_max,i · T.
