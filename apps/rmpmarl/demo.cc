@@ -246,12 +246,12 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
 
-// the shipped MARL-RMP policy of the demo, if present: marl-rmp-v2c.rmpp (MAPPO over the coupled basic layer, the
-// Table-4 success target of issue 9; docs/learning.md, session 5). The v1 policy (marl-rmp.rmpp) collides 3 times on
-// the demo's default episode, where RMPflow and v2c do not.
+// the shipped MARL-RMP policy of the demo, if present: marl-rmp-v2c-gate.rmpp (MAPPO residual over the hand gate on
+// the coupled basic layer: at or above RMPflow-tuned at every line-crossing speed, settling as close; docs/learning.md,
+// session 10). The v1 policy (marl-rmp.rmpp) collides 3 times on the demo's default episode, where RMPflow does not.
 std::optional<std::string> ShippedMarlRmp() {
   const std::filesystem::path p = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" /
-                                  "marl-rmp-v2c.rmpp";
+                                  "marl-rmp-v2c-gate.rmpp";
   if (std::filesystem::exists(p)) return p.string();
   return std::nullopt;
 }
@@ -281,7 +281,7 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
   cmd->add_option("--policy", args.policy,
                   "rmpflow: RMPflow alone on --scenario; a .rmpp file: those per-joint agents and RMPflow on the same "
-                  "task episode (default: the shipped models/policies/marl-rmp-v2c.rmpp vs RMPflow when it exists)");
+                  "task episode (default: the shipped models/policies/marl-rmp-v2c-gate.rmpp vs RMPflow when it exists)");
   cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");

@@ -639,6 +639,8 @@ std::string RunId(const std::string& prefix, int seed) { return fmt::format("{}-
 fs::path ShippedPolicy(const std::string& recipe) {
   const fs::path dir = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies";
   if (recipe == "hrl-rmp") return dir / "hrl-rmp-2link.rmpp";
+  if (recipe == "marl-rmp-v2c-params-hold-phi20k") return dir / "marl-rmp-v2c.rmpp";
+  if (recipe == "marl-rmp-v2c-gate-residual-kernel-gated") return dir / "marl-rmp-v2c-gate.rmpp";
   return dir / (recipe + ".rmpp");
 }
 

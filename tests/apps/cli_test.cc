@@ -58,12 +58,13 @@ TEST(CliTest, MissingArgumentsIsAUsageError) {
   EXPECT_NE(r.output.find("required"), std::string::npos) << r.output;
 }
 
-// `make demo`'s job: the shipped coupled-layer agents (marl-rmp-v2c, on the basic layer written beside them) and
-// RMPflow on one reach-avoid episode; at seed 3 both succeed with wide margins (min clearance 86 and 56 mm)
+// `make demo`'s job: the shipped coupled-layer agents (marl-rmp-v2c-gate, on the basic layer written beside them) and
+// RMPflow on one reach-avoid episode; at seed 3 both succeed
 TEST(CliTest, DefaultDemoRunsTheShippedCoupledAgentsBesideRmpflow) {
   const CommandResult r = RunCli("demo --seed 3");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("models/policies/marl-rmp-v2c.rmpp"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("models/policies/marl-rmp-v2c-gate.rmpp"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("target_gate_clearance: 0.15"), std::string::npos) << r.output;  // its layer, the prior on
   EXPECT_NE(r.output.find("resolve: coupled"), std::string::npos) << r.output;
   const size_t result = r.output.find("  result ");
   ASSERT_NE(result, std::string::npos) << r.output;

@@ -27,7 +27,7 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
   };
   for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "pretrain-2link"}, Case{"marl-rmp.rmpp", "reach-avoid"},
                         Case{"marl-rmp-v2.rmpp", "reach-avoid"}, Case{"marl-rmp-v2-params-hold.rmpp", "reach-avoid"},
-                        Case{"marl-rmp-v2c.rmpp", "reach-avoid"}}) {
+                        Case{"marl-rmp-v2c.rmpp", "reach-avoid"}, Case{"marl-rmp-v2c-gate.rmpp", "reach-avoid"}}) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
@@ -42,6 +42,8 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
       EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2-params-hold"));
     } else if (std::string(c.file) == "marl-rmp-v2c.rmpp") {
       EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2c-params-hold-phi20k"));
+    } else if (std::string(c.file) == "marl-rmp-v2c-gate.rmpp") {
+      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2c-gate-residual-kernel-gated"));
     } else {
       EXPECT_EQ(layer, "");
     }
