@@ -587,6 +587,15 @@ const std::vector<Recipe>& Recipes() {
                    &kLayerV2CoupledGatePrior, kKernelRewardGated),
       // ... at phi 300, and on line-crossing scenes: at phi 1000 on the reach-avoid mixture the residual softened the
       // gate (u −0.1 … −0.46 with no pass predicted) and gave up its precision for safety
+      // ... the chosen residual recipe at twice the budget (600 updates): sessions 5–9 never trained past 300
+      [] {
+        Recipe r = KernelRecipe("marl-rmp-v2c-gate-residual-kernel-gated-600",
+                                "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid "
+                                "only while no pass is predicted, 600 updates",
+                                &kLayerV2CoupledGatePrior, kKernelRewardGated);
+        r.max_updates = 600;
+        return r;
+      }(),
       KernelRecipe("marl-rmp-v2c-gate-residual-kernel-phi300",
                    "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward (phi 300)",
                    &kLayerV2CoupledGatePrior, kKernelRewardPhi300),
@@ -854,7 +863,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       basic_target_v2c_stiff, basic_ttc_v2c_prior, learned("marl-rmp-v2c-gate-residual-kernel", "marl-rmp-v2c-gate-residual-kernel"),
       learned("marl-rmp-v2c-gate-residual-kernel-gated", "marl-rmp-v2c-gate-residual-kernel-gated"),
       learned("marl-rmp-v2c-gate-residual-kernel-phi300", "marl-rmp-v2c-gate-residual-kernel-phi300"),
-      learned("marl-rmp-v2c-gate-residual-kernel-lc", "marl-rmp-v2c-gate-residual-kernel-lc")};
+      learned("marl-rmp-v2c-gate-residual-kernel-lc", "marl-rmp-v2c-gate-residual-kernel-lc"),
+      learned("marl-rmp-v2c-gate-residual-kernel-gated-600", "marl-rmp-v2c-gate-residual-kernel-gated-600")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,
