@@ -281,7 +281,8 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
   cmd->add_option("--policy", args.policy,
                   "rmpflow: RMPflow alone on --scenario; a .rmpp file: those per-joint agents and RMPflow on the same "
-                  "task episode (default: the shipped models/policies/marl-rmp-v2c-gate.rmpp vs RMPflow when it exists)");
+                  "task episode (default: the shipped models/policies/marl-rmp-v2c-gate.rmpp vs RMPflow when it "
+                  "exists)");
   cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");

@@ -570,6 +570,18 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a period in steps in [1, 1000]", c.options.parameter_period);
   check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
         "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
+  const OptionConfig& op = c.options;
+  check(!std::isnan(op.target_gate_clearance) && op.target_gate_clearance < kInf, "options.target_gate_clearance",
+        "a clearance [m] or -.inf (no prior)", op.target_gate_clearance);
+  check(!op.TargetGated() || (c.observation.lookahead > 0.0 && c.interface == InterfaceMode::kPerJointRmp),
+        "options.target_gate_clearance",
+        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on the per-joint-rmp "
+                    "interface (got {})", c.observation.lookahead, InterfaceModeName(c.interface)),
+        op.target_gate_clearance);
+  check(std::isfinite(op.target_gate_clear) && std::abs(op.target_gate_clear) <= 1.0, "options.target_gate_clear",
+        "a parameter u in [-1, 1]", op.target_gate_clear);
+  check(std::isfinite(op.target_gate_threat) && std::abs(op.target_gate_threat) <= 1.0, "options.target_gate_threat",
+        "a parameter u in [-1, 1]", op.target_gate_threat);
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);
@@ -617,18 +629,6 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "reward.precision_pass_clearance",
         fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on a per-joint "
                     "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), w.precision_pass_clearance);
-  const OptionConfig& og = c.options;
-  check(!std::isnan(og.target_gate_clearance) && og.target_gate_clearance < kInf, "options.target_gate_clearance",
-        "a clearance [m] or -.inf (no prior)", og.target_gate_clearance);
-  check(!og.TargetGated() || (o.lookahead > 0.0 && c.interface == InterfaceMode::kPerJointRmp),
-        "options.target_gate_clearance",
-        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on the per-joint-rmp "
-                    "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), og.target_gate_clearance);
-  check(std::isfinite(og.target_gate_clear) && std::abs(og.target_gate_clear) <= 1.0, "options.target_gate_clear",
-        "a parameter u in [-1, 1]", og.target_gate_clear);
-  check(std::isfinite(og.target_gate_threat) && std::abs(og.target_gate_threat) <= 1.0, "options.target_gate_threat",
-        "a parameter u in [-1, 1]", og.target_gate_threat);
-
   // domain randomisation
   const RandomizationConfig& d = c.randomization;
   check(d.variants >= 1 && d.variants <= 1024, "randomization.variants", "an integer in [1, 1024]", d.variants);

@@ -64,7 +64,8 @@ TEST(CliTest, DefaultDemoRunsTheShippedCoupledAgentsBesideRmpflow) {
   const CommandResult r = RunCli("demo --seed 3");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("models/policies/marl-rmp-v2c-gate.rmpp"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("target_gate_clearance: 0.15"), std::string::npos) << r.output;  // its layer, the prior on
+  // its layer carries the hand gate as the prior of the target stiffness
+  EXPECT_NE(r.output.find("target_gate_clearance: 0.15"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("resolve: coupled"), std::string::npos) << r.output;
   const size_t result = r.output.find("  result ");
   ASSERT_NE(result, std::string::npos) << r.output;

@@ -112,7 +112,9 @@ struct OptionConfig {
   /// docs/learning.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
   /// predicted by the look-ahead block (observation.lookahead) to pass within target_gate_clearance [m] of a capsule
   /// joint i moves, and u_agent + target_gate_threat while one is; the sum is clipped to [−1, 1]. The prior is read
-  /// every step, the agent's part as options.parameter_period says. With u_agent = 0 the layer is the hand gate.
+  /// every step, the agent's part as options.parameter_period says. With u_agent = 0 the layer is the hand gate
+  /// experiments::Method::ThreatGate for clearances in (−ℓ, 2ℓ] (ℓ = observation.length_scale), where the gate's clipped
+  /// feature and the metres compared here agree.
   /// −inf: off (the agent's u alone). Needs observation.lookahead > 0 and the per-joint-rmp interface.
   double target_gate_clearance = -std::numeric_limits<double>::infinity();
   double target_gate_clear = 0.0;   ///< the prior's u with no pass predicted, in [−1, 1]
