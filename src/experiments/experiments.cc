@@ -246,6 +246,19 @@ const LayerVariant kLayerV2CoupledGatePrior{
       task.options.target_gate_clear = 1.0;
       task.options.target_gate_threat = 0.0;
     }};
+/// kLayerV2CoupledGatePrior with the prior inside the clip bounds: target scales in [1/16, 16], the gate at u_c = 1/2
+/// (k_p 120) and u_t = 0 (k_p 30). With u_c = 1 on the bound a positive residual is clipped away while no pass is
+/// predicted, so nothing there pulls a drifting mean back (session 10's review).
+const LayerVariant kLayerV2CoupledGatePriorInside{
+    V2CoupledLayerYaml(", fixed_option: 2, parameter_period: 25, termination: fixed, horizon: 50, "
+                       "target_gain_range: 16, target_gate_clearance: 0.15, target_gate_clear: 0.5, "
+                       "target_gate_threat: 0",
+                       ", target_scale: stiffness", "", ", lookahead: 1"),
+    [](rl::TaskConfig& task) {
+      kLayerV2CoupledGatePrior.apply(task);
+      task.options.target_gain_range = 16.0;
+      task.options.target_gate_clear = 0.5;
+    }};
 /// the untrained coupled layer with the look-ahead block and the target stiffness scale, every step's parameters
 /// read (for the hand-gated rows).
 const LayerVariant kLayerV2CoupledStiffnessLookaheadEveryStep{
@@ -597,6 +610,10 @@ const std::vector<Recipe>& Recipes() {
       }(),
       // ... at phi 300, and on line-crossing scenes: at phi 1000 on the reach-avoid mixture the residuals gave up
       // the gate's precision for safety (seed 7: 22.8–25.4 against 9.2 mm settled)
+      KernelRecipe("marl-rmp-v2c-gate-inside-residual-kernel-gated",
+                   "MAPPO residual over the hand gate inside the clip bounds (target scales in [1/16, 16]), precision "
+                   "kernel paid only while no pass is predicted",
+                   &kLayerV2CoupledGatePriorInside, kKernelRewardGated),
       KernelRecipe("marl-rmp-v2c-gate-residual-kernel-phi300",
                    "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward (phi 300)",
                    &kLayerV2CoupledGatePrior, kKernelRewardPhi300),
@@ -866,7 +883,8 @@ std::vector<Entry> Catalogue(const std::string& experiment) {
       learned("marl-rmp-v2c-gate-residual-kernel-gated", "marl-rmp-v2c-gate-residual-kernel-gated"),
       learned("marl-rmp-v2c-gate-residual-kernel-phi300", "marl-rmp-v2c-gate-residual-kernel-phi300"),
       learned("marl-rmp-v2c-gate-residual-kernel-lc", "marl-rmp-v2c-gate-residual-kernel-lc"),
-      learned("marl-rmp-v2c-gate-residual-kernel-gated-600", "marl-rmp-v2c-gate-residual-kernel-gated-600")};
+      learned("marl-rmp-v2c-gate-residual-kernel-gated-600", "marl-rmp-v2c-gate-residual-kernel-gated-600"),
+      learned("marl-rmp-v2c-gate-inside-residual-kernel-gated", "marl-rmp-v2c-gate-inside-residual-kernel-gated")};
   if (experiment == "table3") {
     return {learned("hrl-rmp", "hrl-rmp"), learned("ppo", "ppo-2link"), basic, basic_ttc,
             learned("hrl-rmp-precision", "hrl-rmp-precision"), basic_free,

@@ -47,8 +47,8 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   const std::string csv = Read(dir / "table4" / "results.csv");
   EXPECT_EQ(csv.rfind("method,condition,train_seed,episodes,success_rate,tracking_mm,settled_tracking_mm,"
                       "collisions_per_episode", 0), 0u);
-  // 66 methods (48 learned + 18 basic-layer and baseline rows) x 5 speeds, one training seed: 330 rows + header
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 331);
+  // 67 methods (49 learned + 18 basic-layer and baseline rows) x 5 speeds, one training seed: 335 rows + header
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 336);
   // a label with a comma is one quoted CSV field (RFC 4180), so the plots read the right columns
   EXPECT_NE(csv.find("\n\"basic layer v2 (target-then-collision, collision scale 1/4)\",0.2 m/s,0,"), std::string::npos);
   EXPECT_TRUE(fs::exists(dir / "table4" / "table4_success.png"));
