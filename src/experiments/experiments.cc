@@ -318,11 +318,12 @@ struct Recipe {
   const char* reward = nullptr;
 };
 
-/// a kernel-reward recipe (sessions 8–9): MAPPO over a parameters-only layer, reach-avoid with two fast cubes mixed
-/// with static clutter, 300 updates, the run prefix equal to the key
-Recipe KernelRecipe(const char* key, const char* label, const LayerVariant* layer, const char* reward) {
+/// a kernel-reward recipe (sessions 8–10): MAPPO over a parameters-only layer, reach-avoid with two fast cubes mixed
+/// with static clutter, `updates` updates, the run prefix equal to the key
+Recipe KernelRecipe(const char* key, const char* label, const LayerVariant* layer, const char* reward,
+                    int updates = 300) {
   return {key, label, key, "mappo-params-reach-avoid", rl::InterfaceMode::kPerJointRmp, "", true, layer,
-          kTwoFastCubes, 300, "cluttered", nullptr, reward};
+          kTwoFastCubes, updates, "cluttered", nullptr, reward};
 }
 
 const std::vector<Recipe>& Recipes() {
@@ -600,20 +601,17 @@ const std::vector<Recipe>& Recipes() {
                    "pass is predicted",
                    &kLayerV2CoupledGatePrior, kKernelRewardGated),
       // ... the chosen residual recipe at twice the budget (600 updates): sessions 5–9 never trained past 300
-      [] {
-        Recipe r = KernelRecipe("marl-rmp-v2c-gate-residual-kernel-gated-600",
-                                "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid "
-                                "only while no pass is predicted, 600 updates",
-                                &kLayerV2CoupledGatePrior, kKernelRewardGated);
-        r.max_updates = 600;
-        return r;
-      }(),
-      // ... at phi 300, and on line-crossing scenes: at phi 1000 on the reach-avoid mixture the residuals gave up
-      // the gate's precision for safety (seed 7: 22.8–25.4 against 9.2 mm settled)
+      KernelRecipe("marl-rmp-v2c-gate-residual-kernel-gated-600",
+                   "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid only while "
+                   "no pass is predicted, 600 updates",
+                   &kLayerV2CoupledGatePrior, kKernelRewardGated, 600),
+      // ... with the prior inside the clip bounds (kLayerV2CoupledGatePriorInside)
       KernelRecipe("marl-rmp-v2c-gate-inside-residual-kernel-gated",
                    "MAPPO residual over the hand gate inside the clip bounds (target scales in [1/16, 16]), precision "
                    "kernel paid only while no pass is predicted",
                    &kLayerV2CoupledGatePriorInside, kKernelRewardGated),
+      // ... at phi 300, and on line-crossing scenes: at phi 1000 on the reach-avoid mixture the residuals gave up
+      // the gate's precision for safety (seed 7: 22.8–25.4 against 9.2 mm settled)
       KernelRecipe("marl-rmp-v2c-gate-residual-kernel-phi300",
                    "MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel reward (phi 300)",
                    &kLayerV2CoupledGatePrior, kKernelRewardPhi300),

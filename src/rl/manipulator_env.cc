@@ -469,16 +469,14 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
         const double target_weight = sel.use_collision ? config_.options.collision_target_weight : 1.0;
         w.use_target = sel.use_target || target_weight > 0.0;
         w.use_collision = sel.use_collision;
-        // options.target_gate_*: the hand prior of the look-ahead block (as seen in this step's observation) under
-        // the agent's target accel parameter, read every step
-        const double u_target_accel =
-            config_.options.TargetGated()
-                ? std::clamp(p(RmpActionLayout::kTargetAccelScale) +
-                                 (lookahead_[i].clearance < config_.options.target_gate_clearance
-                                      ? config_.options.target_gate_threat
-                                      : config_.options.target_gate_clear),
-                             -1.0, 1.0)
-                : static_cast<double>(p(RmpActionLayout::kTargetAccelScale));
+        double u_target_accel = p(RmpActionLayout::kTargetAccelScale);
+        if (const OptionConfig& oc = config_.options; oc.TargetGated()) {
+          // options.target_gate_*: the hand prior of the look-ahead block (as seen in this step's observation) under
+          // the agent's target accel parameter, decided every step
+          const bool threat = lookahead_[i].clearance < oc.target_gate_clearance;
+          u_target_accel += threat ? oc.target_gate_threat : oc.target_gate_clear;
+          u_target_accel = std::clamp(u_target_accel, -1.0, 1.0);
+        }
         w.target_accel_scale = GainScale(u_target_accel, g_target);
         w.target_metric_scale = target_weight * GainScale(p(RmpActionLayout::kTargetMetricScale), g_target);
         w.collision_accel_scale = GainScale(p(RmpActionLayout::kCollisionAccelScale), g);

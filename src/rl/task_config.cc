@@ -209,6 +209,18 @@ void CheckWorkspace(const Checker& c, const sim::WorkspaceOptions& w, const std:
   c(w.samples >= 1 && w.samples <= 1000000, key + ".samples", "an integer in [1, 1000000]", w.samples);
 }
 
+/// a clearance [m] compared with the look-ahead block's predicted passes (options.target_gate_clearance,
+/// reward.precision_pass_clearance): −inf (off, meaning `off`) or finite, and finite only with the block on and on an
+/// interface that has it (`interface_ok`, described as `interfaces`)
+void CheckPassClearance(const Checker& check, const TaskConfig& c, double clearance, const std::string& key,
+                        std::string_view off, bool interface_ok, std::string_view interfaces) {
+  check(!std::isnan(clearance) && clearance < std::numeric_limits<double>::infinity(), key,
+        fmt::format("a clearance [m] or -.inf ({})", off), clearance);
+  check(!std::isfinite(clearance) || (c.observation.lookahead > 0.0 && interface_ok), key,
+        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on {} interface "
+                    "(got {})", c.observation.lookahead, interfaces, InterfaceModeName(c.interface)), clearance);
+}
+
 int ScenarioObstacleCount(const TaskConfig& c) {
   switch (c.task) {
     case TaskKind::kPretrain2Link: return 1;
@@ -571,13 +583,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
         "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
   const OptionConfig& op = c.options;
-  check(!std::isnan(op.target_gate_clearance) && op.target_gate_clearance < kInf, "options.target_gate_clearance",
-        "a clearance [m] or -.inf (no prior)", op.target_gate_clearance);
-  check(!op.TargetGated() || (c.observation.lookahead > 0.0 && c.interface == InterfaceMode::kPerJointRmp),
-        "options.target_gate_clearance",
-        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on the per-joint-rmp "
-                    "interface (got {})", c.observation.lookahead, InterfaceModeName(c.interface)),
-        op.target_gate_clearance);
+  CheckPassClearance(check, c, op.target_gate_clearance, "options.target_gate_clearance", "no prior",
+                     c.interface == InterfaceMode::kPerJointRmp, "the per-joint-rmp");
   check(std::isfinite(op.target_gate_clear) && std::abs(op.target_gate_clear) <= 1.0, "options.target_gate_clear",
         "a parameter u in [-1, 1]", op.target_gate_clear);
   check(std::isfinite(op.target_gate_threat) && std::abs(op.target_gate_threat) <= 1.0, "options.target_gate_threat",
@@ -623,12 +630,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a weight >= 0 [reward per step]", w.precision_weight);
   check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
         w.precision_length);
-  check(!std::isnan(w.precision_pass_clearance) && w.precision_pass_clearance < kInf, "reward.precision_pass_clearance",
-        "a clearance [m] or -.inf (every step)", w.precision_pass_clearance);
-  check(!std::isfinite(w.precision_pass_clearance) || (o.lookahead > 0.0 && c.interface != InterfaceMode::kDirect),
-        "reward.precision_pass_clearance",
-        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on a per-joint "
-                    "interface (got {})", o.lookahead, InterfaceModeName(c.interface)), w.precision_pass_clearance);
+  CheckPassClearance(check, c, w.precision_pass_clearance, "reward.precision_pass_clearance", "every step",
+                     c.interface != InterfaceMode::kDirect, "a per-joint");
   // domain randomisation
   const RandomizationConfig& d = c.randomization;
   check(d.variants >= 1 && d.variants <= 1024, "randomization.variants", "an integer in [1, 1024]", d.variants);
