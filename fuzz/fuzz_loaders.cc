@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/rl/task_config.h"
 #include "rmpmarl/rl/torch/trainer.h"
@@ -89,7 +90,10 @@ void LoadRmpflowConfigInput(std::string_view bytes) { rmp::LoadRmpflowOptions(Wr
 
 void LoadPolicyInput(std::string_view bytes) {
   const std::string fixed = WithValidChecksum(Loader::kPolicy, std::string(bytes));
-  const rl::PolicyWeights weights = rl::LoadPolicyFile(WriteTempFile("policy.rmpp", fixed));
+  const std::string path = WriteTempFile("policy.rmpp", fixed);
+  const rl::PolicyFile file = rl::LoadPolicyFile(path);
+  if (file.has_task()) rl::PolicyTaskConfig(file, path);  // the task it carries parses or throws InputError
+  const rl::PolicyWeights& weights = file.weights;
   rl::PolicyRuntime runtime(weights, 1);
   std::vector<float> obs(static_cast<std::size_t>(weights.obs_dim), 0.5f);
   std::vector<float> actions(static_cast<std::size_t>(weights.action_size()));

@@ -33,11 +33,13 @@ void RunRobotsTable(double duration);
 
 /// `rmpmarl demo`: the README's main job.
 void RegisterDemo(CLI::App& app);
+/// `rmpmarl policy show|upgrade`: a controller file's card; format-1 files rewritten as format 2.
+void RegisterPolicy(CLI::App& app);
 
 #ifdef RMPMARL_HAS_TORCH
 /// `rmpmarl train CONFIG [--resume] [--seed N]`: PPO/MAPPO training (docs/learning.md).
 void RegisterTrain(CLI::App& app);
-/// `rmpmarl eval POLICY --task ... --episodes N`: success rate, tracking error, clearance, collisions.
+/// `rmpmarl eval POLICY [--robot/--urdf/--scenario/--obstacle-speed] --episodes N`: success rate, tracking error, clearance, collisions.
 void RegisterEval(CLI::App& app);
 /// `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor for the torch-free runtime.
 void RegisterExportPolicy(CLI::App& app);

@@ -11,8 +11,9 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/learned_controller.h"
 #include "rmpmarl/rl/manipulator_env.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/episode.h"
@@ -34,8 +35,7 @@ struct DemoArgs {
   int width = 960, height = 720;
   std::optional<double> obstacle_speed, target_speed;
   std::optional<int> num_obstacles;
-  std::string policy;                // a trained per-joint policy (.rmpp) instead of RMPflow
-  std::string task = "reach-avoid";  // the task the trained policy runs on
+  std::string policy;  // a controller file (.rmpp) beside RMPflow, or "rmpflow" alone
 };
 
 sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
@@ -130,9 +130,9 @@ struct DemoRun {
 };
 
 // runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
-// learned agents (`runtime`) or, when null, the env's external controller; renders it when args.video is set.
-DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, rl::PolicyRuntime* runtime, const std::string& label,
-                       const std::string& video_path, const DemoArgs& args) {
+// env's external controller; renders it when args.video is set.
+DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
+                       const DemoArgs& args) {
   const rl::EnvSpec& spec = env.spec();
   const int A = spec.num_agents;
   rl::StepBuffers buffers(spec);
@@ -153,105 +153,113 @@ DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, rl::PolicyRuntime* runtime, cons
     }
   }
   DemoRun run{label, {}, 0.0, ""};
-  double next_frame = 0.0, act_us = 0.0, control_us = 0.0;
-  const int max_steps = args.duration > 0.0 ? static_cast<int>(args.duration / spec.control_dt) : spec.max_episode_steps;
+  double next_frame = 0.0;
   int steps = 0;
-  while (steps < max_steps && !buffers.terminated && !buffers.truncated) {
+  while (steps < spec.max_episode_steps && !buffers.terminated && !buffers.truncated) {
     if (video && env.world().time() + 1e-9 >= next_frame) {
       renderer->Render(env.world().mj_data(), &rgb);
       video->AddFrame(rgb);
       next_frame += 1.0 / args.fps;
     }
-    const auto start = std::chrono::steady_clock::now();
-    if (runtime != nullptr) runtime->Act(buffers.local_obs.data(), A, actions.data());
-    act_us += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
     env.Step(actions.data(), rng, buffers.out());
     ++steps;
   }
-  run.metrics = (buffers.terminated || buffers.truncated) ? buffers.metrics : env.metrics();
-  control_us = run.metrics.mean_control_us;
-  run.step_us = act_us / std::max(steps, 1) + control_us;
+  run.metrics = (buffers.terminated || buffers.truncated) ? buffers.metrics : env.MetricsSoFar();
+  run.step_us = run.metrics.mean_control_us;  // the whole controller: sensing, network and basic layer
   if (video) run.video = video->Close().string();
   return run;
 }
 
-// the trained per-joint agents (Eigen runtime, no libtorch) and RMPflow on the SAME episode of a task (the
-// experiments' evaluation path: RMPflow drives the env as an external controller), summaries side by side and a
-// video of each.
+// a controller file's learned agents and RMPflow on the SAME episode of its task, moved to the demo's robot, scene
+// and obstacle speed: both drive the env through the one controller interface (sim::AccelerationPolicy), the agents
+// as rl::LearnedController (Eigen runtime, no libtorch); summaries side by side and a video of each.
 void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   const auto wall_start = std::chrono::steady_clock::now();
-  // a shipped policy runs on the basic layer it was trained on (task_overrides in the YAML beside it)
-  const std::string layer = rl::LoadPolicyTaskOverrides(policy_path);
-  rl::TaskConfig config = layer.empty() ? rl::LoadShippedTaskConfig(args.task)
-                                        : rl::LoadTaskConfig(rl::TaskConfigPath(args.task), layer);
-  if (config.robot != "planar2") config.robot = args.robot;
-  if (args.num_obstacles && config.task == rl::TaskKind::kReachAvoid) {
+  const rl::PolicyFile file = rl::LoadPolicyFile(policy_path);
+  rl::TaskMove move;
+  move.robot = !args.urdf.empty() ? args.urdf : args.robot;
+  move.collision = args.collision;
+  move.scene = args.scenario;
+  if (args.obstacle_speed) move.obstacle_speed = *args.obstacle_speed;
+  rl::TaskConfig config = rl::PolicyTaskConfig(file, policy_path, move);
+  if (args.num_obstacles) {
+    if (config.task != rl::TaskKind::kReachAvoid) {
+      throw InputError("--obstacles: the number of obstacles is set in the crossing scene only");
+    }
     config.scenario.crossing.num_obstacles = *args.num_obstacles;
   }
-  if (args.obstacle_speed && config.task == rl::TaskKind::kReachAvoid) {
-    config.scenario.crossing.obstacle_speed = *args.obstacle_speed;
+  if (args.target_speed) {
+    if (config.task != rl::TaskKind::kReachAvoid) throw InputError("--target-speed: the crossing scene only");
+    config.scenario.crossing.target_speed = *args.target_speed;
+  }
+  if (args.duration > 0.0) {
+    config.episode.max_steps = std::max(1, static_cast<int>(std::lround(args.duration * config.episode.control_rate)));
   }
   config.observation.max_obstacles = std::max(config.observation.max_obstacles, 6);
   config.randomization.variants = 1;  // the nominal robot
   const auto context = rl::MakeTaskContext(config);
-  const rl::EnvSpec& spec = context->spec();
-  rl::PolicyRuntime runtime(rl::LoadPolicyFile(policy_path), spec.num_agents);
-  if (runtime.obs_dim() != spec.local_obs_dim || runtime.action_size() != spec.action.size()) {
-    throw InputError(fmt::format("{}: the policy takes {} observations and gives {} action floats; task '{}' on {} "
-                                 "has {} and {}", policy_path, runtime.obs_dim(), runtime.action_size(), args.task,
-                                 config.robot, spec.local_obs_dim, spec.action.size()));
-  }
   auto video_for = [&](const std::string& suffix) {
     if (args.video.empty()) return std::string();
     const std::filesystem::path v(args.video);
     return (v.parent_path() / (v.stem().string() + "-" + suffix + v.extension().string())).string();
   };
-  fmt::print("rmpmarl demo: {} ({} joints), task '{}', seed {}: the learned per-joint agents ({}; Eigen runtime{}) "
-             "and RMPflow on the same episode\n", config.robot, spec.num_agents, args.task, args.seed, policy_path,
-             runtime.uses_avx2() ? ", AVX2" : "");
-  if (!layer.empty()) fmt::print("  the policy's basic layer (task overrides beside it): {}\n", layer);
-  rl::ManipulatorEnv agents_env(context);
-  const DemoRun learned = RunDemoEpisode(agents_env, &runtime, "MARL-RMP", video_for("marl-rmp"), args);
+  const std::string label = std::filesystem::path(policy_path).stem().string();
+  fmt::print("rmpmarl demo: {} ({} joints), task '{}', seed {}, {:.1f} s: the learned per-joint agents ({}) and "
+             "RMPflow on the same episode\n", context->variant(0).world_model->robot().name, context->nq(),
+             rl::TaskKindName(config.task), args.seed, config.episode.max_steps / config.episode.control_rate,
+             policy_path);
+  fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n", rl::InterfaceModeName(config.interface),
+             config.basic_layer.resolve == rmp::LayerResolve::kCoupled ? "coupled" : "per-joint",
+             config.observation.lookahead > 0.0 ? fmt::format(", look-ahead {:g} s", config.observation.lookahead) : "",
+             config.options.TargetGated()
+                 ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
+                 : "");
+  rl::ExternalController learned;
+  learned.make_policy = [&](const kinematics::Robot& robot) {
+    return rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
+  };
+  learned.options = config.controller;
+  rl::ManipulatorEnv learned_env(context, learned);
+  const DemoRun learned_run = RunDemoEpisode(learned_env, label, video_for(label), args);
   rl::ExternalController rmpflow;
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
     return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
   };
   rl::ManipulatorEnv rmpflow_env(context, rmpflow);
-  const DemoRun baseline = RunDemoEpisode(rmpflow_env, nullptr, "RMPflow", video_for("rmpflow"), args);
+  const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args);
+  const DemoRun& learned_result = learned_run;
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
     fmt::print("  {:<26}{:>20}{:>20}\n", name, a, b);
   };
   fmt::print("\n");
-  row("", learned.label, baseline.label);
-  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
-  row("settled (t >= 1 s)", mm(learned.metrics.settled_tracking_error_mm),
+  row("", learned_result.label, baseline.label);
+  row("tracking error (mean)", mm(learned_result.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
+  row("settled (t >= 1 s)", mm(learned_result.metrics.settled_tracking_error_mm),
       mm(baseline.metrics.settled_tracking_error_mm));
-  row("final error", mm(learned.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
+  row("final error", mm(learned_result.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
   auto clearance = [&](const rl::EpisodeMetrics& m) {
     return std::isfinite(m.min_clearance_m) ? mm(1000.0 * m.min_clearance_m) : std::string("none within 15 cm");
   };
-  row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
-  row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
-  row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
+  row("min clearance", clearance(learned_result.metrics), clearance(baseline.metrics));
+  row("collision events", std::to_string(learned_result.metrics.collisions), std::to_string(baseline.metrics.collisions));
+  row("control step", fmt::format("{:.1f} µs", learned_result.step_us), fmt::format("{:.1f} µs", baseline.step_us));
   auto result = [](const rl::EpisodeMetrics& m) {
     return m.invalid ? std::string("INVALID") : m.collisions == 0 ? std::string("success") : std::string("FAILURE");
   };
-  row("result", result(learned.metrics), result(baseline.metrics));
-  for (const DemoRun* r : {&learned, &baseline}) {
+  row("result", result(learned_result.metrics), result(baseline.metrics));
+  for (const DemoRun* r : {&learned_result, &baseline}) {
     if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
   }
   fmt::print("  wall time           {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
 
-// the shipped MARL-RMP policy of the demo, if present: marl-rmp-v2c-gate.rmpp (MAPPO residual over the hand gate on
-// the coupled basic layer: at or above RMPflow-tuned at every line-crossing speed, settling as close; docs/learning.md,
-// session 10). The v1 policy (marl-rmp.rmpp) collides 3 times on the demo's default episode, where RMPflow does not.
-std::optional<std::string> ShippedMarlRmp() {
-  const std::filesystem::path p = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" /
-                                  "marl-rmp-v2c-gate.rmpp";
+// the shipped default controller, models/policies/marl-rmp-residual.rmpp, if present: MAPPO's residual over the hand
+// gate of the target stiffness on the coupled basic layer (docs/method.md).
+std::optional<std::string> ShippedDefaultPolicy() {
+  const std::filesystem::path p = kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp";
   if (std::filesystem::exists(p)) return p.string();
   return std::nullopt;
 }
@@ -280,17 +288,16 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
   cmd->add_option("--policy", args.policy,
-                  "rmpflow: RMPflow alone on --scenario; a .rmpp file: those per-joint agents and RMPflow on the same "
-                  "task episode (default: the shipped models/policies/marl-rmp-v2c-gate.rmpp vs RMPflow when it "
-                  "exists)");
-  cmd->add_option("--task", args.task, "task config the --policy runs on (configs/tasks/)")->capture_default_str();
+                  "a controller file (.rmpp): its learned agents and RMPflow on the same episode (default: the shipped "
+                  "models/policies/marl-rmp-residual.rmpp); rmpflow: RMPflow alone (also the static-reach and "
+                  "static-obstacle scenarios)");
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
-    const bool custom_robot = !args.urdf.empty();
     std::optional<std::string> policy;
     if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;
-    if (args.policy.empty() && !custom_robot && args.scenario == sim::kDefaultScenario) policy = ShippedMarlRmp();
-    if (policy && custom_robot) throw InputError("--policy with --urdf: the learned tasks run shipped robots only");
+    const bool learned_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||
+                               args.scenario == "cluttered";
+    if (args.policy.empty() && learned_scene) policy = ShippedDefaultPolicy();
     if (policy) {
       RunComparisonDemo(args, *policy);
     } else {

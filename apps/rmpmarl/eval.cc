@@ -1,5 +1,6 @@
-// `rmpmarl eval POLICY [--task NAME] [--episodes N]`: success rate, tracking error, clearance and collisions of a
-// checkpoint (.ckpt, libtorch) or an exported policy (.rmpp, the torch-free runtime);
+// `rmpmarl eval POLICY [--episodes N]`: success rate, tracking error, clearance and collisions of a checkpoint
+// (.ckpt, libtorch) or a controller file (.rmpp, the torch-free runtime) on its own task, or moved to another robot,
+// URDF, scene or obstacle speed;
 // `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor of a checkpoint as a runtime policy file.
 #include "commands.h"
 
@@ -12,14 +13,41 @@
 #include <string>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
 namespace rmpmarl::apps {
+
+namespace {
+
+void PrintEvalResult(const rl::EvalResult& r) {
+  fmt::print("  success rate      {:.1f} %\n", 100.0 * r.success_rate);
+  fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
+             r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
+  fmt::print("settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
+             r.settled_tracking_error_mean_mm, rl::kSettleTime);
+  if (std::isfinite(r.min_clearance_mean_m)) {
+    fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",
+               r.min_clearance_mean_m);
+  } else {
+    fmt::print("  clearance         - (no obstacle within the warning distance)\n");
+  }
+  fmt::print("  collisions        {:.2f} per episode, {:.1f} % of episodes collision-free\n", r.collisions_per_episode,
+             100.0 * r.collision_free_rate);
+  fmt::print("  return            {:.2f} (mean episode length {:.1f} steps)\n", r.mean_return, r.mean_length);
+}
+
+}  // namespace
 
 void RegisterEval(CLI::App& app) {
   struct Args {
     std::string policy;
     std::string task, task_config, interface, overrides;
+    std::string robot, urdf, collision, scenario;
+    double obstacle_speed = -1.0;
+    bool as_controller = false;
     int episodes = 100;
     int envs = 8;
     int env_threads = 1;
@@ -30,7 +58,18 @@ void RegisterEval(CLI::App& app) {
   auto* cmd = app.add_subcommand("eval", "Evaluate a trained policy: success rate, tracking error mean ± std, "
                                          "clearance, collisions");
   cmd->add_option("policy", args->policy, "checkpoint (.ckpt) or exported policy (.rmpp)")->required();
-  cmd->add_option("--task", args->task, "task name (default: the checkpoint's task; required for .rmpp)");
+  cmd->add_option("--task", args->task, "task name (default: the checkpoint's or the controller file's own task)");
+  cmd->add_option("--robot", args->robot, "run a controller file on this shipped arm instead of its own");
+  cmd->add_option("--urdf", args->urdf, "run a controller file on your robot (collision YAML beside the URDF as "
+                                       "<stem>.collision.yaml or collision.yaml, else capsules fitted in memory)");
+  cmd->add_option("--collision", args->collision, "the collision YAML of --urdf");
+  cmd->add_option("--scenario", args->scenario, "run a controller file in this scene: crossing (reach-avoid), "
+                                               "line-crossing, cluttered");
+  cmd->add_option("--obstacle-speed", args->obstacle_speed, "every obstacle at this speed [m/s] (controller files)")
+      ->check(CLI::Range(0.0, 20.0));
+  cmd->add_flag("--as-controller", args->as_controller,
+                "run the controller file as a user's loop runs it (rl::LearnedController: warnings from the capsules "
+                "and the scene's obstacles) instead of as agents in the env (warnings from MuJoCo's contacts)");
   cmd->add_option("--task-config", args->task_config, "task YAML (default: the checkpoint's, else the shipped one)");
   cmd->add_option("--interface", args->interface, "interface mode (default: the checkpoint's)");
   cmd->add_option("--overrides", args->overrides, "YAML map of task overrides, e.g. '{episode: {max_steps: 200}}'");
@@ -42,6 +81,44 @@ void RegisterEval(CLI::App& app) {
   cmd->callback([args] {
     rl::TaskSelection task;
     const bool is_checkpoint = args->policy.size() >= 5 && args->policy.substr(args->policy.size() - 5) == ".ckpt";
+    const bool moved = !args->robot.empty() || !args->urdf.empty() || !args->scenario.empty() ||
+                       args->obstacle_speed >= 0.0 || args->as_controller;
+    if (!args->robot.empty() && !args->urdf.empty()) throw InputError("eval: --robot and --urdf: give one of them");
+    if (!args->collision.empty() && args->urdf.empty()) throw InputError("eval: --collision needs --urdf");
+    if (!is_checkpoint && args->task.empty() && args->task_config.empty() && args->interface.empty()) {
+      // a controller file on its own task, or moved
+      const rl::PolicyFile file = rl::LoadPolicyFile(args->policy);
+      rl::TaskMove move;
+      move.robot = args->urdf.empty() ? args->robot : args->urdf;
+      move.collision = args->collision;
+      move.scene = args->scenario;
+      move.obstacle_speed = args->obstacle_speed;
+      move.overrides_yaml = args->overrides;
+      const rl::TaskConfig config = rl::PolicyTaskConfig(file, args->policy, move);
+      const auto context = rl::MakeTaskContext(config);
+      rl::EnvFactory factory = rl::MakeManipulatorEnvFactory(context);
+      if (args->as_controller) {
+        rl::ExternalController learned;
+        const std::string path = args->policy;
+        learned.make_policy = [file, path, context](const kinematics::Robot& robot) {
+          return rl::MakeLearnedController(robot, file, path, context->num_obstacles());
+        };
+        learned.options = config.controller;
+        factory = [context, learned](int) { return std::make_unique<rl::ManipulatorEnv>(context, learned); };
+      }
+      const rl::EvalResult r = rl::Evaluate(args->policy, factory,
+                                            {.episodes = args->episodes, .num_envs = args->envs,
+                                             .env_threads = args->env_threads, .seed = args->seed});
+      fmt::print("eval {} on {} / {} / {}{} ({} episodes, deterministic actions)\n", args->policy,
+                 rl::TaskKindName(config.task), config.robot, rl::InterfaceModeName(config.interface),
+                 args->as_controller ? ", as a controller in a user's loop" : "", r.episodes);
+      PrintEvalResult(r);
+      return;
+    }
+    if (moved) {
+      throw InputError("eval: --robot, --urdf, --scenario, --obstacle-speed and --as-controller move a controller "
+                       "file's own task; with a checkpoint or --task use --overrides");
+    }
     if (is_checkpoint) task = rl::ReadCheckpointConfig(args->policy).task;
     if (!args->task.empty()) {
       if (args->task != task.name) task = rl::TaskSelection{};
@@ -58,20 +135,7 @@ void RegisterEval(CLI::App& app) {
     fmt::print("eval {} on {}{} ({} episodes, {} actions)\n", args->policy, task.name,
                task.interface.empty() ? "" : " / " + task.interface, r.episodes,
                args->stochastic ? "sampled" : "deterministic");
-    fmt::print("  success rate      {:.1f} %\n", 100.0 * r.success_rate);
-    fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
-               r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
-    fmt::print("settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
-               r.settled_tracking_error_mean_mm, rl::kSettleTime);
-    if (std::isfinite(r.min_clearance_mean_m)) {
-      fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",
-                 r.min_clearance_mean_m);
-    } else {
-      fmt::print("  clearance         - (no obstacle within the warning distance)\n");
-    }
-    fmt::print("  collisions        {:.2f} per episode, {:.1f} % of episodes collision-free\n", r.collisions_per_episode,
-               100.0 * r.collision_free_rate);
-    fmt::print("  return            {:.2f} (mean episode length {:.1f} steps)\n", r.mean_return, r.mean_length);
+    PrintEvalResult(r);
   });
 }
 
@@ -94,7 +158,7 @@ void RegisterUpgradeCheckpoint(CLI::App& app) {
   auto files = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand(
       "upgrade-checkpoint",
-      "Rewrite checkpoints of format 1 (torch::serialize archives, before session 5) as format 2, in place. Format 1 "
+      "Rewrite checkpoints of format 1 (torch::serialize archives) as format 2, in place. Format 1 "
       "is read through TorchScript's importer, which is not safe on untrusted files: upgrade only files you trust");
   cmd->add_option("checkpoints", *files, "checkpoint files (.ckpt)")->required();
   cmd->callback([files] {

@@ -38,6 +38,8 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--eval-seed", options->eval_seed, "evaluation seed (default 20231001)");
   cmd->add_option("--methods", *methods, "comma-separated method keys (default: all of the experiment's)");
+  cmd->add_option("--urdf", options->urdfs, "fig5: your arms (comma-separated .urdf paths) after the shipped ones")
+      ->delimiter(',');
   cmd->add_option("--jobs", options->jobs, "training processes / evaluation threads (default 2)")
       ->check(CLI::Range(1, 64));
   cmd->add_option("--out", *out, "output directory (default results/NAME)");

@@ -19,6 +19,7 @@
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/controller.h"
 
@@ -140,7 +141,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
 
   rl::PolicyWeights weights;
   if (method.kind == MethodKind::kPolicy) {
-    weights = rl::LoadPolicyFile(method.policy_path);
+    weights = rl::LoadPolicyFile(method.policy_path).weights;
     if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != as) {
       throw InputError(fmt::format("{}: policy {} does not fit task {} ({}): it takes obs {} and gives {} action "
                                    "floats, the env has obs {} and actions of {}", method.name, method.policy_path,

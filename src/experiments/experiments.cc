@@ -665,7 +665,7 @@ fs::path ShippedPolicy(const std::string& recipe) {
   const fs::path dir = rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies";
   if (recipe == "hrl-rmp") return dir / "hrl-rmp-2link.rmpp";
   if (recipe == "marl-rmp-v2c-params-hold-phi20k") return dir / "marl-rmp-v2c.rmpp";
-  if (recipe == "marl-rmp-v2c-gate-residual-kernel-gated") return dir / "marl-rmp-v2c-gate.rmpp";
+  if (recipe == "marl-rmp-v2c-gate-residual-kernel-gated") return dir / "marl-rmp-residual.rmpp";
   return dir / (recipe + ".rmpp");
 }
 
@@ -1089,6 +1089,9 @@ std::vector<std::string> ExperimentMethods(const std::string& name) {
 fs::path RunExperiment(const ExperimentOptions& options) {
   ExperimentOptions o = options;
   std::vector<Entry> entries = Selected(o);  // validates the name and methods
+  if (!o.urdfs.empty() && o.name != "fig5") {
+    throw InputError(fmt::format("--urdf: adds arms to fig5, not to {}", o.name));
+  }
   if (o.shipped) {
     if (o.name == "fig3") throw InputError("--shipped: fig3 plots training curves, it needs the training runs");
     o.seeds = 1;
@@ -1250,11 +1253,19 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     protocol.episodes = episodes(30);
     std::vector<std::string> arms = kinematics::ShippedRobotNames();
     if (o.quick) arms.resize(std::min<size_t>(arms.size(), 2));
-    for (const std::string& arm : arms) {
+    std::vector<std::pair<std::string, std::string>> robots;  // (label, robot)
+    for (const std::string& arm : arms) robots.emplace_back(arm, arm);
+    for (const std::string& urdf : o.urdfs) {
+      if (!rl::IsUrdfPath(urdf) || !std::filesystem::is_regular_file(urdf)) {
+        throw InputError(fmt::format("--urdf: expected existing .urdf files, got '{}'", urdf));
+      }
+      robots.emplace_back(std::filesystem::path(urdf).stem().string(), urdf);
+    }
+    for (const auto& [label, robot] : robots) {
       rl::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
-      task.robot = arm;
+      task.robot = robot;
       task.scenario.crossing.num_obstacles = 1;
-      AddJobs(entries, arm, task, o.seeds, final_policy, &jobs);
+      AddJobs(entries, label, task, o.seeds, final_policy, &jobs);
     }
     rows = RunJobs(jobs, protocol);
     text.title = "Figure 5 — MARL-RMP on every shipped arm with a crossing obstacle (paper IV.B)";

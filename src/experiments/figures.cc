@@ -14,6 +14,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/render.h"
 
@@ -195,7 +196,7 @@ void WriteFig3Curves(const std::vector<LearnedRuns>& methods, const RunnerOption
 
 void RenderFig5Frames(const std::vector<std::string>& arms, const rl::TaskConfig& base_task,
                       const fs::path& policy_path, std::uint64_t eval_seed, const fs::path& out, std::string* notes) {
-  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path);
+  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
   constexpr int kLead = 30;  // the earlier frame: 0.3 s before the closest approach
   std::string written;
   for (const std::string& arm : arms) {

@@ -10,6 +10,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 
 namespace rmpmarl::experiments {
@@ -41,7 +42,7 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
   }
   const auto context = rl::MakeTaskContext(task);
   const rl::EnvSpec& spec = context->spec();
-  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path);
+  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
   if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != spec.action.size()) {
     throw InputError(fmt::format("look-ahead probe: policy {} takes obs {} and gives {} action floats; the task has "
                                  "obs {} and actions of {}", policy_path, weights.obs_dim, weights.action_size(),

@@ -1,4 +1,4 @@
-// The torch-free policy runtime: policy-file I/O and the batch-1 forward pass of the shared per-joint actor.
+// The torch-free policy runtime: the batch-1 forward pass of the shared per-joint actor.
 // The AVX2/FMA kernel packs each layer's weights in blocks of 8 outputs (in × 8 floats, contiguous) so that one
 // weight load feeds one FMA per agent; the portable path is plain Eigen.
 #include "rmpmarl/rl/policy_runtime.h"
@@ -24,91 +24,6 @@
 
 namespace rmpmarl::rl {
 namespace {
-
-static_assert(std::endian::native == std::endian::little, "the policy file format is little-endian");
-
-constexpr char kMagic[8] = {'R', 'M', 'P', 'M', 'P', 'O', 'L', '\0'};
-constexpr std::uint32_t kVersion = 1;
-constexpr int kMaxDim = 1 << 16;
-
-// the CRC-32C table for the reflected polynomial 0x82F63B78.
-constexpr std::array<std::uint32_t, 256> MakeCrcTable() {
-  std::array<std::uint32_t, 256> table{};
-  for (std::uint32_t i = 0; i < 256; ++i) {
-    std::uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1) ? (c >> 1) ^ 0x82F63B78u : c >> 1;
-    table[i] = c;
-  }
-  return table;
-}
-constexpr std::array<std::uint32_t, 256> kCrcTable = MakeCrcTable();
-
-// appends plain values to a byte buffer.
-class Writer {
- public:
-  void U32(std::uint32_t v) { Raw(&v, 4); }
-  void F32(float v) { Raw(&v, 4); }
-  void Floats(const float* v, Eigen::Index n) { Raw(v, static_cast<std::size_t>(n) * 4); }
-  void Raw(const void* p, std::size_t n) {
-    const auto* c = static_cast<const char*>(p);
-    bytes.insert(bytes.end(), c, c + n);
-  }
-  std::vector<char> bytes;
-};
-
-// reads plain values from a byte buffer; running past the end throws InputError naming the file.
-class Reader {
- public:
-  Reader(const std::vector<char>& bytes, std::size_t end, const std::string& path)
-      : bytes_(bytes), end_(end), path_(path) {}
-  std::uint32_t U32(const char* what) {
-    std::uint32_t v;
-    Raw(&v, 4, what);
-    return v;
-  }
-  float F32(const char* what) {
-    float v;
-    Raw(&v, 4, what);
-    return v;
-  }
-  int Dim(const char* what, int min = 0) {
-    const std::uint32_t v = U32(what);
-    if (v > static_cast<std::uint32_t>(kMaxDim) || static_cast<int>(v) < min) {
-      throw InputError(fmt::format("policy file {}: {}: expected {}..{}, got {}", path_, what, min, kMaxDim, v));
-    }
-    return static_cast<int>(v);
-  }
-  void Floats(float* v, Eigen::Index n, const char* what) { Raw(v, static_cast<std::size_t>(n) * 4, what); }
-  std::size_t position() const { return pos_; }
-
- private:
-  void Raw(void* p, std::size_t n, const char* what) {
-    if (pos_ + n > end_) {
-      throw InputError(fmt::format("policy file {} is truncated: reading {} needs {} bytes at offset {}, the payload "
-                                   "has {}", path_, what, n, pos_, end_));
-    }
-    if (n > 0) std::memcpy(p, bytes_.data() + pos_, n);  // p may be null for an empty array (found by fuzzing)
-    pos_ += n;
-  }
-  const std::vector<char>& bytes_;
-  std::size_t end_;
-  const std::string& path_;
-  std::size_t pos_ = 0;
-};
-
-void ReadLayer(Reader& r, int in, int out, DenseLayer* layer) {
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> w(out, in);
-  r.Floats(w.data(), w.size(), "layer weight");
-  layer->weight = w;
-  layer->bias.resize(out);
-  r.Floats(layer->bias.data(), out, "layer bias");
-}
-
-void WriteLayer(Writer& w, const DenseLayer& layer) {
-  const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rm = layer.weight;
-  w.Floats(rm.data(), rm.size());
-  w.Floats(layer.bias.data(), layer.bias.size());
-}
 
 // ---------------------------------------------------------------------------------------------------------------
 // AVX2/FMA kernel: y[a][o] = act(b[o] + Σ_k W[o][k] x[a][k]) for NA agents, NB blocks of 8 outputs at a time.
@@ -169,13 +84,6 @@ int RoundUp8(int n) { return (n + 7) / 8 * 8; }
 
 }  // namespace
 
-std::uint32_t Crc32c(const void* data, std::size_t size, std::uint32_t crc) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  crc = ~crc;
-  for (std::size_t i = 0; i < size; ++i) crc = kCrcTable[(crc ^ p[i]) & 0xFF] ^ (crc >> 8);
-  return ~crc;
-}
-
 void PolicyWeights::Validate() const {
   auto fail = [](const std::string& message) { throw InputError("policy weights: " + message); };
   if (obs_dim < 1) fail(fmt::format("obs_dim: expected >= 1, got {}", obs_dim));
@@ -204,96 +112,6 @@ void PolicyWeights::Validate() const {
     fail(fmt::format("log_std/low/high: expected {} values, got {}/{}/{}", num_continuous, log_std.size(),
                      low.size(), high.size()));
   }
-}
-
-void SavePolicyFile(const PolicyWeights& weights, const std::string& path) {
-  weights.Validate();
-  Writer w;
-  w.Raw(kMagic, sizeof(kMagic));
-  w.U32(kVersion);
-  w.U32(weights.obs_dim);
-  w.U32(weights.num_options);
-  w.U32(weights.num_continuous);
-  w.U32(weights.has_termination ? 1 : 0);
-  w.U32(weights.activation);
-  w.U32(static_cast<std::uint32_t>(weights.hidden.size()));
-  for (const DenseLayer& layer : weights.hidden) w.U32(static_cast<std::uint32_t>(layer.weight.rows()));
-  w.F32(weights.obs_clip);
-  w.Floats(weights.obs_mean.data(), weights.obs_mean.size());
-  w.Floats(weights.obs_inv_std.data(), weights.obs_inv_std.size());
-  for (const DenseLayer& layer : weights.hidden) WriteLayer(w, layer);
-  WriteLayer(w, weights.head);
-  w.Floats(weights.log_std.data(), weights.log_std.size());
-  w.Floats(weights.low.data(), weights.low.size());
-  w.Floats(weights.high.data(), weights.high.size());
-  w.U32(Crc32c(w.bytes.data(), w.bytes.size()));
-
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(w.bytes.data(), static_cast<std::streamsize>(w.bytes.size()));
-    out.flush();
-    if (!out) throw InputError(fmt::format("policy file {}: cannot write {}", path, tmp));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw InputError(fmt::format("policy file {}: cannot rename {} into place", path, tmp));
-  }
-}
-
-PolicyWeights LoadPolicyFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(fmt::format("policy file {}: cannot open it", path));
-  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() < sizeof(kMagic) + 8 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
-    throw InputError(fmt::format("policy file {}: not an rmpmarl policy file (expected magic \"RMPMPOL\")", path));
-  }
-  Reader r(bytes, bytes.size() - 4, path);
-  r.U32("magic[0:4]");  // checked above
-  r.U32("magic[4:8]");
-  const std::uint32_t version = r.U32("version");
-  if (version != kVersion) {
-    throw InputError(fmt::format("policy file {}: format version {} is not supported (expected {})", path, version,
-                                 kVersion));
-  }
-  std::uint32_t stored_crc;
-  std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
-  const std::uint32_t crc = Crc32c(bytes.data(), bytes.size() - 4);
-  if (crc != stored_crc) {
-    throw InputError(fmt::format("policy file {} is corrupt: checksum mismatch (stored crc32c {:08x}, computed "
-                                 "{:08x})", path, stored_crc, crc));
-  }
-  PolicyWeights p;
-  p.obs_dim = r.Dim("obs_dim", 1);
-  p.num_options = r.Dim("num_options");
-  p.num_continuous = r.Dim("num_continuous");
-  p.has_termination = r.Dim("has_termination") != 0;
-  p.activation = r.Dim("activation");
-  const int num_hidden = r.Dim("num_hidden");
-  std::vector<int> sizes(num_hidden);
-  for (int& s : sizes) s = r.Dim("hidden size", 1);
-  p.obs_clip = r.F32("obs_clip");
-  p.obs_mean.resize(p.obs_dim);
-  p.obs_inv_std.resize(p.obs_dim);
-  r.Floats(p.obs_mean.data(), p.obs_dim, "obs_mean");
-  r.Floats(p.obs_inv_std.data(), p.obs_dim, "obs_inv_std");
-  int in_dim = p.obs_dim;
-  p.hidden.resize(num_hidden);
-  for (int l = 0; l < num_hidden; ++l) {
-    ReadLayer(r, in_dim, sizes[l], &p.hidden[l]);
-    in_dim = sizes[l];
-  }
-  ReadLayer(r, in_dim, p.head_size(), &p.head);
-  for (Eigen::VectorXf* v : {&p.log_std, &p.low, &p.high}) {
-    v->resize(p.num_continuous);
-    r.Floats(v->data(), p.num_continuous, "log_std/low/high");
-  }
-  if (r.position() != bytes.size() - 4) {
-    throw InputError(fmt::format("policy file {}: {} unexpected bytes after the weights", path,
-                                 bytes.size() - 4 - r.position()));
-  }
-  p.Validate();
-  return p;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -453,27 +271,6 @@ void PolicyRuntime::Act(const float* obs, int num_agents, float* actions) {
     for (int c = 0; c < w.num_continuous; ++c) act[j++] = std::clamp(h[w.num_options + c], w.low[c], w.high[c]);
     if (w.has_termination) act[j++] = h[hs - 1] > 0.0f ? 1.0f : 0.0f;
   }
-}
-
-std::string LoadPolicyTaskOverrides(const std::string& policy_path) {
-  const std::filesystem::path yaml_path = std::filesystem::path(policy_path).replace_extension(".yaml");
-  if (!std::filesystem::exists(yaml_path)) return "";
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(yaml_path.string());
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", yaml_path.string(), e.mark.line + 1, e.msg));
-  }
-  if (!root.IsMap()) {
-    throw InputError(fmt::format("{}: expected a YAML mapping beside the policy file", yaml_path.string()));
-  }
-  const YAML::Node overrides = root["task_overrides"];
-  if (!overrides) return "";
-  if (!overrides.IsScalar()) {
-    throw InputError(fmt::format("{}: key 'task_overrides': expected a string holding a YAML mapping, e.g. "
-                                 "\"{{controller: {{max_substep: 0.002}}}}\"", yaml_path.string()));
-  }
-  return overrides.Scalar();
 }
 
 }  // namespace rmpmarl::rl

@@ -384,7 +384,7 @@ namespace {
 TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   const Reader r(file);
   r.CheckKeys(root, "",
-              {"task", "robot", "interface", "episode", "controller", "options", "direct", "observation", "reward",
+              {"task", "robot", "collision", "interface", "episode", "controller", "options", "direct", "observation", "reward",
                "randomization", "planar2", "scenario", "rmp"});
   const YAML::Node task_node = root["task"];
   if (!task_node) r.Fail(root, "task", "missing (expected one of pretrain-2link, reach-avoid, line-crossing, cluttered)");
@@ -398,6 +398,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   TaskConfig c = DefaultTaskConfig(task);
   c.source = file;
   if (const YAML::Node n = root["robot"]) c.robot = r.String(n, "robot");
+  if (const YAML::Node n = root["collision"]) c.collision = r.String(n, "collision");
   if (const YAML::Node n = root["interface"]) {
     c.interface = static_cast<InterfaceMode>(r.Choice(n, "interface", {"per-joint-rmp", "direct", "per-joint-direct"}));
   }
@@ -535,6 +536,12 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
       for (const std::string& n : names) list += ", " + n;
       check(false, "robot", fmt::format("one of {}, or a path to a .urdf file", list), fmt::format("'{}'", c.robot));
     }
+  }
+  if (!c.collision.empty()) {
+    check(IsUrdfPath(c.robot), "collision", "set only with a .urdf robot (a shipped robot has its own)",
+          fmt::format("'{}' with robot '{}'", c.collision, c.robot));
+    check(std::filesystem::is_regular_file(c.collision), "collision", "an existing collision YAML",
+          fmt::format("'{}' (no such file)", c.collision));
   }
   check(c.task != TaskKind::kPretrain2Link || c.robot == "planar2", "robot",
         "'planar2' for task pretrain-2link (the paper's two-link pre-training arm)", fmt::format("'{}'", c.robot));

@@ -16,6 +16,10 @@ AccelerationPolicy::~AccelerationPolicy() = default;
 
 void AccelerationPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& /*q0*/) {}
 
+void AccelerationPolicy::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& /*q*/,
+                                          const Eigen::Ref<const Eigen::VectorXd>& /*qd*/,
+                                          const rmp::Scene& /*scene*/) {}
+
 RmpflowAccelerationPolicy::RmpflowAccelerationPolicy(const kinematics::Robot& robot,
                                                      const rmp::RmpflowOptions& options, int max_obstacles)
     : policy_(robot, options, max_obstacles) {}
@@ -145,6 +149,7 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
     qd_cmd_ = qd.cwiseMax(-v_max_).cwiseMin(v_max_);
     result.resynced = true;
   }
+  policy_->BeginControlStep(q, qd, scene);
   const double h = substep();
   for (int s = 0; s < substeps_; ++s) {
     if (options_.policy_input == PolicyInput::kCommanded) {

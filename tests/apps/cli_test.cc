@@ -1,13 +1,20 @@
 // The CLI from the outside: exit codes and messages for good and bad robot descriptions.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "rmpmarl/kinematics/robot.h"
+
 namespace {
+namespace fs = std::filesystem;
+using rmpmarl::kinematics::ModelsDirectory;
 
 struct CommandResult {
   int exit_code = -1;
@@ -58,20 +65,73 @@ TEST(CliTest, MissingArgumentsIsAUsageError) {
   EXPECT_NE(r.output.find("required"), std::string::npos) << r.output;
 }
 
-// `make demo`'s job: the shipped coupled-layer agents (marl-rmp-v2c-gate, on the basic layer written beside them) and
+// `make demo`'s job: the shipped default controller (marl-rmp-residual, its basic layer read from its own file) and
 // RMPflow on one reach-avoid episode; at seed 3 both succeed
-TEST(CliTest, DefaultDemoRunsTheShippedCoupledAgentsBesideRmpflow) {
+TEST(CliTest, DefaultDemoRunsTheShippedResidualBesideRmpflow) {
   const CommandResult r = RunCli("demo --seed 3");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("models/policies/marl-rmp-v2c-gate.rmpp"), std::string::npos) << r.output;
-  // its layer carries the hand gate as the prior of the target stiffness
-  EXPECT_NE(r.output.find("target_gate_clearance: 0.15"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("resolve: coupled"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("models/policies/marl-rmp-residual.rmpp"), std::string::npos) << r.output;
+  // its layer, from the file: the coupled resolve with the hand gate as the prior of the target stiffness
+  EXPECT_NE(r.output.find("coupled basic layer, look-ahead 1 s, hand gate under the target stiffness at 0.15 m"),
+            std::string::npos) << r.output;
   const size_t result = r.output.find("  result ");
   ASSERT_NE(result, std::string::npos) << r.output;
   const std::string line = r.output.substr(result, r.output.find('\n', result) - result);
   EXPECT_EQ(line.find("FAILURE"), std::string::npos) << line;
   EXPECT_NE(line.find("success"), line.rfind("success")) << line;  // both columns
+}
+
+// the row `name` of the comparison table: its two columns
+std::pair<std::string, std::string> Row(const std::string& output, const std::string& name) {
+  const size_t at = output.find("  " + name);
+  if (at == std::string::npos) return {};
+  std::istringstream line(output.substr(at + 2 + name.size(), output.find('\n', at) - at - 2 - name.size()));
+  std::string a, unit_a, b, unit_b;
+  line >> a >> unit_a >> b >> unit_b;
+  return {a, b};
+}
+
+// a run stopped by --duration reports what it did, not an empty episode (it printed 0.0 mm, "–" and 0.0 µs)
+TEST(CliTest, DemoDurationReportsTheShortenedRun) {
+  const CommandResult r = RunCli("demo --seed 3 --duration 2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("2.0 s: the learned"), std::string::npos) << r.output;
+  for (const char* row : {"tracking error (mean)", "settled (t >= 1 s)", "control step"}) {
+    const auto [learned, rmpflow] = Row(r.output, row);
+    SCOPED_TRACE(row);
+    ASSERT_FALSE(learned.empty()) << r.output;
+    EXPECT_GT(std::stod(learned), 0.0) << r.output;
+    EXPECT_GT(std::stod(rmpflow), 0.0) << r.output;
+  }
+  // RMPflow alone (its own episode runner) honours it too
+  const CommandResult alone = RunCli("demo --policy rmpflow --seed 3 --duration 2");
+  ASSERT_EQ(alone.exit_code, 0) << alone.output;
+  EXPECT_NE(alone.output.find("2.0 s simulated"), std::string::npos) << alone.output;
+  EXPECT_EQ(alone.output.find("tracking error      0.0"), std::string::npos) << alone.output;
+}
+
+// the learned default runs beside RMPflow in the line-crossing scene, and on a user's URDF with no collision YAML
+// (capsules fitted in memory)
+TEST(CliTest, DemoRunsTheLearnedAgentsInEveryArmSceneAndOnAUrdf) {
+  const CommandResult line = RunCli("demo --scenario line-crossing --obstacle-speed 2.8 --seed 1");
+  ASSERT_EQ(line.exit_code, 0) << line.output;
+  EXPECT_NE(line.output.find("task 'line-crossing'"), std::string::npos) << line.output;
+  EXPECT_NE(line.output.find("marl-rmp-residual"), std::string::npos) << line.output;
+  const fs::path dir = fs::temp_directory_path() / ("rmpmarl_cli_urdf_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path models = ModelsDirectory() / "robots" / "ur5e";
+  fs::copy_file(models / "ur5e.urdf", dir / "my_arm.urdf", fs::copy_options::overwrite_existing);
+  const CommandResult urdf = RunCli("demo --seed 2 --duration 3 --urdf " + (dir / "my_arm.urdf").string());
+  fs::remove_all(dir);
+  ASSERT_EQ(urdf.exit_code, 0) << urdf.output;
+  EXPECT_NE(urdf.output.find("marl-rmp-residual"), std::string::npos) << urdf.output;
+  const auto [learned, rmpflow] = Row(urdf.output, "collision events");
+  EXPECT_EQ(learned, "0") << urdf.output;
+  // what cannot fit is refused with the reason
+  const CommandResult stat = RunCli("demo --policy " + (ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string() +
+                                    " --scenario static-reach");
+  EXPECT_EQ(stat.exit_code, 2) << stat.output;
+  EXPECT_NE(stat.output.find("RMPflow alone runs the others"), std::string::npos) << stat.output;
 }
 
 // values no user means are refused at once with the allowed range, instead of running for minutes

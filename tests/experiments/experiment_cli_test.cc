@@ -71,7 +71,7 @@ TEST(ExperimentCliTest, ShippedPoliciesAreEvaluatedWithoutTraining) {
   const std::string report = Read(dir / "table4" / "report.md");
   EXPECT_NE(report.find("| MARL-RMP | 2.8 m/s |"), std::string::npos);
   EXPECT_NE(report.find("| RMPflow | 2.8 m/s |"), std::string::npos);
-  // a recipe whose shipped file has another name (models/policies/marl-rmp-v2c-gate.rmpp)
+  // a recipe whose shipped file has another name (models/policies/marl-rmp-residual.rmpp)
   EXPECT_NE(report.find("| MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid only "
                         "while no pass is predicted | 2.8 m/s |"), std::string::npos);
   EXPECT_EQ(report.find("| MARL-PPO |"), std::string::npos);  // no shipped policy: left out, and said so

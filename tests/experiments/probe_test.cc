@@ -11,6 +11,7 @@
 #include "rmpmarl/experiments/probe.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 
 namespace rmpmarl::experiments {
@@ -58,7 +59,7 @@ std::string LinearPolicy(const rl::TaskConfig& task, BlockWeights w_block, float
   // one file per process and test (ctest runs the tests of this file as separate processes, possibly at once)
   const fs::path path =
       fs::temp_directory_path() / ("rmpmarl_probe_test_" + name + "_" + std::to_string(::getpid()) + ".rmpp");
-  rl::SavePolicyFile(w, path.string());
+  rl::SavePolicyFile({.weights = w}, path.string());
   return path.string();
 }
 

@@ -1,5 +1,5 @@
-// The policies shipped in models/policies/ load in the torch-free runtime and act sensibly on held-out episodes of
-// the task they were trained for (the YAML beside each holds the full evaluation).
+// The controller files shipped in models/policies/ load in the torch-free runtime, carry the task they run on, and
+// act sensibly on held-out episodes of it (the card beside each, generated from it, holds the full evaluation).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,7 +10,7 @@
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/experiments.h"
 #include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/rl/policy_file.h"
 
 namespace rmpmarl::experiments {
 namespace {
@@ -23,31 +23,26 @@ fs::path Shipped(const std::string& name) {
 TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
   struct Case {
     const char* file;
-    const char* task;
+    const char* recipe;  // the recipe whose basic layer it runs on ("": the task's own)
   };
-  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "pretrain-2link"}, Case{"marl-rmp.rmpp", "reach-avoid"},
-                        Case{"marl-rmp-v2.rmpp", "reach-avoid"}, Case{"marl-rmp-v2-params-hold.rmpp", "reach-avoid"},
-                        Case{"marl-rmp-v2c.rmpp", "reach-avoid"}, Case{"marl-rmp-v2c-gate.rmpp", "reach-avoid"}}) {
+  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", ""}, Case{"marl-rmp.rmpp", ""}, Case{"marl-rmp-v2.rmpp", "marl-rmp-v2"},
+                        Case{"marl-rmp-v2-params-hold.rmpp", "marl-rmp-v2-params-hold"},
+                        Case{"marl-rmp-v2c.rmpp", "marl-rmp-v2c-params-hold-phi20k"},
+                        Case{"marl-rmp-residual.rmpp", "marl-rmp-v2c-gate-residual-kernel-gated"}}) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
-    EXPECT_TRUE(fs::exists(fs::path(path).replace_extension(".yaml")));
-    const rl::PolicyWeights weights = rl::LoadPolicyFile(path.string());
-    EXPECT_EQ(weights.num_options, rl::kNumRmpOptions);
-    // a policy trained on a basic-layer variant runs on it: the overrides beside it are the recipe's
-    const std::string layer = rl::LoadPolicyTaskOverrides(path.string());
-    if (std::string(c.file) == "marl-rmp-v2.rmpp") {
-      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2"));
-    } else if (std::string(c.file) == "marl-rmp-v2-params-hold.rmpp") {
-      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2-params-hold"));
-    } else if (std::string(c.file) == "marl-rmp-v2c.rmpp") {
-      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2c-params-hold-phi20k"));
-    } else if (std::string(c.file) == "marl-rmp-v2c-gate.rmpp") {
-      EXPECT_EQ(layer, RecipeLayerOverrides("marl-rmp-v2c-gate-residual-kernel-gated"));
-    } else {
-      EXPECT_EQ(layer, "");
-    }
-    rl::TaskConfig task = rl::LoadTaskConfig(rl::TaskConfigPath(c.task), layer);
+    const rl::PolicyFile file = rl::LoadPolicyFile(path.string());
+    EXPECT_EQ(file.weights.num_options, rl::kNumRmpOptions);
+    // the file carries the task it runs on: the shipped task with the recipe's basic layer
+    rl::TaskConfig task = rl::PolicyTaskConfig(file, path.string());
+    EXPECT_EQ(file.task_yaml, rl::ControllerTaskYaml(rl::TaskConfigPath(rl::TaskKindName(task.task)),
+                                                     c.recipe[0] != 0 ? RecipeLayerOverrides(c.recipe) : "",
+                                                     "per-joint-rmp"));
+    // the card beside it is the one generated from the file
+    std::ifstream card_file(fs::path(path).replace_extension(".yaml"));
+    const std::string card((std::istreambuf_iterator<char>(card_file)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(card, rl::PolicyCard(file, path.string()));
     task.randomization.variants = 2;
     task.episode.max_steps = 200;
     if (task.task != rl::TaskKind::kPretrain2Link) task.observation.max_obstacles = 6;
@@ -59,33 +54,9 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
       EXPECT_TRUE(std::isfinite(r.metrics.settled_tracking_error_mm));
       successes += r.metrics.success ? 1 : 0;
     }
-    // measured (results/, training seed 1): 99 % on pretrain-2link (session 9's scene), 90 % on reach-avoid; 6 short
-    // episodes here
+    // measured (results/, training seed 1): 99 % on pretrain-2link, 90 % on reach-avoid; 6 short episodes here
     EXPECT_GE(successes, 4);
   }
-}
-
-TEST(ShippedPoliciesTest, TaskOverridesBesideAPolicyAreReadOrRejectedWithTheFile) {
-  const fs::path dir = fs::temp_directory_path() / "rmpmarl_policy_overrides_test";
-  fs::create_directories(dir);
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::ofstream(dir / name) << text;
-    return (dir / fs::path(name).replace_extension(".rmpp")).string();
-  };
-  EXPECT_EQ(rl::LoadPolicyTaskOverrides((dir / "none.rmpp").string()), "");  // no YAML beside it
-  EXPECT_EQ(rl::LoadPolicyTaskOverrides(write("plain.yaml", "seed: 1\n")), "");
-  EXPECT_EQ(rl::LoadPolicyTaskOverrides(write("layer.yaml", "task_overrides: \"{options: {fixed_option: 2}}\"\n")),
-            "{options: {fixed_option: 2}}");
-  for (const char* bad : {"task_overrides: [1, 2]\n", "- a list\n", "task_overrides: {a: [\n"}) {
-    SCOPED_TRACE(bad);
-    try {
-      rl::LoadPolicyTaskOverrides(write("bad.yaml", bad));
-      ADD_FAILURE() << "expected an InputError";
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("bad.yaml"), std::string::npos) << e.what();
-    }
-  }
-  fs::remove_all(dir);
 }
 
 }  // namespace

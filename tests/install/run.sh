@@ -8,3 +8,8 @@ cmake -S "$source_dir/tests/install/consumer" -B "$prefix/consumer-build" -G Nin
   -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
 cmake --build "$prefix/consumer-build" >/dev/null
 RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/consumer-build/consumer"
+# the control-loop example of examples/ (docs/control-your-robot.md), built against the same installed package
+cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
+cmake --build "$prefix/example-build" >/dev/null
+RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/example-build/control_loop"

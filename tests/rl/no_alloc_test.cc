@@ -3,6 +3,7 @@
 
 #include "../support/alloc_counter.h"
 #include "rl_test_util.h"
+#include "rmpmarl/rl/learned_controller.h"
 #include "rmpmarl/rl/manipulator_env.h"
 
 namespace rmpmarl::rl {
@@ -41,6 +42,34 @@ TEST(NoAllocTest, EnvStepDoesNotAllocate) {
     EXPECT_EQ(rmpmarl::testing::AllocationCount() - before, 0);
     EXPECT_FALSE(b.terminated);
   }
+}
+
+// the learned controller in a user's loop: a control step (warnings from the geometry, observations, the network, the
+// coupled basic layer at every substep) allocates nothing either
+TEST(NoAllocTest, LearnedControllerStepDoesNotAllocate) {
+  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+  const PolicyFile file = LoadPolicyFile(path);
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("crossing", robot);
+  auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
+  sim::World world(world_model);
+  auto learned = MakeLearnedController(robot, file, path, scenario->num_obstacles());
+  const sim::ControllerOptions options = learned->controller_options();
+  sim::ReactiveController controller(*world_model, std::move(learned), options);
+  scenario->Reset(7, world);
+  controller.Reset(world);
+  rmp::Scene scene;
+  scene.obstacles.reserve(scenario->num_obstacles());
+  auto step = [&] {
+    scenario->FillScene(&scene);
+    controller.Step(world, scene);
+    world.Step(controller.physics_steps_per_control());
+    scenario->Advance(controller.control_period(), world.QueryContacts(), world);
+  };
+  for (int k = 0; k < 20; ++k) step();
+  const long before = rmpmarl::testing::AllocationCount();
+  for (int k = 0; k < 200; ++k) step();
+  EXPECT_EQ(rmpmarl::testing::AllocationCount() - before, 0);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/rl/torch/tensorboard.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
@@ -305,8 +306,21 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
   auto ppo = TrainedLookingLearner();
   const PolicyWeights w = ppo->Export();
   const std::string path = ::testing::TempDir() + "/runtime_test.rmpp";
-  SavePolicyFile(w, path);
-  const PolicyWeights back = LoadPolicyFile(path);
+  PolicyFile file;
+  file.weights = w;
+  file.task_yaml = ControllerTaskYaml(TaskConfigPath("reach-avoid"), "{options: {gain_range: 3}, scenario: "
+                                      "{num_obstacles: 1}}", "per-joint-direct");
+  file.provenance_yaml = "{seed: 4, commit: abc}";
+  SavePolicyFile(file, path);
+  const PolicyFile loaded = LoadPolicyFile(path);
+  const PolicyWeights& back = loaded.weights;
+  EXPECT_EQ(loaded.provenance_yaml, file.provenance_yaml);
+  // the controller sections keep the training overrides, the scene goes back to the shipped task's
+  const TaskConfig task = PolicyTaskConfig(loaded, path);
+  EXPECT_EQ(task.options.gain_range, 3.0);
+  EXPECT_EQ(task.interface, InterfaceMode::kPerJointDirect);
+  EXPECT_EQ(task.scenario.crossing.num_obstacles, LoadShippedTaskConfig("reach-avoid").scenario.crossing.num_obstacles);
+  EXPECT_NE(PolicyCard(loaded, path).find("gain_range: 3"), std::string::npos);
   EXPECT_EQ(back.hidden.size(), 3u);
   EXPECT_EQ(back.hidden[1].weight, w.hidden[1].weight);
   EXPECT_EQ(back.head.bias, w.head.bias);
@@ -336,6 +350,27 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
   std::string version = bytes;
   version[8] = 7;
   expect_refused(version, "format version 7");
+  // a format-1 file (the network alone) is refused with the upgrade command, and still readable for the upgrade
+  std::string v1 = bytes.substr(0, 12);
+  v1[8] = 1;
+  {
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(12);
+    std::string weights_bytes(std::istreambuf_iterator<char>(in), {});
+    // drop the two texts (length-prefixed) and the checksum from the end
+    const std::size_t texts = 8 + file.task_yaml.size() + file.provenance_yaml.size();
+    v1 += weights_bytes.substr(0, weights_bytes.size() - 4 - texts);
+  }
+  const std::uint32_t crc = Crc32c(v1.data(), v1.size());
+  v1.append(reinterpret_cast<const char*>(&crc), 4);
+  expect_refused(v1, "rmpmarl policy upgrade");
+  const std::string v1_path = ::testing::TempDir() + "/runtime_test_v1.rmpp";
+  std::ofstream(v1_path, std::ios::binary | std::ios::trunc) << v1;
+  EXPECT_EQ(LoadPolicyFileV1(v1_path).head.weight, w.head.weight);
+  // a text that is not a mapping is refused when saved
+  PolicyFile not_a_map = file;
+  not_a_map.provenance_yaml = "[1, 2]";
+  EXPECT_THROW(SavePolicyFile(not_a_map, path), InputError);
 }
 
 // ---------------------------------------------------------------------------------------------------- tensorboard

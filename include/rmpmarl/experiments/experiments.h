@@ -30,6 +30,9 @@ struct ExperimentOptions {
   /// evaluation only: learned methods with a shipped policy (models/policies/) are evaluated from it as their only
   /// "seed", the others are left out, nothing is trained (fig3, which plots training, refuses)
   bool shipped = false;
+  /// fig5: users' arms (.urdf paths, collision YAML beside each, else capsules fitted in memory) run after the shipped
+  /// ones, labelled by their file stem
+  std::vector<std::string> urdfs;
 };
 
 /// table3, table4, fig3, fig5, cluttered.

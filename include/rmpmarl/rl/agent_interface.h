@@ -2,6 +2,7 @@
 /// The agents' side of the manipulator environment (docs/environments.md): action layouts of the three interface
 /// modes, the options of the per-joint RMP agents (initiation sets, termination conditions, the composite
 /// "target then collision"), the gain mapping, and the names/offsets of the local observation and global state.
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,9 @@ struct LocalObs {
   static constexpr int kLookaheadSpeed = 2;      ///< that obstacle's speed / v_s (0: none), 1
   static constexpr int kLookaheadSize = 3;
 };
+
+/// the log-distance feature ln(1 + d/1 mm)/ln(1001) of a distance d [m]: 0 at the target, 0.35 at 1 cm, 1 at 1 m.
+inline double LogDistanceFeature(double d) { return std::log1p(d / 0.001) / std::log(1001.0); }
 
 /// names of the local observation features of a per-joint mode (size LocalObs::kBaseSize or kRmpSize, plus
 /// kLookaheadSize with the look-ahead block).

@@ -18,6 +18,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/env.h"
+#include "rmpmarl/rl/joint_agents.h"
 #include "rmpmarl/rl/reward.h"
 #include "rmpmarl/rl/task_config.h"
 #include "rmpmarl/rl/vec_env.h"
@@ -128,31 +129,30 @@ class ManipulatorEnv final : public Env {
   int variant() const { return variant_; }
   /// the scenario setting of the current episode (line-crossing: index into the speeds).
   int scenario_setting() const { return setting_; }
-  const OptionMachine& option_machine(int agent) const { return options_[agent]; }
+  const OptionMachine& option_machine(int agent) const { return agents_->option_machine(agent); }
+  /// the per-joint agents' state (sensing, observations, options).
+  const JointAgents& agents() const { return *agents_; }
   /// the external controller's policy of the current episode (nullptr when the agents act).
   const sim::AccelerationPolicy* external_policy() const {
     return external_controller_ != nullptr ? &external_controller_->policy() : nullptr;
   }
   const StepInfo& last_step() const { return info_; }
-  /// the metrics of the running episode so far.
+  /// the running counters of the episode (collisions, minimum clearance, return); the summaries (tracking errors,
+  /// control time, success) are filled when the episode ends — MetricsSoFar has them at any step.
   const EpisodeMetrics& metrics() const { return metrics_; }
+  /// the episode's metrics as if it ended now (a run stopped before the episode's end, e.g. `demo --duration`).
+  EpisodeMetrics MetricsSoFar() const;
   /// steps taken in the current episode.
   int steps() const { return steps_; }
 
  private:
-  struct JointWarning;
-  struct Lookahead;
   void StartEpisode(std::mt19937_64& rng);
   bool ValidActions(const float* actions) const;
   void ApplyActions(const float* actions, float* option_started, float* parameters_read);
   bool AdvancePhysics();  // false when MuJoCo diverged
   void CountCollisions(const sim::ContactReport& report);
   void UpdateKinematics();
-  void UpdateLookahead();  // observation.lookahead > 0
-  /// every joint's predicted pass (lookahead_) clears the arm by more than `clearance` [m] (−inf: always true).
-  bool PassesClear(double clearance) const;
   void WriteObservation(const StepOutput& out) const;
-  void WriteLocal(int agent, float* o) const;
   void WriteGlobal(float* s) const;
   void Finish(const StepOutput& out, bool terminated, bool truncated, bool invalid);
   void SanitiseOutputs(const StepOutput& out);
@@ -168,9 +168,8 @@ class ManipulatorEnv final : public Env {
   std::vector<std::unique_ptr<sim::Scenario>> scenarios_;  // [variant * settings + setting], made lazily
   sim::Scenario* scenario_ = nullptr;
   const kinematics::Robot* robot_ = nullptr;               // the current variant's robot
-  class PerJointRmpPolicy;
-  PerJointRmpPolicy* policy_ = nullptr;                    // owned by controller_
-  std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp
+  std::unique_ptr<JointAgents> agents_;                    // sensing, observations, options, the basic layer's weights
+  std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp: drives the agents' basic layer
   ExternalController external_;                            // baselines (make_policy empty: the agents act)
   std::vector<std::unique_ptr<sim::ReactiveController>> external_controllers_;  // per variant, made lazily
   sim::ReactiveController* external_controller_ = nullptr; // the current variant's
@@ -180,23 +179,10 @@ class ManipulatorEnv final : public Env {
   const sim::ContactReport* report_ = nullptr;
   // commanded state (direct modes) and the step's command change
   Eigen::VectorXd q_cmd_, q_cmd_before_, v_max_, dq_max_;
-  // kinematics of the current state
-  kinematics::Data kin_;
-  Eigen::Vector3d p_WE_ = Eigen::Vector3d::Zero(), v_WE_ = Eigen::Vector3d::Zero();
+  // the target of the current state, the end effector's error and Jacobian at the start of the step
   Eigen::Vector3d p_WT_ = Eigen::Vector3d::Zero(), v_WT_ = Eigen::Vector3d::Zero();
-  Eigen::Matrix3Xd J_WE_, J_WE_before_;
+  Eigen::Matrix3Xd J_WE_before_;
   Eigen::Vector3d e_before_ = Eigen::Vector3d::Zero();  // p_T − p_E at the start of the step
-  std::vector<JointWarning> warnings_;      // nearest warning contact per joint (observations)
-  std::vector<std::uint8_t> option_warning_; // W_i ≠ ∅ for the options (options.warnings)
-  std::vector<Lookahead> lookahead_;        // per joint: the closest predicted moving-obstacle pass (observations)
-  // options and reward state
-  std::vector<OptionMachine> options_;
-  std::vector<std::uint8_t> terminate_flags_;
-  // options.parameter_period > 1: the RMP parameters each joint holds, the steps since it read them, and the warning
-  // state at that read (nq_ × kNumContinuous; nq_; nq_); a negative age forces a read (episode start)
-  Eigen::Matrix<float, Eigen::Dynamic, RmpActionLayout::kNumContinuous, Eigen::RowMajor> held_parameters_;
-  std::vector<int> parameter_age_;
-  std::vector<std::uint8_t> parameter_warning_;
   Eigen::VectorXd joint_weights_;  // δ_i
   ReachCycleTracker cycles_;
   std::vector<long> pair_last_seen_;  // per (link, partner) pair: physics step index it was last in penetration

@@ -1,16 +1,7 @@
 #pragma once
-/// Real-time evaluation of a trained actor without libtorch: the exported weights file (format below) and an Eigen /
-/// AVX2 forward pass that evaluates the per-joint agents (shared parameters) at batch 1 without allocating.
-///
-/// Policy file, format version 1 (all integers uint32 little-endian, all reals float32 little-endian):
-///   magic "RMPMPOL\0" (8 bytes) · version · obs_dim · num_options · num_continuous · has_termination ·
-///   activation (0 relu, 1 tanh) · num_hidden L · hidden sizes[L] ·
-///   obs_clip (float; 0: no clipping) · obs_mean[obs_dim] · obs_inv_std[obs_dim] ·
-///   for each hidden layer then the head: weight[out × in] (row-major, out rows) · bias[out] ·
-///   log_std[num_continuous] · low[num_continuous] · high[num_continuous] ·
-///   crc32c (uint32) of every preceding byte.
-/// The head's outputs are [option logits (num_options) | Gaussian means (num_continuous) | termination logit (1 if
-/// has_termination)], sized from the ActionSpec. The normalised observation is clamp((o − mean) · inv_std, ±clip).
+/// Real-time evaluation of a trained actor without libtorch: an Eigen / AVX2 forward pass that evaluates the per-joint
+/// agents (shared parameters) at batch 1 without allocating. The weights come from a controller file
+/// (rl/policy_file.h).
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
@@ -21,9 +12,6 @@
 #include "rmpmarl/rl/env.h"
 
 namespace rmpmarl::rl {
-
-/// CRC-32C (Castagnoli) of `size` bytes, continuing from `crc` (0 to start).
-std::uint32_t Crc32c(const void* data, std::size_t size, std::uint32_t crc = 0);
 
 /// One affine layer y = W x + b.
 struct DenseLayer {
@@ -53,17 +41,6 @@ struct PolicyWeights {
   /// throws InputError when the sizes are inconsistent.
   void Validate() const;
 };
-
-/// writes `weights` to `path` atomically (temporary file + rename). Throws InputError on I/O failure.
-void SavePolicyFile(const PolicyWeights& weights, const std::string& path);
-/// reads a policy file; a wrong magic/version, a truncated file or a checksum mismatch throws InputError naming it.
-PolicyWeights LoadPolicyFile(const std::string& path);
-
-/// the task overrides a shipped policy runs with (its basic-layer variant): the `task_overrides` key (a YAML mapping
-/// in flow style, as a training config's task.overrides) of the YAML beside the policy file (`<stem>.yaml`, written by
-/// scripts/ship-policies). "" when there is no such file or key; throws InputError naming the file when it is not a
-/// YAML mapping or the key is not a string.
-std::string LoadPolicyTaskOverrides(const std::string& policy_path);
 
 /// Evaluates the shared-parameter actor for up to `max_agents` agents at once (one row of observations each).
 /// Evaluate allocates nothing; one instance per thread.

@@ -232,6 +232,9 @@ struct TaskConfig {
   std::string source = "<defaults>";  ///< file it was loaded from (error messages)
   TaskKind task = TaskKind::kReachAvoid;
   std::string robot = "panda";        ///< "planar2", a shipped arm (kinematics::ShippedRobotNames) or a path to a .urdf
+  /// a .urdf robot's collision YAML; "" (default): <stem>.collision.yaml or collision.yaml beside the URDF, else
+  /// capsules fitted in memory (kinematics::LoadOrFitRobot)
+  std::string collision;
   InterfaceMode interface = InterfaceMode::kPerJointRmp;
   EpisodeConfig episode;
   sim::ControllerOptions controller;  ///< control_rate is taken from episode.control_rate

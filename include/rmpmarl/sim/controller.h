@@ -1,6 +1,6 @@
 #pragma once
-/// Reactive control in MuJoCo (docs/control.md): an acceleration policy (q, q̇, scene) ↦ q̈ — RMPflow now, the
-/// learned per-joint agents later — integrated at the control rate into commanded joint positions for the World's
+/// Reactive control in MuJoCo (docs/control.md): an acceleration policy (q, q̇, scene) ↦ q̈ — RMPflow, the fixed
+/// basic layers, or the learned per-joint agents (rl::LearnedController) — integrated at the control rate into commanded joint positions for the World's
 /// position servos.
 ///
 /// Integration: semi-implicit Euler on the controller's own commanded state (q_cmd, q̇_cmd), in substeps h ≤
@@ -18,7 +18,8 @@
 
 namespace rmpmarl::sim {
 
-/// A joint-space acceleration policy the ReactiveController drives: RMPflow, or later the learned per-joint agents.
+/// A joint-space acceleration policy the ReactiveController drives: the one controller interface of every method
+/// (RMPflow, the basic layers, the learned per-joint agents, the RRT replanner).
 class AccelerationPolicy {
  public:
   virtual ~AccelerationPolicy();
@@ -30,6 +31,11 @@ class AccelerationPolicy {
   /// called by ReactiveController::Reset at the start of every episode with the initial configuration (default:
   /// nothing).
   virtual void Reset(const Eigen::Ref<const Eigen::VectorXd>& q0);
+  /// called by ReactiveController::Update once per control step, before the substeps' Evaluate calls, with the
+  /// measured state: a policy that decides at the control rate (the learned agents) decides here (default: nothing).
+  /// Should not allocate.
+  virtual void BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                                const rmp::Scene& scene);
   /// a short name for logs and results ("rmpflow").
   virtual std::string name() const = 0;
   /// number of joints the policy is built for.

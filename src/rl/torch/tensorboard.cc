@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/rl/policy_file.h"
 
 namespace rmpmarl::rl {
 namespace {

@@ -7,6 +7,7 @@
 #include <torch/serialize.h>
 #include <torch/types.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <chrono>
@@ -20,7 +21,9 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/rl/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/tensor_archive.h"
 #include "rmpmarl/rl/torch/tensorboard.h"
@@ -197,6 +200,8 @@ struct LoadedCheckpoint {
   TrainConfig config;
   EnvSpec spec;
   std::unique_ptr<Ppo> ppo;
+  int update = 0;
+  std::int64_t env_steps = 0;
 };
 
 LoadedCheckpoint LoadLearner(const std::string& path) {
@@ -209,6 +214,8 @@ LoadedCheckpoint LoadLearner(const std::string& path) {
     CheckNetworkFitsArchive(c.config, c.spec, file_bytes, path);
     c.ppo = std::make_unique<Ppo>(c.spec, c.config.network, c.config.ppo, c.config.seed);
     c.ppo->Load(archive);
+    c.update = static_cast<int>(archive.Int("meta/update"));
+    c.env_steps = archive.Int("meta/env_steps");
   } catch (const c10::Error& e) {
     throw InputError(fmt::format("checkpoint {}: cannot restore the learner: {}", path, e.what_without_backtrace()));
   }
@@ -533,7 +540,38 @@ void Trainer::Resume(const std::string& path) {
   m.env_built_for = -1;
 }
 
-void Trainer::ExportPolicy(const std::string& path) const { SavePolicyFile(impl_->ppo->Export(), path); }
+namespace {
+
+// the controller file of a learner: its actor, the task it runs on (the manipulator tasks) and its provenance.
+PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::int64_t env_steps) {
+  PolicyFile file;
+  file.weights = ppo.Export();
+  const std::vector<std::string> manipulator = TaskNames();
+  if (std::find(manipulator.begin(), manipulator.end(), config.task.name) != manipulator.end()) {
+    const std::filesystem::path task_file =
+        config.task.config.empty() ? TaskConfigPath(config.task.name) : std::filesystem::path(config.task.config);
+    file.task_yaml = ControllerTaskYaml(task_file, config.task.overrides_yaml, config.task.interface);
+  }
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << config.name;
+  out << YAML::Key << "algorithm" << YAML::Value << config.algorithm;
+  out << YAML::Key << "seed" << YAML::Value << config.seed;
+  out << YAML::Key << "updates" << YAML::Value << update;
+  out << YAML::Key << "env_steps" << YAML::Value << env_steps;
+  YAML::Node training = YAML::Load(ToYaml(config));
+  training.remove("output_dir");  // a path on the machine that trained it
+  out << YAML::Key << "training_config" << YAML::Value << training;
+  out << YAML::EndMap;
+  file.provenance_yaml = out.c_str();
+  return file;
+}
+
+}  // namespace
+
+void Trainer::ExportPolicy(const std::string& path) const {
+  SavePolicyFile(MakePolicyFile(*impl_->ppo, impl_->config, impl_->update, impl_->env_steps), path);
+}
 
 std::vector<double> Trainer::StateVector() const {
   Ppo& ppo = *impl_->ppo;
@@ -621,7 +659,7 @@ void UpgradeCheckpoint(const std::string& path, const std::string& out_path) {
 
 void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path) {
   LoadedCheckpoint loaded = LoadLearner(checkpoint_path);
-  SavePolicyFile(loaded.ppo->Export(), policy_path);
+  SavePolicyFile(MakePolicyFile(*loaded.ppo, loaded.config, loaded.update, loaded.env_steps), policy_path);
 }
 
 // ------------------------------------------------------------------------------------------------- RunTraining
@@ -810,7 +848,7 @@ EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, c
     };
   } else {
     if (options.stochastic) throw InputError("stochastic evaluation needs a checkpoint (.ckpt), not a policy file");
-    const PolicyWeights weights = LoadPolicyFile(policy_path);
+    const PolicyWeights weights = LoadPolicyFile(policy_path).weights;
     if (weights.obs_dim != d || weights.action_size() != as) {
       throw InputError(fmt::format("policy {} does not fit task {}: it takes obs {} and gives {} action floats, the "
                                    "env has obs {} and actions of {}", policy_path, spec.task, weights.obs_dim,

@@ -1,0 +1,169 @@
+// The learned per-joint agents as an acceleration policy: warning contacts from the capsules and the scene, the
+// agents' observations and actions at the control rate, their basic layer at every substep.
+#include "rmpmarl/rl/learned_controller.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCapsule& lc) {
+  const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+  return {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+}
+
+}  // namespace
+
+LearnedController::LearnedController(const kinematics::Robot& robot, const TaskConfig& config,
+                                     const PolicyWeights& weights, LearnedControllerOptions options)
+    : options_(std::move(options)),
+      robot_(robot),
+      agents_(config, &robot),
+      runtime_(weights, robot.model.nq()) {
+  if (config.interface != InterfaceMode::kPerJointRmp) {
+    throw InputError(fmt::format("learned controller '{}': the per-joint-rmp interface runs as a controller, got {} "
+                                 "(evaluate it in its task with `rmpmarl eval`)", options_.name,
+                                 InterfaceModeName(config.interface)));
+  }
+  if (!(options_.max_obstacles >= 0)) {
+    throw InputError(fmt::format("learned controller '{}': max_obstacles: expected >= 0, got {}", options_.name,
+                                 options_.max_obstacles));
+  }
+  const int nq = robot.model.nq();
+  obs_dim_ = static_cast<int>(PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size());
+  action_size_ = MakeActionSpec(config, nq).size();
+  if (runtime_.obs_dim() != obs_dim_ || runtime_.action_size() != action_size_) {
+    throw InputError(fmt::format("learned controller '{}': the actor takes {} observations and gives {} action "
+                                 "floats; its task ({}, lookahead {}) has {} and {}", options_.name,
+                                 runtime_.obs_dim(), runtime_.action_size(), InterfaceModeName(config.interface),
+                                 config.observation.lookahead, obs_dim_, action_size_));
+  }
+  layer_ = agents_.MakeLayerPolicy();
+  obs_.assign(static_cast<size_t>(nq) * obs_dim_, 0.0f);
+  actions_.assign(static_cast<size_t>(nq) * action_size_, 0.0f);
+  // the pairs the tasks' MuJoCo worlds check: capsules of distinct, non-excluded links
+  const int nc = static_cast<int>(robot.capsules.size());
+  for (int c = 0; c < nc; ++c) {
+    for (int d = c + 1; d < nc; ++d) {
+      const int lc = robot.capsules[c].link, ld = robot.capsules[d].link;
+      if (lc != ld && !robot.IsExcludedPair(lc, ld)) self_pairs_.emplace_back(c, d);
+    }
+  }
+  on_moving_link_.assign(nc, 0);
+  for (int c = 0; c < nc; ++c) {
+    for (int i = 0; i < nq; ++i) on_moving_link_[c] |= robot.model.DofMovesLink(i, robot.capsules[c].link) ? 1 : 0;
+  }
+  contacts_.reserve(static_cast<size_t>(nc) * (options_.max_obstacles + 1) + self_pairs_.size());
+}
+
+LearnedController::~LearnedController() = default;
+
+int LearnedController::nq() const { return robot_.model.nq(); }
+
+sim::ControllerOptions LearnedController::controller_options() const {
+  sim::ControllerOptions o = agents_.config().controller;
+  o.control_rate = agents_.config().episode.control_rate;
+  return o;
+}
+
+void LearnedController::Reset(const Eigen::Ref<const Eigen::VectorXd>& /*q0*/) {
+  agents_.Reset();
+  steps_ = 0;
+  started_ = false;
+}
+
+void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
+  const kinematics::Data& kin = agents_.kinematics();
+  const double margin = agents_.config().observation.warning_distance;
+  contacts_.clear();
+  auto add = [&](int capsule, sim::PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
+    if (!(r.distance < margin)) return;
+    sim::WarningContact c;
+    c.link = robot_.capsules[capsule].link;
+    c.capsule = capsule;
+    c.other_kind = kind;
+    c.other_index = index;
+    c.other_capsule = other_capsule;
+    c.distance = r.distance;
+    c.p_W1 = r.p_W1;
+    c.p_W2 = r.p_W2;
+    c.n_W = r.n_W;
+    contacts_.push_back(c);
+  };
+  const int nc = static_cast<int>(robot_.capsules.size());
+  for (int c = 0; c < nc; ++c) {
+    const math::Capsule cap = WorldCapsule(kin, robot_.capsules[c]);
+    for (int j = 0; j < static_cast<int>(scene.obstacles.size()); ++j) {
+      add(c, sim::PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
+    }
+    if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
+      // the capsule's lowest axis end point against the plane z = floor_height
+      const bool a_lower = cap.p_WA.z() <= cap.p_WB.z();
+      math::DistanceResult r;
+      const Eigen::Vector3d& axis_point = a_lower ? cap.p_WA : cap.p_WB;
+      r.distance = axis_point.z() - options_.floor_height - cap.radius;
+      r.n_W = Eigen::Vector3d::UnitZ();
+      r.p_W1 = axis_point - cap.radius * r.n_W;
+      r.p_W2 = Eigen::Vector3d(axis_point.x(), axis_point.y(), options_.floor_height);
+      add(c, sim::PartnerKind::kFloor, -1, -1, r);
+    }
+  }
+  for (const auto& [c, d] : self_pairs_) {
+    const math::DistanceResult r = math::CapsuleCapsuleDistance(WorldCapsule(kin, robot_.capsules[c]),
+                                                                WorldCapsule(kin, robot_.capsules[d]));
+    add(c, sim::PartnerKind::kLink, robot_.capsules[d].link, d, r);
+  }
+}
+
+void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                         const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene) {
+  if (static_cast<int>(scene.obstacles.size()) > options_.max_obstacles) {
+    throw InputError(fmt::format("learned controller '{}': the scene holds {} obstacles, the controller was made for "
+                                 "at most {} (LearnedControllerOptions::max_obstacles)", options_.name,
+                                 scene.obstacles.size(), options_.max_obstacles));
+  }
+  const Eigen::Vector3d p_WT = scene.has_target ? scene.p_WT : agents_.p_WE();
+  const Eigen::Vector3d v_WT = scene.has_target ? scene.v_WT : Eigen::Vector3d::Zero();
+  // the kinematics first (the warnings need the capsules where the arm is), then the joints' warnings
+  agents_.SenseState(q, qd, p_WT, v_WT);
+  ComputeWarnings(scene);
+  agents_.SenseContacts(contacts_, scene);
+  if (started_) agents_.End();  // the last step's options end on what is sensed now, as in the env
+  const int n = nq();
+  for (int i = 0; i < n; ++i) agents_.WriteLocal(i, steps_, obs_.data() + static_cast<size_t>(i) * obs_dim_);
+  runtime_.Act(obs_.data(), n, actions_.data());
+  agents_.Apply(actions_.data(), nullptr, nullptr);
+  started_ = true;
+  ++steps_;
+}
+
+void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene,
+                                 Eigen::Ref<Eigen::VectorXd> qdd) {
+  layer_->Evaluate(q, qd, scene, qdd);
+}
+
+std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,
+                                                         const std::string& path, LearnedControllerOptions options) {
+  TaskConfig config = PolicyTaskConfig(file, path);
+  if (options.name == "learned") options.name = std::filesystem::path(path).stem().string();
+  try {
+    return std::make_unique<LearnedController>(robot, config, file.weights, options);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", path, e.what()));
+  }
+}
+
+std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,
+                                                         const std::string& path, int max_obstacles) {
+  LearnedControllerOptions options;
+  options.max_obstacles = max_obstacles;
+  return MakeLearnedController(robot, file, path, options);
+}
+
+}  // namespace rmpmarl::rl

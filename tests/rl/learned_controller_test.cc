@@ -1,0 +1,173 @@
+// rl::LearnedController — the learned agents in a user's loop — against the env they were trained in: the same
+// observations and actions on the same state (its warnings from the capsules' geometry, the env's from MuJoCo), and
+// a whole episode in a plain control loop without the env.
+#include "rmpmarl/rl/learned_controller.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/sim/episode.h"
+#include "rmpmarl/sim/scenario.h"
+
+namespace rmpmarl::rl {
+namespace {
+
+std::string ShippedDefault() {
+  return (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+}
+
+// the env's first observations and the controller's on the same reset state agree (float tolerance: MuJoCo's
+// narrow phase against math::CapsuleBoxDistance), so do the actions, for several episodes and two arms
+TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
+  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  for (const char* robot : {"panda", "ur5e"}) {
+    SCOPED_TRACE(robot);
+    TaskMove move;
+    move.robot = robot;
+    TaskConfig config = PolicyTaskConfig(file, ShippedDefault(), move);
+    config.randomization.variants = 1;
+    config.scenario.crossing.num_obstacles = 4;
+    const auto context = MakeTaskContext(config);
+    ManipulatorEnv env(context);
+    StepBuffers buffers(env.spec());
+    PolicyRuntime runtime(file.weights, context->nq());
+    std::vector<float> env_actions(static_cast<size_t>(context->nq()) * env.spec().action.size());
+    int compared_warnings = 0;
+    std::vector<double> max_diff(env.spec().local_obs_dim, 0.0);
+    double max_action_diff = 0.0;
+    for (int episode = 0; episode < 6; ++episode) {
+      std::mt19937_64 rng(100 + episode);
+      env.Reset(rng, buffers.out());
+      // a few steps into the episode so that cubes come near and options run
+      for (int k = 0; k < 60 * episode; ++k) {
+        runtime.Act(buffers.local_obs.data(), context->nq(), env_actions.data());
+        env.Step(env_actions.data(), rng, buffers.out());
+      }
+      const kinematics::Robot& r = env.world().model().robot();
+      LearnedControllerOptions options;
+      options.max_obstacles = context->num_obstacles();
+      LearnedController controller(r, config, file.weights, options);
+      controller.Reset(env.world().q());
+      rmp::Scene scene;
+      env.scenario().FillScene(&scene);
+      controller.BeginControlStep(env.world().q(), env.world().qd(), scene);
+      const int d = env.spec().local_obs_dim;
+      for (int i = 0; i < context->nq(); ++i) {
+        for (int k = 0; k < d; ++k) {
+          if (k == LocalObs::kProgress || (k >= LocalObs::kOption && k < LocalObs::kRmpSize)) continue;  // episode state
+          const double diff = std::abs(controller.observations()[i * d + k] - buffers.local_obs[i * d + k]);
+          max_diff[k] = std::max(max_diff[k], diff);
+        }
+        compared_warnings += buffers.local_obs[i * d + LocalObs::kWarningFlag] > 0.5f;
+      }
+      runtime.Act(buffers.local_obs.data(), context->nq(), env_actions.data());
+      // the controller's observations with the episode state (progress, running option) the fresh controller cannot
+      // know: the actions they give
+      std::vector<float> obs = controller.observations(), actions(env_actions.size());
+      for (int i = 0; i < context->nq(); ++i) {
+        for (int k : {LocalObs::kProgress, LocalObs::kOption, LocalObs::kOption + 1, LocalObs::kOption + 2,
+                      LocalObs::kOptionPhaseB, LocalObs::kOptionAge}) {
+          obs[i * d + k] = buffers.local_obs[i * d + k];
+        }
+      }
+      runtime.Act(obs.data(), context->nq(), actions.data());
+      // the continuous parameters (this controller runs a fixed option: its option logits are near-tied and unused)
+      const ActionSpec& a = env.spec().action;
+      for (int i = 0; i < context->nq(); ++i) {
+        for (int c = 0; c < a.num_continuous; ++c) {
+          const size_t k = static_cast<size_t>(i) * a.size() + a.continuous_offset() + c;
+          max_action_diff = std::max(max_action_diff, static_cast<double>(std::abs(env_actions[k] - actions[k])));
+        }
+      }
+    }
+    // MuJoCo's narrow phase and math:: agree on the distances to 0.2 mm; the witness points of near-parallel
+    // capsules (a link beside its neighbour) are not unique, and MuJoCo picks others: their direction and lever differ
+    for (int k = 0; k < static_cast<int>(max_diff.size()); ++k) {
+      const bool witness = (k >= LocalObs::kWarningDirection && k < LocalObs::kWarningDistance) ||
+                           (k >= LocalObs::kWitnessLever && k < LocalObs::kDistanceGradient + 1);
+      const double tolerance = witness ? 0.05 : k == LocalObs::kWarningDistance ? 1e-3 : 2e-5;
+      EXPECT_LE(max_diff[k], tolerance) << PerJointObservationNames(config.interface, true)[k];
+    }
+    EXPECT_LE(max_action_diff, 0.05);  // the parameters the agents read from those observations
+    EXPECT_GT(compared_warnings, 0);  // the warning features were compared where they are set
+  }
+}
+
+// a user's loop: World + scenario + ReactiveController, no env. On the sim's own crossing scene (four cubes) the
+// learned controller runs as RMPflow does, in the same place, without a collision and tracking as close
+TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {
+  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("crossing", robot);
+  auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
+  double learned_mm = 0.0, rmpflow_mm = 0.0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    auto learned = MakeLearnedController(robot, file, ShippedDefault(), scenario->num_obstacles());
+    const sim::ControllerOptions options = learned->controller_options();
+    for (const bool is_learned : {true, false}) {
+      sim::World world(world_model);
+      std::unique_ptr<sim::AccelerationPolicy> policy;
+      if (is_learned) {
+        policy = std::move(learned);
+      } else {
+        policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, scenario->num_obstacles());
+      }
+      sim::ReactiveController controller(*world_model, std::move(policy), is_learned ? options : sim::ControllerOptions{});
+      sim::EpisodeOptions episode;
+      episode.duration = 5.0;
+      episode.seed = seed;
+      episode.tracking_warmup = 1.0;
+      const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, {});
+      EXPECT_EQ(r.nonfinite_policy_outputs, 0);
+      EXPECT_FALSE(r.diverged);
+      if (is_learned) {
+        EXPECT_EQ(r.collision_events, 0) << "seed " << seed;
+        EXPECT_EQ(controller.policy().name(), "marl-rmp-residual");
+      }
+      (is_learned ? learned_mm : rmpflow_mm) += r.tracking_error_mean_mm / 3.0;
+    }
+  }
+  std::printf("tracking error, mean of 3 episodes: learned %.1f mm, RMPflow %.1f mm\n", learned_mm, rmpflow_mm);
+  EXPECT_LT(learned_mm, 1.25 * rmpflow_mm);
+}
+
+TEST(LearnedControllerTest, RefusesWhatDoesNotFit) {
+  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  TaskConfig direct = PolicyTaskConfig(file, ShippedDefault());
+  direct.interface = InterfaceMode::kPerJointDirect;
+  EXPECT_THROW(LearnedController(robot, direct, file.weights), InputError);
+  TaskConfig no_lookahead = PolicyTaskConfig(file, ShippedDefault());
+  no_lookahead.observation.lookahead = 0.0;
+  no_lookahead.options.target_gate_clearance = -INFINITY;
+  try {
+    LearnedController c(robot, no_lookahead, file.weights);
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("observations"), std::string::npos) << e.what();
+  }
+  LearnedControllerOptions one_obstacle;
+  one_obstacle.max_obstacles = 1;
+  LearnedController c(robot, PolicyTaskConfig(file, ShippedDefault()), file.weights, one_obstacle);
+  c.Reset(Eigen::VectorXd::Zero(robot.model.nq()));
+  rmp::Scene scene;
+  scene.obstacles.assign(2, rmp::Obstacle::MakeSphere(Eigen::Vector3d(1, 1, 1), 0.05));
+  EXPECT_THROW(c.BeginControlStep(Eigen::VectorXd::Zero(robot.model.nq()), Eigen::VectorXd::Zero(robot.model.nq()),
+                                  scene),
+               InputError);
+  TaskMove static_scene;
+  static_scene.scene = "static-reach";
+  EXPECT_THROW(PolicyTaskConfig(file, ShippedDefault(), static_scene), InputError);
+  TaskMove static_speed;
+  static_speed.scene = "cluttered";
+  static_speed.obstacle_speed = 1.0;
+  EXPECT_THROW(PolicyTaskConfig(file, ShippedDefault(), static_speed), InputError);
+}
+
+}  // namespace
+}  // namespace rmpmarl::rl
