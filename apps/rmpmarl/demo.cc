@@ -154,17 +154,16 @@ DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, const std::string& label, const 
   }
   DemoRun run{label, {}, 0.0, ""};
   double next_frame = 0.0;
-  int steps = 0;
-  while (steps < spec.max_episode_steps && !buffers.terminated && !buffers.truncated) {
+  // the env truncates the episode at config.episode.max_steps (--duration); its metrics come with the last step
+  while (!buffers.terminated && !buffers.truncated) {
     if (video && env.world().time() + 1e-9 >= next_frame) {
       renderer->Render(env.world().mj_data(), &rgb);
       video->AddFrame(rgb);
       next_frame += 1.0 / args.fps;
     }
     env.Step(actions.data(), rng, buffers.out());
-    ++steps;
   }
-  run.metrics = (buffers.terminated || buffers.truncated) ? buffers.metrics : env.MetricsSoFar();
+  run.metrics = buffers.metrics;
   run.step_us = run.metrics.mean_control_us;  // the whole controller: sensing, network and basic layer
   if (video) run.video = video->Close().string();
   return run;
@@ -182,14 +181,19 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   move.scene = args.scenario;
   if (args.obstacle_speed) move.obstacle_speed = *args.obstacle_speed;
   rl::TaskConfig config = rl::PolicyTaskConfig(file, policy_path, move);
+  if (!args.urdf.empty()) LoadUserRobot(args.urdf, args.collision);  // says how it was loaded (fitted in memory?)
   if (args.num_obstacles) {
     if (config.task != rl::TaskKind::kReachAvoid) {
-      throw InputError("--obstacles: the number of obstacles is set in the crossing scene only");
+      throw InputError(fmt::format("--obstacles: the number of obstacles is set in the crossing scene only (the {} "
+                                   "scene has its own)", rl::TaskKindName(config.task)));
     }
     config.scenario.crossing.num_obstacles = *args.num_obstacles;
   }
   if (args.target_speed) {
-    if (config.task != rl::TaskKind::kReachAvoid) throw InputError("--target-speed: the crossing scene only");
+    if (config.task != rl::TaskKind::kReachAvoid) {
+      throw InputError(fmt::format("--target-speed: the crossing scene only (the {} scene's target is set by the "
+                                   "scene)", rl::TaskKindName(config.task)));
+    }
     config.scenario.crossing.target_speed = *args.target_speed;
   }
   if (args.duration > 0.0) {
@@ -204,52 +208,53 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
     return (v.parent_path() / (v.stem().string() + "-" + suffix + v.extension().string())).string();
   };
   const std::string label = std::filesystem::path(policy_path).stem().string();
-  fmt::print("rmpmarl demo: {} ({} joints), task '{}', seed {}, {:.1f} s: the learned per-joint agents ({}) and "
-             "RMPflow on the same episode\n", context->variant(0).world_model->robot().name, context->nq(),
-             rl::TaskKindName(config.task), args.seed, config.episode.max_steps / config.episode.control_rate,
-             policy_path);
+  const kinematics::Robot& robot = context->variant(0).world_model->robot();
+  fmt::print("rmpmarl demo: {} ({} dof), task '{}', seed {}, {:.1f} s: the learned per-joint agents ({}) and "
+             "RMPflow on the same episode\n", robot.name, context->nq(), rl::TaskKindName(config.task), args.seed,
+             config.episode.max_steps / config.episode.control_rate, policy_path);
+  fmt::print("  RMPflow parameters: {}{}\n", rmp::RmpflowConfigPath(robot).string(),
+             robot.home.size() > 0 ? " (home found in memory)" : "");
   fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n", rl::InterfaceModeName(config.interface),
              config.basic_layer.resolve == rmp::LayerResolve::kCoupled ? "coupled" : "per-joint",
              config.observation.lookahead > 0.0 ? fmt::format(", look-ahead {:g} s", config.observation.lookahead) : "",
              config.options.TargetGated()
                  ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
                  : "");
-  rl::ExternalController learned;
-  learned.make_policy = [&](const kinematics::Robot& robot) {
+  rl::ExternalController agents;
+  agents.make_policy = [&](const kinematics::Robot& robot) {
     return rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
   };
-  learned.options = config.controller;
-  rl::ManipulatorEnv learned_env(context, learned);
-  const DemoRun learned_run = RunDemoEpisode(learned_env, label, video_for(label), args);
+  agents.options = config.controller;
+  rl::ManipulatorEnv learned_env(context, agents);
+  const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args);
   rl::ExternalController rmpflow;
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
     return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
   };
   rl::ManipulatorEnv rmpflow_env(context, rmpflow);
   const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args);
-  const DemoRun& learned_result = learned_run;
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
     fmt::print("  {:<26}{:>20}{:>20}\n", name, a, b);
   };
   fmt::print("\n");
-  row("", learned_result.label, baseline.label);
-  row("tracking error (mean)", mm(learned_result.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
-  row("settled (t >= 1 s)", mm(learned_result.metrics.settled_tracking_error_mm),
+  row("", learned.label, baseline.label);
+  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
+  row("settled (t >= 1 s)", mm(learned.metrics.settled_tracking_error_mm),
       mm(baseline.metrics.settled_tracking_error_mm));
-  row("final error", mm(learned_result.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
+  row("final error", mm(learned.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
   auto clearance = [&](const rl::EpisodeMetrics& m) {
     return std::isfinite(m.min_clearance_m) ? mm(1000.0 * m.min_clearance_m) : std::string("none within 15 cm");
   };
-  row("min clearance", clearance(learned_result.metrics), clearance(baseline.metrics));
-  row("collision events", std::to_string(learned_result.metrics.collisions), std::to_string(baseline.metrics.collisions));
-  row("control step", fmt::format("{:.1f} µs", learned_result.step_us), fmt::format("{:.1f} µs", baseline.step_us));
+  row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
+  row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
+  row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
   auto result = [](const rl::EpisodeMetrics& m) {
     return m.invalid ? std::string("INVALID") : m.collisions == 0 ? std::string("success") : std::string("FAILURE");
   };
-  row("result", result(learned_result.metrics), result(baseline.metrics));
-  for (const DemoRun* r : {&learned_result, &baseline}) {
+  row("result", result(learned.metrics), result(baseline.metrics));
+  for (const DemoRun* r : {&learned, &baseline}) {
     if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
   }
   fmt::print("  wall time           {:.1f} s\n",

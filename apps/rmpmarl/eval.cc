@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -98,20 +99,28 @@ void RegisterEval(CLI::App& app) {
       const auto context = rl::MakeTaskContext(config);
       rl::EnvFactory factory = rl::MakeManipulatorEnvFactory(context);
       if (args->as_controller) {
+        if (args->stochastic) {
+          throw InputError("eval: --stochastic and --as-controller: a controller acts on its deterministic modes");
+        }
         rl::ExternalController learned;
-        const std::string path = args->policy;
-        learned.make_policy = [file, path, context](const kinematics::Robot& robot) {
-          return rl::MakeLearnedController(robot, file, path, context->num_obstacles());
+        rl::LearnedControllerOptions options;
+        options.max_obstacles = context->num_obstacles();
+        options.name = std::filesystem::path(args->policy).stem().string();
+        // the moved task (scene, robot, --overrides) is the controller's task too
+        learned.make_policy = [config, weights = file.weights, options](const kinematics::Robot& robot) {
+          return std::make_unique<rl::LearnedController>(robot, config, weights, options);
         };
         learned.options = config.controller;
         factory = [context, learned](int) { return std::make_unique<rl::ManipulatorEnv>(context, learned); };
       }
       const rl::EvalResult r = rl::Evaluate(args->policy, factory,
                                             {.episodes = args->episodes, .num_envs = args->envs,
-                                             .env_threads = args->env_threads, .seed = args->seed});
-      fmt::print("eval {} on {} / {} / {}{} ({} episodes, deterministic actions)\n", args->policy,
+                                             .env_threads = args->env_threads, .seed = args->seed,
+                                             .stochastic = args->stochastic});
+      fmt::print("eval {} on {} / {} / {}{} ({} episodes, {} actions)\n", args->policy,
                  rl::TaskKindName(config.task), config.robot, rl::InterfaceModeName(config.interface),
-                 args->as_controller ? ", as a controller in a user's loop" : "", r.episodes);
+                 args->as_controller ? ", as a controller in a user's loop" : "", r.episodes,
+                 args->stochastic ? "sampled" : "deterministic");
       PrintEvalResult(r);
       return;
     }

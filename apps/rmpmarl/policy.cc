@@ -1,6 +1,6 @@
 // `rmpmarl policy show FILE`: the card of a controller file (generated from it);
-// `rmpmarl policy upgrade OLD --out NEW [--task T] [--card YAML]`: a format-1 file (the network alone) with the layer
-// and provenance its YAML card held, rewritten as one format-2 file.
+// `rmpmarl policy upgrade OLD --out NEW [--task T] [--card YAML] [--overrides YAML]`: a format-1 file (the network
+// alone) with the layer and provenance its YAML card held, rewritten as one format-2 file.
 #include <fmt/core.h>
 #include <yaml-cpp/yaml.h>
 
@@ -11,6 +11,7 @@
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/task_config.h"
 
@@ -36,7 +37,7 @@ std::string CardString(const YAML::Node& node, const std::string& key, const std
 }
 
 struct UpgradeArgs {
-  std::string in, out, task, card;
+  std::string in, out, task, card, overrides;
 };
 
 void Upgrade(const UpgradeArgs& args) {
@@ -66,8 +67,8 @@ void Upgrade(const UpgradeArgs& args) {
       if (key == "policy" || key == "task_overrides") continue;
       provenance[key] = kv.second;
     }
-    if (provenance["training_config"] && provenance["training_config"].IsMap()) {
-      provenance["training_config"].remove("output_dir");  // a path on the machine that trained it
+    if (const YAML::Node recorded = provenance["training_config"]; recorded && recorded.IsMap()) {
+      provenance["training_config"] = YAML::Load(rl::TrainingConfigProvenance(YAML::Dump(recorded)));
     }
   }
   if (task.empty()) {
@@ -75,7 +76,18 @@ void Upgrade(const UpgradeArgs& args) {
                                  "line-crossing, cluttered, pretrain-2link)", args.in));
   }
   rl::ParseTaskKind(task);
+  if (!args.overrides.empty()) overrides = args.overrides;
   file.task_yaml = rl::ControllerTaskYaml(rl::TaskConfigPath(task), overrides, interface);
+  // the network must fit the task it is given: its observation size is fixed by the interface and lookahead
+  const rl::TaskConfig config = rl::ParseTaskConfig(file.task_yaml, args.in + " (upgraded task)");
+  const size_t obs = rl::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size();
+  if (obs != static_cast<size_t>(file.weights.obs_dim)) {
+    throw InputError(fmt::format("policy upgrade {}: the network takes {} observations per joint; task '{}' "
+                                 "(interface {}, lookahead {}) gives {}: give the card it was shipped with "
+                                 "(--card) or the task keys it was trained with (--overrides)",
+                                 args.in, file.weights.obs_dim, task, rl::InterfaceModeName(config.interface),
+                                 config.observation.lookahead, obs));
+  }
   provenance["upgraded_from"] = std::filesystem::path(args.in).filename().string();
   file.provenance_yaml = YAML::Dump(provenance);
   rl::SavePolicyFile(file, args.out);
@@ -104,6 +116,8 @@ void RegisterPolicy(CLI::App& app) {
   upgrade->add_option("--out", args->out, "format-2 file to write")->required();
   upgrade->add_option("--task", args->task, "the task it runs on (default: the card's training task)");
   upgrade->add_option("--card", args->card, "its YAML card (default: <stem>.yaml beside it)");
+  upgrade->add_option("--overrides", args->overrides,
+                      "task keys it was trained with, as YAML over the task's config (replaces the card's)");
   upgrade->callback([args] { Upgrade(*args); });
   auto annotate = std::make_shared<std::array<std::string, 2>>();
   auto* provenance = cmd->add_subcommand(

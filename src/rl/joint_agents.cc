@@ -90,10 +90,18 @@ class JointAgents::Layer final : public sim::AccelerationPolicy {
 
 // ------------------------------------------------------------------------------------------------ the agents
 
-JointAgents::JointAgents(const TaskConfig& config, const kinematics::Robot* robot)
-    : config_(config), action_(MakeActionSpec(config, robot->model.nq())), robot_(robot), nq_(robot->model.nq()),
-      kin_(robot->model) {
+namespace {
+
+const kinematics::Robot* NonNull(const kinematics::Robot* robot) {
   RMPMARL_ASSERT(robot != nullptr, "JointAgents: null robot");
+  return robot;
+}
+
+}  // namespace
+
+JointAgents::JointAgents(const TaskConfig& config, const kinematics::Robot* robot)
+    : config_(config), action_(MakeActionSpec(config, NonNull(robot)->model.nq())), robot_(robot),
+      nq_(robot->model.nq()), kin_(robot->model) {
   const kinematics::Model& m = robot_->model;
   q_.setZero(nq_);
   qd_.setZero(nq_);

@@ -127,10 +127,14 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
                                  "at most {} (LearnedControllerOptions::max_obstacles)", options_.name,
                                  scene.obstacles.size(), options_.max_obstacles));
   }
-  const Eigen::Vector3d p_WT = scene.has_target ? scene.p_WT : agents_.p_WE();
-  const Eigen::Vector3d v_WT = scene.has_target ? scene.v_WT : Eigen::Vector3d::Zero();
-  // the kinematics first (the warnings need the capsules where the arm is), then the joints' warnings
-  agents_.SenseState(q, qd, p_WT, v_WT);
+  // the kinematics first (the warnings need the capsules where the arm is), then the joints' warnings. Without a
+  // target the agents hold the end effector where it is now: the target is its position at this q.
+  if (scene.has_target) {
+    agents_.SenseState(q, qd, scene.p_WT, scene.v_WT);
+  } else {
+    agents_.SenseState(q, qd, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+    agents_.SenseState(q, qd, agents_.p_WE(), Eigen::Vector3d::Zero());
+  }
   ComputeWarnings(scene);
   agents_.SenseContacts(contacts_, scene);
   if (started_) agents_.End();  // the last step's options end on what is sensed now, as in the env
@@ -139,7 +143,8 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
   runtime_.Act(obs_.data(), n, actions_.data());
   agents_.Apply(actions_.data(), nullptr, nullptr);
   started_ = true;
-  ++steps_;
+  // the progress feature saturates at the task's episode length; the count stops there too (no overflow)
+  if (steps_ < agents_.config().episode.max_steps) ++steps_;
 }
 
 void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,

@@ -194,11 +194,7 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   const kinematics::Model& m = robot_->model;
   q_cmd_.setZero(nq_);
   q_cmd_before_.setZero(nq_);
-  v_max_.resize(nq_);
-  for (int i = 0; i < nq_; ++i) {
-    const double v = m.limits()[i].velocity;
-    v_max_[i] = (v > 0.0 ? v : 1.0) * config_.controller.velocity_limit_scale;
-  }
+  v_max_ = agents_->velocity_limits();
   dq_max_ = config_.direct.max_speed_fraction * control_period_ * v_max_;
   J_WE_before_.setZero(3, nq_);
   joint_weights_.resize(nq_);

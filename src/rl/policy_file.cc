@@ -293,13 +293,17 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
     const std::string task = move.scene == "crossing" ? "reach-avoid" : move.scene;
     const std::vector<std::string> tasks = TaskNames();
     if (std::find(tasks.begin(), tasks.end(), task) == tasks.end() || task == "pretrain-2link") {
-      throw InputError(fmt::format("{}: --scenario {}: the learned controllers run in the scenes of the arm tasks: "
-                                   "crossing (reach-avoid), line-crossing, cluttered; RMPflow alone runs the others "
-                                   "(--policy rmpflow)", path, move.scene));
+      throw InputError(fmt::format("{}: --scenario {}: a learned controller runs in the scenes of the arm tasks: "
+                                   "crossing (reach-avoid), line-crossing, cluttered (the static-* scenarios run "
+                                   "RMPflow alone: `rmpmarl demo --policy rmpflow --scenario {}`)", path, move.scene,
+                                   move.scene));
     }
     if (task != TaskKindName(own.task)) {
-      config = LoadShippedTaskConfig(task);
+      // the scene, reward and randomisation of the shipped task, with the same --overrides as the controller
+      config = move.overrides_yaml.empty() ? LoadShippedTaskConfig(task)
+                                           : LoadTaskConfig(TaskConfigPath(task), move.overrides_yaml);
       config.robot = own.robot;
+      config.collision = own.collision;
       config.interface = own.interface;
       config.controller = own.controller;
       config.options = own.options;
@@ -313,8 +317,12 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
       config.source = path + " (its controller) on " + config.source;
     }
   }
-  if (!move.robot.empty()) config.robot = move.robot;
-  if (!move.collision.empty()) config.collision = move.collision;
+  if (!move.robot.empty()) {
+    config.robot = move.robot;
+    config.collision = move.collision;  // a collision YAML belongs to its robot; "" = beside the URDF, else fitted
+  } else if (!move.collision.empty()) {
+    config.collision = move.collision;
+  }
   if (move.obstacle_speed >= 0.0) {
     switch (config.task) {
       case TaskKind::kReachAvoid:
@@ -364,6 +372,19 @@ std::string PolicyCard(const PolicyFile& file, const std::string& path) {
   out << YAML::EndMap;
   return std::string("# generated from ") + std::filesystem::path(path).filename().string() +
          " by `rmpmarl policy show`; the policy file is the source, this card is never read\n" + out.c_str() + "\n";
+}
+
+std::string TrainingConfigProvenance(const std::string& train_config_yaml) {
+  YAML::Node training = ParseYaml(train_config_yaml, "training config");
+  if (!training.IsMap()) throw InputError("training config: expected a YAML mapping");
+  for (const char* key : {"output_dir", "env_threads", "torch_threads", "logging", "checkpoint_every"}) {
+    training.remove(key);
+  }
+  if (const YAML::Node from = training["init_actor_from"]; from && from.IsScalar() && !from.Scalar().empty()) {
+    const std::filesystem::path path(from.Scalar());
+    training["init_actor_from"] = (path.parent_path().filename() / path.filename()).string();
+  }
+  return YAML::Dump(training);
 }
 
 std::string ControllerTaskYaml(const std::filesystem::path& task_file, const std::string& overrides_yaml,

@@ -1,38 +1,21 @@
 // The CLI from the outside: exit codes and messages for good and bad robot descriptions.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
+#include "run_cli.h"
 
 namespace {
 namespace fs = std::filesystem;
 using rmpmarl::kinematics::ModelsDirectory;
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-// runs the rmpmarl CLI with `args` and captures its output and exit code.
-CommandResult RunCli(const std::string& args) {
-  const std::string command = std::string(RMPMARL_CLI_PATH) + " " + args + " 2>&1";
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using rmpmarl::test::CommandResult;
+using rmpmarl::test::RunCli;
 
 const std::string kData = RMPMARL_TEST_DATA_DIR;
 
@@ -110,28 +93,21 @@ TEST(CliTest, DemoDurationReportsTheShortenedRun) {
   EXPECT_EQ(alone.output.find("tracking error      0.0"), std::string::npos) << alone.output;
 }
 
-// the learned default runs beside RMPflow in the line-crossing scene, and on a user's URDF with no collision YAML
-// (capsules fitted in memory)
-TEST(CliTest, DemoRunsTheLearnedAgentsInEveryArmSceneAndOnAUrdf) {
+// the learned default runs beside RMPflow in the line-crossing scene (a URDF without a collision YAML:
+// SetupRobotCli.DemoWithoutYamlFitsInMemory)
+TEST(CliTest, DemoRunsTheLearnedAgentsInEveryArmScene) {
   const CommandResult line = RunCli("demo --scenario line-crossing --obstacle-speed 2.8 --seed 1");
   ASSERT_EQ(line.exit_code, 0) << line.output;
   EXPECT_NE(line.output.find("task 'line-crossing'"), std::string::npos) << line.output;
   EXPECT_NE(line.output.find("marl-rmp-residual"), std::string::npos) << line.output;
-  const fs::path dir = fs::temp_directory_path() / ("rmpmarl_cli_urdf_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  const fs::path models = ModelsDirectory() / "robots" / "ur5e";
-  fs::copy_file(models / "ur5e.urdf", dir / "my_arm.urdf", fs::copy_options::overwrite_existing);
-  const CommandResult urdf = RunCli("demo --seed 2 --duration 3 --urdf " + (dir / "my_arm.urdf").string());
-  fs::remove_all(dir);
-  ASSERT_EQ(urdf.exit_code, 0) << urdf.output;
-  EXPECT_NE(urdf.output.find("marl-rmp-residual"), std::string::npos) << urdf.output;
-  const auto [learned, rmpflow] = Row(urdf.output, "collision events");
-  EXPECT_EQ(learned, "0") << urdf.output;
+  const CommandResult clutter = RunCli("demo --scenario cluttered --robot iiwa14 --seed 1 --duration 2");
+  ASSERT_EQ(clutter.exit_code, 0) << clutter.output;
+  EXPECT_NE(clutter.output.find("iiwa14 (7 dof), task 'cluttered'"), std::string::npos) << clutter.output;
   // what cannot fit is refused with the reason
   const CommandResult stat = RunCli("demo --policy " + (ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string() +
                                     " --scenario static-reach");
   EXPECT_EQ(stat.exit_code, 2) << stat.output;
-  EXPECT_NE(stat.output.find("RMPflow alone runs the others"), std::string::npos) << stat.output;
+  EXPECT_NE(stat.output.find("run RMPflow alone"), std::string::npos) << stat.output;
 }
 
 // values no user means are refused at once with the allowed range, instead of running for minutes

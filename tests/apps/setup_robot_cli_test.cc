@@ -1,35 +1,21 @@
 // setup-robot, check-robot without a YAML, and demo --urdf without a YAML, from the outside.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+
+#include "run_cli.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-CommandResult RunRmpmarl(const std::string& args) {
-  const std::string command = std::string(RMPMARL_CLI_PATH) + " " + args + " 2>&1";
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using rmpmarl::test::CommandResult;
+using rmpmarl::test::RunCli;
 
 // a world-rooted arm with primitive collision geometry and frame-only tool links.
 fs::path WriteArm(const std::string& name) {
@@ -58,7 +44,7 @@ fs::path WriteArm(const std::string& name) {
 
 TEST(SetupRobotCli, CheckRobotWithoutYamlFitsInMemoryAndValidates) {
   const fs::path urdf = WriteArm("check");
-  const CommandResult r = RunRmpmarl("check-robot " + urdf.string());
+  const CommandResult r = RunCli("check-robot " + urdf.string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("fitted in memory"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("MuJoCo world: compiles"), std::string::npos) << r.output;
@@ -68,7 +54,7 @@ TEST(SetupRobotCli, CheckRobotWithoutYamlFitsInMemoryAndValidates) {
 TEST(SetupRobotCli, SetupRobotWritesFilesThatCheckRobotAndDemoUse) {
   const fs::path urdf = WriteArm("setup");
   const fs::path out = urdf.parent_path() / "description";
-  const CommandResult r = RunRmpmarl(fmt::format("setup-robot {} --out {} --samples 2000 --seed 3", urdf.string(), out.string()));
+  const CommandResult r = RunCli(fmt::format("setup-robot {} --out {} --samples 2000 --seed 3", urdf.string(), out.string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   for (const char* link : {"base_link", "link1", "link2", "link3", "link4", "tool0", "world"}) {
     EXPECT_NE(r.output.find(link), std::string::npos) << link;
@@ -76,10 +62,10 @@ TEST(SetupRobotCli, SetupRobotWritesFilesThatCheckRobotAndDemoUse) {
   EXPECT_NE(r.output.find("sticks out"), std::string::npos) << r.output;
   EXPECT_TRUE(fs::exists(out / "arm.collision.yaml"));
   EXPECT_TRUE(fs::exists(out / "arm.rmpflow.yaml"));
-  const CommandResult check = RunRmpmarl(fmt::format("check-robot {} {}", urdf.string(), (out / "arm.collision.yaml").string()));
+  const CommandResult check = RunCli(fmt::format("check-robot {} {}", urdf.string(), (out / "arm.collision.yaml").string()));
   EXPECT_EQ(check.exit_code, 0) << check.output;
   EXPECT_NE(check.output.find("arm.rmpflow.yaml"), std::string::npos) << check.output;  // the robot's own home
-  const CommandResult demo = RunRmpmarl(fmt::format("demo --urdf {} --collision {} --duration 1", urdf.string(),
+  const CommandResult demo = RunCli(fmt::format("demo --urdf {} --collision {} --duration 1", urdf.string(),
                                              (out / "arm.collision.yaml").string()));
   EXPECT_EQ(demo.exit_code, 0) << demo.output;
   EXPECT_NE(demo.output.find("arm.rmpflow.yaml"), std::string::npos) << demo.output;
@@ -97,7 +83,7 @@ capsules:
   - {link: link4, a: [0, 0, 0], b: [0, 0, 0], radius: 0.05}
 links_without_capsule: [world, tool0]
 )";
-  const CommandResult r = RunRmpmarl("check-robot " + urdf.string());  // the YAML beside the URDF is found
+  const CommandResult r = RunCli("check-robot " + urdf.string());  // the YAML beside the URDF is found
   EXPECT_NE(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("overlap at the home posture"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("base_link – link2"), std::string::npos) << r.output;
@@ -107,7 +93,7 @@ links_without_capsule: [world, tool0]
 
 TEST(SetupRobotCli, CheckRobotFindsAShippedRobotsCollisionYamlBesideItsUrdf) {
   const std::string panda = std::string(RMPMARL_TEST_DATA_DIR) + "/../../models/robots/panda/panda.urdf";
-  const CommandResult r = RunRmpmarl("check-robot " + panda);
+  const CommandResult r = RunCli("check-robot " + panda);
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("collision.yaml"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("configs/rmpflow/panda.yaml"), std::string::npos) << r.output;  // a shipped robot's settings
@@ -115,29 +101,37 @@ TEST(SetupRobotCli, CheckRobotFindsAShippedRobotsCollisionYamlBesideItsUrdf) {
 
 TEST(SetupRobotCli, DemoWithoutYamlFitsInMemory) {
   const fs::path urdf = WriteArm("demo");
-  const CommandResult r = RunRmpmarl("demo --urdf " + urdf.string() + " --duration 1");
+  // the shipped learned controller beside RMPflow on an arm it never saw, described by a URDF alone
+  const CommandResult r = RunCli("demo --urdf " + urdf.string() + " --duration 5 --seed 2");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("fitted in memory"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("home found in memory"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("marl-rmp-residual.rmpp) and RMPflow on the same episode"), std::string::npos) << r.output;
+  const size_t row = r.output.find("  collision events");
+  ASSERT_NE(row, std::string::npos) << r.output;
+  std::istringstream line(r.output.substr(row + 18, r.output.find('\n', row) - row - 18));
+  int learned = -1, rmpflow = -1;
+  line >> learned >> rmpflow;
+  EXPECT_EQ(learned, 0) << r.output;
 }
 
 TEST(SetupRobotCli, XacroIsRefusedWithTheExpansionHint) {
   const fs::path dir = WriteArm("xacro").parent_path();
   std::ofstream(dir / "arm.urdf.xacro") << "<robot name=\"arm\" xmlns:xacro=\"http://www.ros.org/wiki/xacro\">\n"
                                           "  <xacro:include filename=\"arm_macro.xacro\"/>\n</robot>\n";
-  const CommandResult r = RunRmpmarl("setup-robot " + (dir / "arm.urdf.xacro").string());
+  const CommandResult r = RunCli("setup-robot " + (dir / "arm.urdf.xacro").string());
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("expand it with ROS's xacro first"), std::string::npos) << r.output;
 }
 
-// a URDF with <mimic> joints runs as downloaded (issue 10): fitted in memory, RMPflow drives the independent joints
-// in MuJoCo, the followers ride along on their equality constraints
+// a URDF with <mimic> joints runs as downloaded: fitted in memory, RMPflow drives the independent joints in MuJoCo,
+// the followers ride along on their equality constraints
 TEST(SetupRobotCli, DemoRunsAUrdfWithMimicJoints) {
   const std::string urdf = std::string(RMPMARL_TEST_DATA_DIR) + "/robots/mimic/mimic_arm.urdf";
-  const CommandResult check = RunRmpmarl("check-robot " + urdf);
+  const CommandResult check = RunCli("check-robot " + urdf);
   EXPECT_EQ(check.exit_code, 0) << check.output;
   EXPECT_NE(check.output.find("mimic: -0.5 x j3 +0.2"), std::string::npos) << check.output;
-  const CommandResult r = RunRmpmarl("demo --urdf " + urdf + " --duration 2");
+  const CommandResult r = RunCli("demo --policy rmpflow --urdf " + urdf + " --duration 2");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("mimic_arm (4 dof)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("0 self"), std::string::npos) << r.output;

@@ -1,6 +1,7 @@
 // The controller files shipped in models/policies/ load in the torch-free runtime, carry the task they run on, and
 // act sensibly on held-out episodes of it (the card beside each, generated from it, holds the full evaluation).
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <filesystem>
@@ -36,9 +37,20 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     EXPECT_EQ(file.weights.num_options, rl::kNumRmpOptions);
     // the file carries the task it runs on: the shipped task with the recipe's basic layer
     rl::TaskConfig task = rl::PolicyTaskConfig(file, path.string());
-    EXPECT_EQ(file.task_yaml, rl::ControllerTaskYaml(rl::TaskConfigPath(rl::TaskKindName(task.task)),
-                                                     c.recipe[0] != 0 ? RecipeLayerOverrides(c.recipe) : "",
-                                                     "per-joint-rmp"));
+    const YAML::Node carried = YAML::Load(file.task_yaml);
+    const YAML::Node recipe = YAML::Load(rl::ControllerTaskYaml(
+        rl::TaskConfigPath(rl::TaskKindName(task.task)), c.recipe[0] != 0 ? RecipeLayerOverrides(c.recipe) : "",
+        "per-joint-rmp"));
+    for (const char* section : {"task", "robot", "interface", "episode", "controller", "options", "rmp"}) {
+      EXPECT_EQ(YAML::Dump(carried[section]), YAML::Dump(recipe[section])) << section;
+    }
+    for (const char* key : {"length_scale", "speed_scale", "warning_distance", "lookahead"}) {
+      EXPECT_EQ(YAML::Dump(carried["observation"][key]), YAML::Dump(recipe["observation"][key])) << key;
+    }
+    // its provenance names no path of the machine that trained it (run directories relative to the repository)
+    for (const char* absolute : {": /", "- /", "/work/", "/home/", "/tmp/"}) {
+      EXPECT_EQ(file.provenance_yaml.find(absolute), std::string::npos) << absolute << " in\n" << file.provenance_yaml;
+    }
     // the card beside it is the one generated from the file
     std::ifstream card_file(fs::path(path).replace_extension(".yaml"));
     const std::string card((std::istreambuf_iterator<char>(card_file)), std::istreambuf_iterator<char>());

@@ -98,6 +98,88 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
   }
 }
 
+// over whole episodes the controller, fed the env's measured state every control step, keeps the agents' episode
+// state as the env does (progress, running option, its age) and sees and acts as they do all along
+TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisodes) {
+  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  TaskConfig config = PolicyTaskConfig(file, ShippedDefault());
+  config.randomization.variants = 1;
+  const auto context = MakeTaskContext(config);
+  ManipulatorEnv env(context);
+  StepBuffers buffers(env.spec());
+  PolicyRuntime runtime(file.weights, context->nq());
+  const int nq = context->nq(), d = env.spec().local_obs_dim;
+  const ActionSpec& a = env.spec().action;
+  std::vector<float> env_actions(static_cast<size_t>(nq) * a.size());
+  LearnedControllerOptions options;
+  options.max_obstacles = context->num_obstacles();
+  LearnedController controller(env.world().model().robot(), config, file.weights, options);
+  int steps = 0;
+  double max_state_diff = 0.0, max_joint_diff = 0.0, max_action_diff = 0.0;
+  for (int episode = 0; episode < 2; ++episode) {
+    std::mt19937_64 rng(300 + episode);
+    env.Reset(rng, buffers.out());
+    controller.Reset(env.world().q());
+    while (!buffers.terminated && !buffers.truncated) {
+      rmp::Scene scene;
+      env.scenario().FillScene(&scene);
+      controller.BeginControlStep(env.world().q(), env.world().qd(), scene);
+      runtime.Act(buffers.local_obs.data(), nq, env_actions.data());
+      for (int i = 0; i < nq; ++i) {
+        const float* mine = controller.observations().data() + static_cast<size_t>(i) * d;
+        const float* env_obs = buffers.local_obs.data() + static_cast<size_t>(i) * d;
+        for (int k : {LocalObs::kProgress, LocalObs::kOption, LocalObs::kOption + 1, LocalObs::kOption + 2,
+                      LocalObs::kOptionPhaseB, LocalObs::kOptionAge}) {
+          max_state_diff = std::max(max_state_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
+        }
+        for (int k = LocalObs::kJointPosition; k <= LocalObs::kJointIndex; ++k) {
+          max_joint_diff = std::max(max_joint_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
+        }
+        for (int c = 0; c < a.num_continuous; ++c) {
+          const size_t k = static_cast<size_t>(i) * a.size() + a.continuous_offset() + c;
+          max_action_diff = std::max(max_action_diff,
+                                     static_cast<double>(std::abs(controller.actions()[k] - env_actions[k])));
+        }
+      }
+      env.Step(env_actions.data(), rng, buffers.out());
+      ++steps;
+    }
+  }
+  EXPECT_EQ(steps, 2 * config.episode.max_steps);  // both episodes ran to the end
+  EXPECT_EQ(controller.steps(), config.episode.max_steps);
+  EXPECT_LE(max_state_diff, 1e-6);  // the same count and options, step by step
+  EXPECT_LE(max_joint_diff, 1e-6);  // the same measured state
+  EXPECT_LE(max_action_diff, 0.05);  // as on a single state (witness points of near-parallel capsules)
+}
+
+// without a target in the scene the agents hold the end effector where it is: the target features are zero at once
+// (not those of a target left over from the last step)
+TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
+  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  LearnedController controller(robot, PolicyTaskConfig(file, ShippedDefault()), file.weights);
+  const int nq = robot.model.nq(), d = controller.observations().size() / nq;
+  Eigen::VectorXd q = robot.home.size() == nq ? robot.home : Eigen::VectorXd::Zero(nq);
+  const Eigen::VectorXd qd = Eigen::VectorXd::Zero(nq);
+  controller.Reset(q);
+  rmp::Scene scene;
+  scene.has_target = true;
+  scene.p_WT = Eigen::Vector3d(0.3, 0.3, 0.3);
+  controller.BeginControlStep(q, qd, scene);
+  EXPECT_GT(std::abs(controller.observations()[LocalObs::kEeToTarget]), 0.01);
+  scene.has_target = false;
+  q[0] += 0.5;  // the arm moved: the end effector is elsewhere, and that is the target now
+  controller.BeginControlStep(q, qd, scene);
+  for (int i = 0; i < nq; ++i) {
+    for (int k = LocalObs::kEeToTarget; k < LocalObs::kEeToTarget + 4; ++k) {
+      EXPECT_NEAR(controller.observations()[static_cast<size_t>(i) * d + k], 0.0, 1e-6) << "joint " << i << " feature " << k;
+    }
+  }
+  Eigen::VectorXd qdd(nq);
+  controller.Evaluate(q, qd, scene, qdd);
+  EXPECT_TRUE(qdd.allFinite());
+}
+
 // a user's loop: World + scenario + ReactiveController, no env. On the sim's own crossing scene (four cubes) the
 // learned controller runs as RMPflow does, in the same place, without a collision and tracking as close
 TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {

@@ -6,7 +6,7 @@
 ///
 ///   const rl::PolicyFile file = rl::LoadPolicyFile("models/policies/marl-rmp-residual.rmpp");
 ///   const kinematics::Robot robot = kinematics::LoadShippedRobot("ur5e");
-///   auto learned = rl::MakeLearnedController(robot, file, path, /*max_obstacles=*/4);
+///   auto learned = rl::MakeLearnedController(robot, file, "marl-rmp-residual.rmpp", /*max_obstacles=*/4);
 ///   const sim::ControllerOptions options = learned->controller_options();
 ///   sim::ReactiveController controller(world_model, std::move(learned), options);
 ///   controller.Update(q, qd, scene);  // every control period: q_cmd(), qd_cmd() out
@@ -70,7 +70,8 @@ class LearnedController final : public sim::AccelerationPolicy {
   /// the local observations of the last control step (nq × obs_dim, row-major) and the actions taken on them.
   const std::vector<float>& observations() const { return obs_; }
   const std::vector<float>& actions() const { return actions_; }
-  /// control steps since Reset.
+  /// control steps since Reset, saturated at the task's episode length (the agents' progress feature reads 1 from
+  /// there on: a controller running longer than the episodes it was trained on sees the end of an episode).
   int steps() const { return steps_; }
   /// the warning contacts of the last control step (computed from the geometry).
   const std::vector<sim::WarningContact>& warnings() const { return contacts_; }

@@ -59,11 +59,14 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path);
 /// Where a controller runs besides its own task: another robot, scene or obstacle speed (empty / unset: the file's).
 struct TaskMove {
   std::string robot;  ///< a shipped arm, "planar2", or a path to a user's .urdf (collision YAML beside it, else fitted)
-  std::string collision;  ///< the .urdf's collision YAML ("": beside it, else capsules fitted in memory)
+  /// the .urdf's collision YAML ("": beside it, else capsules fitted in memory); with `robot` set, "" also drops the
+  /// file's own collision YAML (it belongs to the file's robot)
+  std::string collision;
   /// the scene: a task (reach-avoid, line-crossing, cluttered) or the scenario it runs (crossing = reach-avoid)
   std::string scene;
   double obstacle_speed = -1.0;  ///< [m/s] ≥ 0: every obstacle at this speed (reach-avoid, line-crossing); < 0: unset
-  /// a YAML mapping merged over the file's task before anything else (as a training config's task.overrides)
+  /// a YAML mapping merged over the file's task and, when the scene moves, over the scene's shipped task (as a training
+  /// config's task.overrides); robot, collision and obstacle_speed above win over it
   std::string overrides_yaml;
 };
 
@@ -76,6 +79,11 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
 /// the card of a controller file as YAML text: its name, format, network, interface sizes, the task it runs on and
 /// its provenance. Generated, never read back.
 std::string PolicyCard(const PolicyFile& file, const std::string& path);
+
+/// a training config (YAML text) as a controller file's provenance records it: what was learned, without how or where
+/// the run was executed (output_dir, thread counts, logging, checkpoint cadence; a resumed run with other threads
+/// learns the same bits), and init_actor_from by its run and file instead of its path on the training machine.
+std::string TrainingConfigProvenance(const std::string& train_config_yaml);
 
 /// the controller task of a training run: the task file + overrides merged (`overrides_yaml` as a training config's
 /// task.overrides) with `interface` set when not empty, then the scene, reward and randomisation sections put back

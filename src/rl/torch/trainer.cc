@@ -559,8 +559,7 @@ PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::
   out << YAML::Key << "seed" << YAML::Value << config.seed;
   out << YAML::Key << "updates" << YAML::Value << update;
   out << YAML::Key << "env_steps" << YAML::Value << env_steps;
-  YAML::Node training = YAML::Load(ToYaml(config));
-  training.remove("output_dir");  // a path on the machine that trained it
+  const YAML::Node training = YAML::Load(TrainingConfigProvenance(ToYaml(config)));
   out << YAML::Key << "training_config" << YAML::Value << training;
   out << YAML::EndMap;
   file.provenance_yaml = out.c_str();
