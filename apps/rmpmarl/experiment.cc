@@ -1,6 +1,7 @@
 // `rmpmarl experiment NAME [--quick] [--seeds N] [--episodes N] [--eval-seed S] [--methods a,b] [--jobs N]
 // [--out DIR]`: the paper's tables and figures, one command each (docs/experiments.md);
-// `rmpmarl probe-lookahead POLICY --recipe KEY`: what a learned agent does with the look-ahead block.
+// `rmpmarl experiment NAME --list`: its default method keys, one per line;
+// `rmpmarl probe-lookahead POLICY`: what a learned agent does with the look-ahead block.
 #include "commands.h"
 
 #ifdef RMPMARL_HAS_TORCH
@@ -14,7 +15,9 @@
 #include <vector>
 
 #include "rmpmarl/experiments/experiments.h"
+#include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/experiments/probe.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/task_config.h"
 
 namespace rmpmarl::apps {
@@ -24,6 +27,7 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   auto out = std::make_shared<std::string>();
   auto runs = std::make_shared<std::string>();
   auto methods = std::make_shared<std::string>();
+  auto list = std::make_shared<bool>(false);
   auto* cmd = app.add_subcommand("experiment", "Reproduce a table or figure of the paper: trains what it needs, "
                                                "evaluates every method on identical episodes, writes report.md, "
                                                "CSVs and plots");
@@ -37,7 +41,10 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
                   "episodes per method x condition x seed (default: the experiment's)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--eval-seed", options->eval_seed, "evaluation seed (default 20231001)");
-  cmd->add_option("--methods", *methods, "comma-separated method keys (default: all of the experiment's)");
+  cmd->add_option("--methods", *methods,
+                  "comma-separated method keys (default: the experiment's, see --list; any file stem of "
+                  "configs/methods/ or configs/ablations/)");
+  cmd->add_flag("--list", *list, "print the experiment's default method keys, one per line, and exit");
   cmd->add_option("--urdf", options->urdfs, "fig5: your arms (comma-separated .urdf paths) after the shipped ones")
       ->delimiter(',');
   cmd->add_option("--jobs", options->jobs, "training processes / evaluation threads (default 2)")
@@ -49,7 +56,11 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
                 "evaluation only: learned methods from the policies shipped in models/policies/ (others left out)");
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
-  cmd->callback([options, out, runs, methods, command_line] {
+  cmd->callback([options, out, runs, methods, list, command_line] {
+    if (*list) {
+      for (const std::string& key : experiments::ExperimentMethods(options->name)) fmt::print("{}\n", key);
+      return;
+    }
     options->out = *out;
     options->runs = *runs;
     options->command_line = command_line;
@@ -65,7 +76,7 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
 
 void RegisterProbeLookahead(CLI::App& app) {
   struct Args {
-    std::string policy, recipe, task = "line-crossing";
+    std::string policy, task = "line-crossing";
     double speed = 2.8;
     experiments::ProbeOptions probe;
   };
@@ -74,11 +85,9 @@ void RegisterProbeLookahead(CLI::App& app) {
                                  "What a learned agent does with the look-ahead block: its target-stiffness action "
                                  "with the block as observed, as 'no pass predicted' and as 'a pass at --clearance "
                                  "in --time'");
-  cmd->add_option("policy", args->policy, "exported policy (.rmpp) of a recipe trained with observation.lookahead")
-      ->required();
-  cmd->add_option("--recipe", args->recipe, "the experiment recipe it was trained with (its basic layer), e.g. "
-                                            "marl-rmp-v2c-stiffness-look")->required();
-  cmd->add_option("--task", args->task, "task (configs/tasks)")->capture_default_str();
+  cmd->add_option("policy", args->policy, "controller file (.rmpp) trained with observation.lookahead")->required();
+  cmd->add_option("--task", args->task, "the scene it runs in, on its own basic layer (configs/tasks)")
+      ->capture_default_str();
   cmd->add_option("--speed", args->speed, "line-crossing: the line's speed [m/s], also the substituted pass's")
       ->check(CLI::Range(0.01, 20.0))->capture_default_str();
   cmd->add_option("--episodes", args->probe.episodes, "episodes")->check(CLI::Range(1, 100000))->capture_default_str();
@@ -88,8 +97,10 @@ void RegisterProbeLookahead(CLI::App& app) {
   cmd->add_option("--time", args->probe.threat_time, "substituted pass: time of closest approach [s]")
       ->capture_default_str();
   cmd->callback([args] {
-    rl::TaskConfig task =
-        rl::LoadTaskConfig(rl::TaskConfigPath(args->task), experiments::RecipeLayerOverrides(args->recipe));
+    const rl::PolicyFile file = rl::LoadPolicyFile(args->policy);
+    rl::TaskMove move;
+    move.scene = args->task;
+    rl::TaskConfig task = rl::PolicyTaskConfig(file, args->policy, move);
     if (task.task == rl::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
     args->probe.threat_speed = args->speed;
     const experiments::LookaheadProbe p = experiments::ProbeLookahead(args->policy, task, args->probe);

@@ -355,6 +355,7 @@ YAML::Node LoadYamlText(const std::string& text, const std::string& source) {
 }
 
 TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file);
+void ReadTaskNode(const YAML::Node& root, const std::string& file, TaskConfig& c);
 
 }  // namespace
 
@@ -379,6 +380,19 @@ TaskConfig ParseTaskConfig(const std::string& yaml_text, const std::string& sour
   return ParseTaskNode(LoadYamlText(yaml_text, source), source);
 }
 
+void ApplyTaskOverrides(TaskConfig& config, const std::string& overrides_yaml, const std::string& source) {
+  const YAML::Node over = LoadYamlText(overrides_yaml, source);
+  if (over.IsNull()) return;
+  if (!over.IsMap()) throw InputError(fmt::format("{}: expected a mapping of task config keys", source));
+  if (const YAML::Node t = over["task"]; t && !(t.IsScalar() && t.Scalar() == TaskKindName(config.task))) {
+    throw InputError(fmt::format("{}: key 'task': overrides keep the task ({}); got '{}'", source,
+                                 TaskKindName(config.task), t.IsScalar() ? t.Scalar() : YAML::Dump(t)));
+  }
+  TaskConfig c = config;
+  ReadTaskNode(over, source, c);
+  config = std::move(c);
+}
+
 namespace {
 
 TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
@@ -397,6 +411,17 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
   }
   TaskConfig c = DefaultTaskConfig(task);
   c.source = file;
+  ReadTaskNode(root, file, c);
+  return c;
+}
+
+// reads the keys present in `root` onto `c` (the others keep their values) and validates the result
+void ReadTaskNode(const YAML::Node& root, const std::string& file, TaskConfig& c) {
+  const Reader r(file);
+  r.CheckKeys(root, "",
+              {"task", "robot", "collision", "interface", "episode", "controller", "options", "direct", "observation", "reward",
+               "randomization", "planar2", "scenario", "rmp"});
+  const TaskKind task = c.task;
   if (const YAML::Node n = root["robot"]) c.robot = r.String(n, "robot");
   if (const YAML::Node n = root["collision"]) c.collision = r.String(n, "collision");
   if (const YAML::Node n = root["interface"]) {
@@ -518,7 +543,6 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
     }
   }
   ValidateTaskConfig(c, file);
-  return c;
 }
 
 }  // namespace

@@ -51,6 +51,8 @@ void ReadCollision(const ConfigReader& reader, const YAML::Node& node, const std
                   {"metric_modulation_radius", &p->metric_modulation_radius}});
 }
 
+void ReadRmpflowNode(const YAML::Node& root, const std::string& file, RmpflowOptions& o);
+
 }  // namespace
 
 RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path) {
@@ -63,9 +65,31 @@ RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path) {
   } catch (const YAML::Exception& e) {
     throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
   }
-  const ConfigReader reader(file);
   RmpflowOptions o;
   if (root.IsNull()) return o;  // an empty file keeps every default
+  ReadRmpflowNode(root, file, o);
+  return o;
+}
+
+void ApplyRmpflowOverrides(RmpflowOptions& options, const std::string& overrides_yaml, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(overrides_yaml);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}: malformed YAML: {}", source, e.mark.line + 1, e.msg));
+  }
+  if (root.IsNull()) return;
+  if (!root.IsMap()) throw InputError(fmt::format("{}: expected a mapping of RMPflow config keys", source));
+  RmpflowOptions o = options;
+  ReadRmpflowNode(root, source, o);
+  options = std::move(o);
+}
+
+namespace {
+
+// reads the keys present in `root` onto `o` and validates the result
+void ReadRmpflowNode(const YAML::Node& root, const std::string& file, RmpflowOptions& o) {
+  const ConfigReader reader(file);
   reader.CheckKeys(root, "",
                    {"rmp_params", "self_collision_enabled", "joint_limit_buffer", "canonical_resolve", "home"});
   if (const YAML::Node params = root["rmp_params"]) {
@@ -153,8 +177,9 @@ RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path) {
     for (size_t i = 0; i < n.size(); ++i) o.home.push_back(reader.Number(n[i], fmt::format("home[{}]", i)));
   }
   ValidateRmpflowOptions(o, file);
-  return o;
 }
+
+}  // namespace
 
 std::filesystem::path RmpflowConfigDirectory() {
   return kinematics::ModelsDirectory().parent_path() / "configs" / "rmpflow";

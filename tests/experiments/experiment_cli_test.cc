@@ -11,6 +11,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace {
 namespace fs = std::filesystem;
@@ -30,15 +31,10 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
                               (dir.string() + ".log") + " 2>&1";
   ASSERT_EQ(std::system(command.c_str()), 0) << Read(dir.string() + ".log");
   const std::string report = Read(dir / "table4" / "report.md");
-  for (const char* method : {"| PPO |", "| MAPPO (no pre-training) |", "| MARL-PPO |", "| RMPflow |", "| RRT |",
-                             "| MARL-RMP |", "| basic layer (target option) |", "| basic layer (target-then-collision) |",
-                             "| MARL-RMP (v0 basic layer) |", "| basic layer v0 (target-then-collision) |",
-                             "| MARL-RMP (2 ms basic layer) |", "| basic layer 2 ms (target-then-collision) |",
-                             "| MARL-RMP (v2) |", "| basic layer v2 (target-then-collision) |",
-                             "| basic layer v2 (target-then-collision, collision scale 1/4) |",
-                             "| RMPflow (tuned collision gains) |",
-                             "| MAPPO over the v2 layer (composite option fixed, parameters learned, 300 updates) |",
-                             "| basic layer v2, coupled resolve (target-then-collision) |"}) {
+  // the default methods: the paper's seven and the project's three
+  for (const char* method : {"| PPO |", "| MAPPO (no pre-training) |", "| MARL-PPO |", "| HRL-RMP |", "| MARL-RMP |",
+                             "| RMPflow |", "| RRT |", "| RMPflow-tuned |", "| Hand gate (ours) |",
+                             "| MARL-RMP residual (ours) |"}) {
     EXPECT_NE(report.find(method), std::string::npos) << method;
   }
   for (const char* speed : {"0.2 m/s", "0.6 m/s", "1.2 m/s", "1.8 m/s", "2.8 m/s"}) {
@@ -47,10 +43,8 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   const std::string csv = Read(dir / "table4" / "results.csv");
   EXPECT_EQ(csv.rfind("method,condition,train_seed,episodes,success_rate,tracking_mm,settled_tracking_mm,"
                       "collisions_per_episode", 0), 0u);
-  // 67 methods (49 learned + 18 basic-layer and baseline rows) x 5 speeds, one training seed: 335 rows + header
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 336);
-  // a label with a comma is one quoted CSV field (RFC 4180), so the plots read the right columns
-  EXPECT_NE(csv.find("\n\"basic layer v2 (target-then-collision, collision scale 1/4)\",0.2 m/s,0,"), std::string::npos);
+  // 10 methods (6 learned, 4 untrained) x 5 speeds, one training seed: 50 rows + header
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 51);
   EXPECT_TRUE(fs::exists(dir / "table4" / "table4_success.png"));
   EXPECT_GT(fs::file_size(dir / "table4" / "table4_success.png"), 1000u);
   // a second run reuses the finished training runs
@@ -60,22 +54,40 @@ TEST(ExperimentCliTest, Table4QuickWritesEveryMethodRowCsvAndPlot) {
   fs::remove(dir.string() + ".log");
 }
 
+// --list: the default method keys, one per line, the paper's seven among them
+TEST(ExperimentCliTest, ListPrintsTheDefaultMethodKeys) {
+  const fs::path out = fs::temp_directory_path() / ("rmpmarl_list_" + std::to_string(::getpid()));
+  ASSERT_EQ(std::system((std::string(RMPMARL_CLI_PATH) + " experiment table4 --list > " + out.string()).c_str()), 0);
+  std::istringstream lines(Read(out));
+  std::vector<std::string> keys;
+  for (std::string k; std::getline(lines, k);) keys.push_back(k);
+  fs::remove(out);
+  EXPECT_GE(keys.size(), 7u);
+  EXPECT_LE(keys.size(), 12u);
+  for (const char* paper : {"hrl-rmp", "marl-rmp", "ppo", "mappo", "marl-ppo", "rmpflow", "rrt"}) {
+    EXPECT_NE(std::find(keys.begin(), keys.end(), paper), keys.end()) << paper;
+  }
+  EXPECT_NE(std::find(keys.begin(), keys.end(), "marl-rmp-residual"), keys.end());
+}
+
 // --shipped: the shipped MARL-RMP against RMPflow with no training at all
 TEST(ExperimentCliTest, ShippedPoliciesAreEvaluatedWithoutTraining) {
   const fs::path dir = fs::temp_directory_path() / ("rmpmarl_table4_shipped_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   const std::string command = std::string(RMPMARL_CLI_PATH) + " experiment table4 --shipped --episodes 1 "
-                              "--methods marl-rmp,rmpflow,marl-ppo,marl-rmp-v2c-gate-residual-kernel-gated --no-plots --out " + (dir / "table4").string() +
+                              "--methods marl-rmp,rmpflow,marl-ppo,marl-rmp-residual,basic-ttc-v2-gentle --no-plots --out " + (dir / "table4").string() +
                               " --runs " + (dir / "runs").string() + " > " + (dir.string() + ".log") + " 2>&1";
   ASSERT_EQ(std::system(command.c_str()), 0) << Read(dir.string() + ".log");
   const std::string report = Read(dir / "table4" / "report.md");
   EXPECT_NE(report.find("| MARL-RMP | 2.8 m/s |"), std::string::npos);
   EXPECT_NE(report.find("| RMPflow | 2.8 m/s |"), std::string::npos);
-  // a recipe whose shipped file has another name (models/policies/marl-rmp-residual.rmpp)
-  EXPECT_NE(report.find("| MAPPO residual over the hand gate (coupled v2 layer, look-ahead), precision kernel paid only "
-                        "while no pass is predicted | 2.8 m/s |"), std::string::npos);
+  EXPECT_NE(report.find("| MARL-RMP residual (ours) | 2.8 m/s |"), std::string::npos);
+  // an ablation runs by its key (configs/ablations/); a label with a comma is one quoted CSV field (RFC 4180), so
+  // the plots read the right columns
+  const std::string csv = Read(dir / "table4" / "results.csv");
+  EXPECT_NE(csv.find("\n\"basic layer v2 (target-then-collision, collision scale 1/4)\",0.2 m/s,0,"), std::string::npos);
   EXPECT_EQ(report.find("| MARL-PPO |"), std::string::npos);  // no shipped policy: left out, and said so
-  EXPECT_NE(Read(dir.string() + ".log").find("MARL-PPO has no shipped policy"), std::string::npos);
+  EXPECT_NE(Read(dir.string() + ".log").find("MARL-PPO (marl-ppo) has no shipped policy"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "runs"));  // nothing trained
   fs::remove_all(dir);
   fs::remove(dir.string() + ".log");

@@ -6,10 +6,11 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
-#include "rmpmarl/experiments/experiments.h"
+#include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/rl/agent_interface.h"
 #include "rmpmarl/rl/policy_file.h"
 
@@ -21,26 +22,38 @@ fs::path Shipped(const std::string& name) {
   return rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" / name;
 }
 
+// the methods that name a shipped file are the ones in models/policies/, and nothing else is shipped
+TEST(ShippedPoliciesTest, TheMethodsNameEveryShippedFile) {
+  std::set<std::string> named, present;
+  for (const std::string& key : MethodKeys()) {
+    if (!FindMethod(key).shipped.empty()) named.insert(FindMethod(key).shipped);
+  }
+  for (const auto& e : fs::directory_iterator(Shipped(""))) {
+    if (e.path().extension() == ".rmpp") present.insert(e.path().filename().string());
+  }
+  EXPECT_EQ(named, present);
+  EXPECT_EQ(named, (std::set<std::string>{"hrl-rmp-2link.rmpp", "marl-rmp.rmpp", "marl-rmp-residual.rmpp"}));
+}
+
 TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
   struct Case {
     const char* file;
-    const char* recipe;  // the recipe whose basic layer it runs on ("": the task's own)
+    const char* method;  // the method file that names it (its basic layer)
   };
-  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", ""}, Case{"marl-rmp.rmpp", ""}, Case{"marl-rmp-v2.rmpp", "marl-rmp-v2"},
-                        Case{"marl-rmp-v2-params-hold.rmpp", "marl-rmp-v2-params-hold"},
-                        Case{"marl-rmp-v2c.rmpp", "marl-rmp-v2c-params-hold-phi20k"},
-                        Case{"marl-rmp-residual.rmpp", "marl-rmp-v2c-gate-residual-kernel-gated"}}) {
+  for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "hrl-rmp"}, Case{"marl-rmp.rmpp", "marl-rmp"},
+                        Case{"marl-rmp-residual.rmpp", "marl-rmp-residual"}}) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
     const rl::PolicyFile file = rl::LoadPolicyFile(path.string());
     EXPECT_EQ(file.weights.num_options, rl::kNumRmpOptions);
-    // the file carries the task it runs on: the shipped task with the recipe's basic layer
+    // the file carries the task it runs on: the shipped task with its method's basic layer
+    const MethodSpec& method = FindMethod(c.method);
+    EXPECT_EQ(method.shipped, c.file);
     rl::TaskConfig task = rl::PolicyTaskConfig(file, path.string());
     const YAML::Node carried = YAML::Load(file.task_yaml);
     const YAML::Node recipe = YAML::Load(rl::ControllerTaskYaml(
-        rl::TaskConfigPath(rl::TaskKindName(task.task)), c.recipe[0] != 0 ? RecipeLayerOverrides(c.recipe) : "",
-        "per-joint-rmp"));
+        rl::TaskConfigPath(rl::TaskKindName(task.task)), method.layer_yaml, "per-joint-rmp"));
     for (const char* section : {"task", "robot", "interface", "episode", "controller", "options", "rmp"}) {
       EXPECT_EQ(YAML::Dump(carried[section]), YAML::Dump(recipe[section])) << section;
     }

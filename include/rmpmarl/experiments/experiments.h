@@ -20,7 +20,7 @@ struct ExperimentOptions {
   int seeds = 3;                       ///< training seeds 1..seeds of every learned method
   int episodes = 0;                    ///< per method × condition × training seed (0: the experiment's default)
   std::uint64_t eval_seed = 20231001;  ///< evaluation seed (never a training seed: see EpisodeSeed)
-  std::vector<std::string> methods;    ///< method keys to run (empty: all of the experiment's)
+  std::vector<std::string> methods;    ///< method keys to run (empty: the experiment's defaults)
   int jobs = 2;                        ///< training processes / evaluation threads at once
   std::filesystem::path out;           ///< empty: results/<name>
   std::filesystem::path runs;          ///< empty: <out>/../runs (quick: <out>/../runs-quick), shared by experiments
@@ -37,13 +37,10 @@ struct ExperimentOptions {
 
 /// table3, table4, fig3, fig5, cluttered.
 std::vector<std::string> ExperimentNames();
-/// the method keys an experiment knows, in report order.
+/// an experiment's default method keys, in report order (configs/experiments/<name>.yaml); any key of
+/// MethodKeys() (methods.h) runs with `methods`. Throws InputError for an unknown experiment.
 std::vector<std::string> ExperimentMethods(const std::string& name);
 
-/// the task overrides of a training recipe's basic-layer variant as a YAML flow mapping (what a policy of that recipe
-/// must be evaluated with; scripts/ship-policies writes it beside the shipped policy as `task_overrides`), "" for
-/// the shipped layer. Throws InputError for an unknown recipe key.
-std::string RecipeLayerOverrides(const std::string& recipe);
 
 /// runs the experiment; returns the report's path. Throws InputError for unknown names/methods or failed runs.
 std::filesystem::path RunExperiment(const ExperimentOptions& options);

@@ -266,6 +266,10 @@ TaskConfig LoadTaskConfig(const std::filesystem::path& path);
 TaskConfig LoadTaskConfig(const std::filesystem::path& path, const std::string& overrides_yaml);
 /// parses a task config from YAML text; `source` names it in messages.
 TaskConfig ParseTaskConfig(const std::string& yaml_text, const std::string& source);
+/// reads the keys of `overrides_yaml` (a YAML mapping of task config keys, e.g. a basic-layer variant) onto
+/// `config`; keys it lacks keep their values. `task`, when given, must name config's task. Throws InputError naming
+/// `source` and the key; `config` is unchanged then.
+void ApplyTaskOverrides(TaskConfig& config, const std::string& overrides_yaml, const std::string& source);
 /// the shipped config of a task: LoadTaskConfig(TaskConfigPath(name)).
 TaskConfig LoadShippedTaskConfig(std::string_view name);
 /// throws InputError naming `where` (a file) and the key unless every value is in range (called by the loader and

@@ -49,6 +49,11 @@ void ValidateRmpflowOptions(const RmpflowOptions& options, std::string_view wher
 /// naming the file and key for unknown keys, non-numbers, non-finite or out-of-range values.
 RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path);
 
+/// reads the keys of `overrides_yaml` (a mapping in the config file's layout, e.g. `rmp_params: {collision_rmp:
+/// {repulsion_gain: 3200}}`) onto `options`; keys it lacks keep their values. Throws InputError naming `source` and
+/// the key; `options` is unchanged then.
+void ApplyRmpflowOverrides(RmpflowOptions& options, const std::string& overrides_yaml, const std::string& source);
+
 /// directory of the shipped RMPflow configs (configs/rmpflow/ beside the models directory).
 std::filesystem::path RmpflowConfigDirectory();
 
