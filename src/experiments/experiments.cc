@@ -38,20 +38,20 @@ std::string TrainConfigPath(const std::string& name) {
   return (ConfigsDirectory() / "train" / (name + ".yaml")).string();
 }
 
-/// merges YAML mappings (later ones win; nested mappings merge key by key, so two parts may both set keys of one
-/// section) into one flow-style mapping
-/// (parts whose top-level keys are all distinct are joined as written, so the train.yaml of runs trained before
-/// the merge existed stays byte-identical and they are reused)
+/// merges the contents of YAML flow mappings (later ones win; nested mappings merge key by key, so two parts may both
+/// set keys of one section) into one flow mapping: a run's task overrides
 std::string MergeOverrides(const std::vector<std::string>& parts) {
   if (parts.empty()) return "";
   YAML::Node merged(YAML::NodeType::Map);
-  size_t keys = 0;
   for (const std::string& p : parts) {
-    const YAML::Node node = YAML::Load("{" + p + "}");
-    keys += node.size();
+    YAML::Node node;
+    try {
+      node = YAML::Load("{" + p + "}");
+    } catch (const YAML::Exception& e) {
+      throw InputError(fmt::format("training run task overrides: malformed YAML '{}': {}", p, e.msg));
+    }
     internal::MergeYamlMaps(merged, node, "training run task overrides");
   }
-  if (merged.size() == keys) return fmt::format("{{{}}}", fmt::join(parts, ", "));
   YAML::Emitter out;
   out << YAML::Flow << merged;
   return out.c_str();
@@ -371,8 +371,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     text.title = "Table 3 — pre-training on the two-link arm (paper IV.A)";
     text.setup = fmt::format(
         "Task `pretrain-2link` (configs/tasks/pretrain-2link.yaml): the randomised two-link arm tracks a target in "
-        "linear motion with a cube beside its path (its surface 5–12 cm from the path 1–3 s ahead, ≥ 5 cm everywhere; "
-        "session 9 — before, the cube sat on the path and every controller had to leave the target while it passed). "
+        "linear motion with a cube beside its path (its surface 5–12 cm from the path 1–3 s ahead, ≥ 5 cm everywhere). "
         "HRL-RMP = the per-joint RMP options agent (MAPPO, shared actor, "
         "configs/train/pretrain-2link.yaml); PPO = one agent commanding both joints directly "
         "(configs/train/ppo-pretrain-2link.yaml). **Budgets:** the paper's 5K / 10K / 15K are mapped to 1/3, 2/3 and "

@@ -56,12 +56,23 @@ double Number(const YAML::Node& node, const fs::path& file, const std::string& k
   Fail(file, key, fmt::format("expected a number, got '{}'", node.IsScalar() ? node.Scalar() : YAML::Dump(node)));
 }
 
-/// a mapping of overrides as one YAML flow mapping ("" for none)
+void SetFlowStyle(YAML::Node node) {
+  node.SetStyle(YAML::EmitterStyle::Flow);
+  if (node.IsMap()) {
+    for (auto kv : node) SetFlowStyle(kv.second);
+  } else if (node.IsSequence()) {
+    for (auto v : node) SetFlowStyle(v);
+  }
+}
+
+/// a mapping of overrides as one single-line YAML flow mapping ("" for none), whatever style the file wrote it in
 std::string FlowMap(const YAML::Node& node, const fs::path& file, const std::string& key) {
   if (!node || node.IsNull()) return "";
   if (!node.IsMap()) Fail(file, key, "expected a mapping of config keys");
+  const YAML::Node copy = YAML::Clone(node);
+  SetFlowStyle(copy);
   YAML::Emitter out;
-  out << YAML::Flow << node;
+  out << YAML::Flow << copy;
   return out.c_str();
 }
 

@@ -1,5 +1,5 @@
-// Issue 9, fixes 1–2, measured through the experiments' evaluation path on held-out episodes (eval seed 99, not the
-// report's): (1) the target RMP keeps a small priority while the collision RMPs run, so the collision and composite
+// The basic layer's two fixes, measured through the experiments' evaluation path on held-out episodes (eval seed 99,
+// not the report's): (1) the target RMP keeps a small priority while the collision RMPs run, so the collision and composite
 // options no longer stall inside the warning band; (2) W_i counts only what the collision RMPs act on (obstacles),
 // so self-contacts within 15 cm no longer hold the composite in a coasting phase b.
 #include <gtest/gtest.h>

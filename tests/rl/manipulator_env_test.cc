@@ -644,7 +644,7 @@ TEST(ManipulatorEnvTest, LookaheadBlockMatchesSampledPaths) {
   EXPECT_EQ(MakeTaskContext(SmallConfig(TaskKind::kLineCrossing, "panda", 1))->spec().local_obs_dim, LocalObs::kRmpSize);
 }
 
-// a learning task on a user's robot (issue 10): `robot: <file>.urdf` loads it as `demo --urdf` does — here a URDF
+// a learning task on a user's robot: `robot: <file>.urdf` loads it as `demo --urdf` does — here a URDF
 // with mimic joints and no YAML, so capsules, exclusions and home are fitted in memory; one agent per independent
 // joint, and random per-joint RMP actions step it without invalid steps or collisions of the robot with itself.
 TEST(ManipulatorEnvTest, AUserUrdfRunsAsATaskRobot) {

@@ -1,4 +1,4 @@
-// URDF <mimic> joints in MuJoCo (issue 10): the follower joints are held to their leaders by joint equalities, have
+// URDF <mimic> joints in MuJoCo: the follower joints are held to their leaders by joint equalities, have
 // no servo, start on the constraint, and MuJoCo's own body positions match rmpmarl's kinematics while the servos
 // move the independent joints.
 #include <gtest/gtest.h>

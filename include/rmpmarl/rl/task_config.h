@@ -104,11 +104,11 @@ struct OptionConfig {
   int fixed_option = -1;
   /// how often a joint reads the RMP parameters (the action's continuous part): at the start of an option, when the
   /// joint's warning set W_i empties or fills, and every `parameter_period` steps; held in between (temporally
-  /// consistent exploration, issue 9; the learner counts their log-probability only where read,
+  /// consistent exploration; the learner counts their log-probability only where read,
   /// StepOutput::parameters_read). 1: every step (the paper). In [1, 1000].
   int parameter_period = 1;
   OptionWarnings warnings = OptionWarnings::kObstacles;
-  /// A hand prior under the learned target accel scale (residual learning over session 7's threat gate,
+  /// A hand prior under the learned target accel scale (residual learning over the hand threat gate,
   /// docs/learning.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
   /// predicted by the look-ahead block (observation.lookahead) to pass within target_gate_clearance [m] of a capsule
   /// joint i moves, and u_agent + target_gate_threat while one is; the sum is clipped to [−1, 1]. The prior is read
@@ -148,15 +148,15 @@ struct RewardConfig {
   double reach_tolerance = 0.02;        ///< a reach cycle ends when d ≤ this [m], > 0
   double reach_release = 0.04;          ///< a new cycle starts when d > this after a reach [m], > reach_tolerance
   double collision_penalty = 75.0;      ///< φ per collision event, ≥ 0
-  /// a dense precision term beside eq (14)'s (issue 9): − this × d per step, d the end-effector–target distance [m];
+  /// a dense precision term beside eq (14)'s: − this × d per step, d the end-effector–target distance [m];
   /// logged with R_d in the `distance` term. ≥ 0 (0: eq 14 alone)
   double tracking_weight = 0.0;
-  /// a bounded dense precision term (session 8): + precision_weight × exp(−d / precision_length) per step, in
+  /// a bounded dense precision term: + precision_weight × exp(−d / precision_length) per step, in
   /// [0, precision_weight]; it saturates away from the target, so an arm dodging far from it loses nothing more
   /// while one close to it is paid for every millimetre. Logged in the `distance` term. ≥ 0 (0: off)
   double precision_weight = 0.0;
   double precision_length = 0.02;  ///< δ [m] of the kernel, > 0
-  /// session 9: the kernel is paid only on steps where every moving obstacle's predicted pass (the look-ahead block,
+  /// the kernel is paid only on steps where every moving obstacle's predicted pass (the look-ahead block,
   /// observation.lookahead > 0) clears every capsule a joint moves by more than this [m]. −inf (default): every step.
   /// Precision is then asked for where no evasion is due, and never traded against one.
   double precision_pass_clearance = -std::numeric_limits<double>::infinity();

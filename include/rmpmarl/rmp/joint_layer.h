@@ -28,7 +28,7 @@ enum class TargetScale {
   /// tracking pole k_p / (ε k_d) and the cruise speed k_p / k_d are then out of the agent's reach.
   kAcceleration,
   /// `stiffness`: the attraction term of eq (5) only, k_p → s_a k_p, the damping unscaled: the agent sets how fast the
-  /// arm closes on the target (issue 9, reason 3; session 6).
+  /// arm closes on the target.
   kStiffness,
 };
 

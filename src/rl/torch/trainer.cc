@@ -32,7 +32,7 @@ namespace rmpmarl::rl {
 namespace {
 
 constexpr char kCheckpointMagic[8] = {'R', 'M', 'P', 'M', 'C', 'K', 'P', 'T'};
-/// format 2: a TensorArchive payload; format 1 (until session 5): a torch::serialize archive, read only by
+/// format 2: a TensorArchive payload; format 1: a torch::serialize archive, read only by
 /// UpgradeCheckpoint (TorchScript's reader is not safe on untrusted files, tensor_archive.h)
 constexpr std::uint32_t kCheckpointVersion = 2;
 constexpr std::uint32_t kTorchArchiveVersion = 1;

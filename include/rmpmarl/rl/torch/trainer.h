@@ -26,7 +26,7 @@ struct TaskSelection {
   std::string config;          ///< optional task YAML (e.g. configs/tasks/reach-avoid.yaml)
   std::string interface;       ///< e.g. "per-joint-rmp", "direct", "per-joint-direct" (task-defined)
   std::string overrides_yaml;  ///< optional YAML map of task parameters (task-defined)
-  /// a second task trained alongside (a mixture of scenes, issue 9): that share of the envs runs it instead, with
+  /// a second task trained alongside (a mixture of scenes): that share of the envs runs it instead, with
   /// the same interface; both must be manipulator tasks with one batch layout (same robot, obstacle slots). "": none
   std::string mix_name;
   std::string mix_overrides_yaml;  ///< its overrides (as overrides_yaml)
@@ -163,7 +163,7 @@ struct EvalResult {
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
 EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options);
 
-/// rewrites a format-1 checkpoint (a torch::serialize archive, before session 5) as format 2 (TensorArchive) at
+/// rewrites a format-1 checkpoint (a torch::serialize archive) as format 2 (TensorArchive) at
 /// out_path (may equal path). Format 1 is read through TorchScript's importer, which is not safe on untrusted files
 /// (tensor_archive.h): upgrade only files you trust. Throws InputError for a corrupt file or one already format 2.
 void UpgradeCheckpoint(const std::string& path, const std::string& out_path);
