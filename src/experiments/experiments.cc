@@ -271,6 +271,38 @@ void AddJobs(const std::vector<const MethodSpec*>& methods, const std::string& c
   }
 }
 
+/// what an experiment must train before it evaluates, and about how long: the unfinished runs, their updates and
+/// the measured per-update cost of their methods (train.seconds_per_update), `jobs` runs at once.
+std::string TrainingPlan(const std::vector<TrainingRun>& runs, const RunnerOptions& runner) {
+  std::map<std::string, std::pair<int, int>> todo;  // method key -> (runs, updates each)
+  std::vector<std::string> order, unknown;
+  double seconds = 0.0;
+  int count = 0;
+  for (const TrainingRun& r : runs) {
+    if (RunFinished(runner, r.id)) continue;
+    const std::string key = r.id.substr(0, r.id.rfind("-seed"));
+    if (!todo.count(key)) order.push_back(key);
+    todo[key] = {todo[key].first + 1, r.total_updates};
+    ++count;
+    const double per_update = FindMethod(key).training->seconds_per_update;
+    if (per_update > 0.0) {
+      seconds += per_update * r.total_updates;
+    } else if (std::find(unknown.begin(), unknown.end(), key) == unknown.end()) {
+      unknown.push_back(key);
+    }
+  }
+  if (count == 0) return fmt::format("training: all {} runs finished before, reused\n", runs.size());
+  std::vector<std::string> parts;
+  for (const std::string& k : order) parts.push_back(fmt::format("{} x{} ({} updates)", k, todo[k].first, todo[k].second));
+  std::string out = fmt::format("training {} of {} runs before evaluating: {}\n", count, runs.size(),
+                                fmt::join(parts, ", "));
+  out += fmt::format("  about {:.0f} min with {} at once (per-update times measured on a 2-core Xeon, one process "
+                     "per core; dependencies may idle a core){}\n", seconds / 60.0 / std::max(1, runner.jobs),
+                     runner.jobs,
+                     unknown.empty() ? "" : fmt::format(", plus {} without a measured cost", fmt::join(unknown, ", ")));
+  return out;
+}
+
 std::vector<std::string> LearnedKeys(const std::vector<const MethodSpec*>& methods) {
   std::vector<std::string> keys;
   for (const MethodSpec* m : methods) {
@@ -324,6 +356,8 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   auto train = [&] {
     if (o.shipped) return;
     runs = RunsFor(LearnedKeys(entries), o.seeds, budgets);
+    fmt::print("{}", TrainingPlan(runs, runner));
+    std::fflush(stdout);
     TrainAll(runs, runner);
   };
 

@@ -158,7 +158,7 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
   if (m.kind == MethodSpec::Kind::kLearned) {
     const YAML::Node t = root["train"];
     if (!t) Fail(file, "train", "missing (a learned method states how it is trained)");
-    CheckKeys(t, file, "train", {"config", "init", "updates", "overrides", "reward", "mix"});
+    CheckKeys(t, file, "train", {"config", "init", "updates", "overrides", "reward", "mix", "seconds_per_update"});
     TrainingRecipe r;
     if (!t["config"]) Fail(file, "train.config", "missing (a training config in configs/train/)");
     r.config = String(t["config"], file, "train.config");
@@ -187,6 +187,12 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
       const double u = Number(n, file, "train.updates");
       if (!(u >= 1 && u == static_cast<int>(u))) Fail(file, "train.updates", fmt::format("expected an integer >= 1, got {}", u));
       r.updates = static_cast<int>(u);
+    }
+    if (const YAML::Node n = t["seconds_per_update"]) {
+      r.seconds_per_update = Number(n, file, "train.seconds_per_update");
+      if (!(r.seconds_per_update > 0.0)) {
+        Fail(file, "train.seconds_per_update", fmt::format("expected > 0, got {}", r.seconds_per_update));
+      }
     }
     r.overrides = FlowMap(t["overrides"], file, "train.overrides");
     if (const YAML::Node n = t["reward"]) {

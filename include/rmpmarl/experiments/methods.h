@@ -26,6 +26,7 @@ struct TrainingRecipe {
   std::string reward;           ///< the `reward` section of training, on the training and the mix task ("" none)
   std::string mix_task;         ///< a second training task on half the envs ("" none)
   std::string mix_overrides;    ///< its own overrides
+  double seconds_per_update = 0.0;  ///< measured training cost on the reference machine (0: unknown), for estimates
 };
 
 /// One method, as its file states it.
