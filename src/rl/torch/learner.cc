@@ -1,4 +1,7 @@
 // Networks, the hybrid action distribution, GAE, the PPO losses, normalisers and the PPO/MAPPO learner.
+#if defined(__x86_64__)
+#include <cpuid.h>
+#endif
 #include <torch/types.h>
 #include <ATen/CPUGeneratorImpl.h>
 #include <ATen/autocast_mode.h>
@@ -34,9 +37,33 @@ torch::Tensor ZerosLike(const torch::Tensor& batch_source) {
   return torch::zeros({batch_source.size(0)}, batch_source.options());
 }
 
+}  // namespace
+
+bool CpuHasFastBf16() {
+#if defined(__x86_64__)
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  if (__get_cpuid_count(7, 0, &a, &b, &c, &d) == 0) return false;
+  const bool amx_bf16 = (d >> 22) & 1u;  // CPUID.(7,0):EDX[22]
+  const unsigned max_subleaf = a;
+  bool avx512_bf16 = false;
+  if (max_subleaf >= 1 && __get_cpuid_count(7, 1, &a, &b, &c, &d) != 0) avx512_bf16 = (a >> 5) & 1u;  // (7,1):EAX[5]
+  return amx_bf16 || avx512_bf16;
+#else
+  return false;
+#endif
+}
+
+namespace {
+
 at::Generator MakeGenerator(std::uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
 
-// bfloat16 CPU autocast for the forward passes inside its scope (PpoOptions::bf16_autocast); a no-op when off.
+// PpoOptions::bf16_autocast where it pays: requested, and the CPU has native bf16 matmuls
+bool Bf16Active(const PpoOptions& options) {
+  static const bool fast = CpuHasFastBf16();
+  return options.bf16_autocast() && fast;
+}
+
+// bfloat16 CPU autocast for the forward passes inside its scope; a no-op when off.
 class Bf16Autocast {
  public:
   explicit Bf16Autocast(bool on) : on_(on) {
@@ -456,7 +483,7 @@ ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_s
   }
   HeadOutputs head;
   {
-    Bf16Autocast autocast(options_.bf16_autocast());
+    Bf16Autocast autocast(Bf16Active(options_));
     head = ToFloat(actor_->forward(r.actor_obs));
     r.raw_values = critic_->forward(r.critic_state).to(torch::kFloat);
   }
@@ -471,7 +498,7 @@ torch::Tensor Ppo::Values(const torch::Tensor& global_state) {
                                                                 : global_state.to(torch::kFloat);
   torch::Tensor raw;
   {
-    Bf16Autocast autocast(options_.bf16_autocast());
+    Bf16Autocast autocast(Bf16Active(options_));
     raw = critic_->forward(state).to(torch::kFloat);
   }
   return options_.normalize_value() ? value_norm_.Denormalize(raw) : raw;
@@ -521,7 +548,7 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       LossInputs in;
       in.layout = layout_;
       {
-        Bf16Autocast autocast(options_.bf16_autocast());
+        Bf16Autocast autocast(Bf16Active(options_));
         in.head = ToFloat(actor_->forward(batch.actor_obs.index_select(0, rows)));
         in.values = critic_->forward(batch.critic_state.index_select(0, idx)).to(torch::kFloat);
       }

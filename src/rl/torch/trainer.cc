@@ -757,6 +757,10 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
                config.name, trainer.spec().task, trainer.spec().num_agents, trainer.spec().local_obs_dim,
                trainer.spec().global_state_dim, config.num_envs, config.ppo.rollout_steps(), first + 1,
                config.total_updates);
+    if (config.ppo.bf16_autocast() && !CpuHasFastBf16()) {
+      fmt::print("{}: bf16_autocast stays off on this CPU (no AMX-BF16 or AVX512-BF16: fp32 is faster here)\n",
+                 config.name);
+    }
     std::fflush(stdout);
   }
   while (!trainer.finished()) {

@@ -85,7 +85,8 @@ class PpoOptions {
   RMPMARL_OPTION(bool, normalize_value, true);
   // ---- speed
   /// run the networks' matrix products in bfloat16 (CPU autocast; fp32 master weights, losses and optimiser). About
-  /// 4× faster on CPUs with AMX/AVX512-BF16 (oneDNN), slower elsewhere; the exported policy stays fp32.
+  /// 4× faster on CPUs with AMX/AVX512-BF16 (oneDNN); on other CPUs, where bf16 is emulated and about 10× slower,
+  /// the learner stays in fp32 (CpuHasFastBf16). The exported policy is fp32 either way.
   RMPMARL_OPTION(bool, bf16_autocast, false);
 };
 
@@ -94,5 +95,8 @@ std::string ToString(Activation activation);
 std::string ToString(LrSchedule schedule);
 Activation ParseActivation(const std::string& name);
 LrSchedule ParseLrSchedule(const std::string& name);
+
+/// true when this CPU computes bfloat16 matmuls natively (AMX-BF16 or AVX512-BF16): where bf16_autocast pays.
+bool CpuHasFastBf16();
 
 }  // namespace rmpmarl::rl
