@@ -10,14 +10,14 @@
 #include <random>
 #include <vector>
 
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl {
 namespace {
 
-TaskConfig BenchConfig(InterfaceMode mode, ScenarioUpdate update, int physics_steps, double lookahead = 0.0) {
-  TaskConfig c = LoadShippedTaskConfig("reach-avoid");
+tasks::TaskConfig BenchConfig(tasks::InterfaceMode mode, tasks::ScenarioUpdate update, int physics_steps, double lookahead = 0.0) {
+  tasks::TaskConfig c = tasks::LoadShippedTaskConfig("reach-avoid");
   c.observation.lookahead = lookahead;
   c.robot = "panda";
   c.interface = mode;
@@ -31,15 +31,15 @@ TaskConfig BenchConfig(InterfaceMode mode, ScenarioUpdate update, int physics_st
 
 // one env, random actions drawn before timing, auto-reset at episode ends (resets are included in the time).
 void BM_EnvStep(benchmark::State& state) {
-  const auto mode = static_cast<InterfaceMode>(state.range(0));
-  const auto update = static_cast<ScenarioUpdate>(state.range(1));
+  const auto mode = static_cast<tasks::InterfaceMode>(state.range(0));
+  const auto update = static_cast<tasks::ScenarioUpdate>(state.range(1));
   const int physics_steps = static_cast<int>(state.range(2));
   const double lookahead = static_cast<double>(state.range(3));  // [s]: the look-ahead block (0: off)
-  auto context = MakeTaskContext(BenchConfig(mode, update, physics_steps, lookahead));
-  ManipulatorEnv env(context);
-  const EnvSpec& spec = env.spec();
-  StepBuffers buffers(spec);
-  const StepOutput out = buffers.out();
+  auto context = tasks::MakeTaskContext(BenchConfig(mode, update, physics_steps, lookahead));
+  tasks::ManipulatorEnv env(context);
+  const tasks::EnvSpec& spec = env.spec();
+  tasks::StepBuffers buffers(spec);
+  const tasks::StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
   // draw the actions up front: 4096 random joint actions, cycled
   const int action_size = spec.num_agents * spec.action.size();
@@ -66,22 +66,22 @@ void BM_EnvStep(benchmark::State& state) {
 }
 BENCHMARK(BM_EnvStep)
     ->ArgNames({"mode", "update", "physics", "lookahead"})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5, 0})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kPhysicsStep), 5, 1})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 5, 0})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointRmp), static_cast<int>(ScenarioUpdate::kControlStep), 1, 0})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 5, 0})
-    ->Args({static_cast<int>(InterfaceMode::kPerJointDirect), static_cast<int>(ScenarioUpdate::kControlStep), 1, 0})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointRmp), static_cast<int>(tasks::ScenarioUpdate::kPhysicsStep), 5, 0})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointRmp), static_cast<int>(tasks::ScenarioUpdate::kPhysicsStep), 5, 1})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointRmp), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 5, 0})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointRmp), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 1, 0})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointDirect), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 5, 0})
+    ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointDirect), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 1, 0})
     ->Unit(benchmark::kMicrosecond);
 
 // the batched engine: 32 envs (per-joint RMP agents, 1 physics step per env step) on 1 or 2 worker threads;
 // wall-clock rate, so the thread scaling is visible (goal: 2 threads ≥ 1.8× one).
 void BM_VecEnvStep(benchmark::State& state) {
   const int threads = static_cast<int>(state.range(0));
-  auto context = MakeTaskContext(BenchConfig(InterfaceMode::kPerJointRmp, ScenarioUpdate::kControlStep, 1));
+  auto context = tasks::MakeTaskContext(BenchConfig(tasks::InterfaceMode::kPerJointRmp, tasks::ScenarioUpdate::kControlStep, 1));
   const int num_envs = 32;
-  VecEnv envs(MakeManipulatorEnvFactory(context), {.num_envs = num_envs, .seed = 3, .num_threads = threads});
-  const EnvSpec& spec = envs.spec();
+  VecEnv envs(tasks::MakeManipulatorEnvFactory(context), {.num_envs = num_envs, .seed = 3, .num_threads = threads});
+  const tasks::EnvSpec& spec = envs.spec();
   const int action_size = spec.num_agents * spec.action.size();
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
@@ -103,11 +103,11 @@ BENCHMARK(BM_VecEnvStep)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Uni
 // bare mj_step (physics only: no servo targets change, no scenario, no observation) on the env's compiled model,
 // from a state of a reset episode (obstacles placed, arm at its start posture).
 void BM_BareMjStep(benchmark::State& state) {
-  auto context = MakeTaskContext(BenchConfig(InterfaceMode::kPerJointRmp, ScenarioUpdate::kPhysicsStep, 5));
-  ManipulatorEnv env(context);
-  const EnvSpec& spec = env.spec();
-  StepBuffers buffers(spec);
-  const StepOutput out = buffers.out();
+  auto context = tasks::MakeTaskContext(BenchConfig(tasks::InterfaceMode::kPerJointRmp, tasks::ScenarioUpdate::kPhysicsStep, 5));
+  tasks::ManipulatorEnv env(context);
+  const tasks::EnvSpec& spec = env.spec();
+  tasks::StepBuffers buffers(spec);
+  const tasks::StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
   env.Reset(rng, out);
   const mjModel* m = env.world().mj_model();

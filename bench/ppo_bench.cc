@@ -14,8 +14,8 @@ namespace rmpmarl::rl {
 namespace {
 
 // the per-joint-rmp agent of a 7-DoF arm: local obs 38, options 3, continuous 4, termination; state 140.
-EnvSpec PerJointRmpSpec(int agents) {
-  EnvSpec s;
+tasks::EnvSpec PerJointRmpSpec(int agents) {
+  tasks::EnvSpec s;
   s.task = "bench";
   s.num_agents = agents;
   s.local_obs_dim = 38;
@@ -30,7 +30,7 @@ EnvSpec PerJointRmpSpec(int agents) {
 
 // a rollout of M env-steps with A agents, from the learner's own policy.
 RolloutBatch MakeBatch(Ppo& ppo, int M) {
-  const EnvSpec& s = ppo.spec();
+  const tasks::EnvSpec& s = ppo.spec();
   const int A = s.num_agents;
   torch::manual_seed(1);
   const ActResult r = ppo.Act(torch::randn({M * A, s.local_obs_dim}), torch::randn({M, s.global_state_dim}), true,

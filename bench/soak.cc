@@ -10,7 +10,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rl/random_rollout.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::rl {
 namespace {
@@ -33,23 +33,23 @@ int Main(int argc, char** argv) {
   const int envs = static_cast<int>(ArgValue(argc, argv, "--envs", 16, 1, 4096));
   const int threads = static_cast<int>(ArgValue(argc, argv, "--threads", 2, 1, 256));
   const auto seed = static_cast<std::uint64_t>(ArgValue(argc, argv, "--seed", 4242, 0, 1L << 62));
-  const TaskKind tasks[] = {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing,
-                            TaskKind::kCluttered};
-  const InterfaceMode modes[] = {InterfaceMode::kPerJointRmp, InterfaceMode::kDirect, InterfaceMode::kPerJointDirect};
+  const tasks::TaskKind tasks[] = {tasks::TaskKind::kPretrain2Link, tasks::TaskKind::kReachAvoid, tasks::TaskKind::kLineCrossing,
+                            tasks::TaskKind::kCluttered};
+  const tasks::InterfaceMode modes[] = {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect};
   const long per_run = (total + 11) / 12;
   fmt::print("soak: {} random-action steps per task x interface mode (12 runs), {} envs, {} threads, seed {}\n",
              per_run, envs, threads, seed);
   long steps = 0, nonfinite = 0, episodes = 0;
   const auto start = std::chrono::steady_clock::now();
-  for (const TaskKind task : tasks) {
-    for (const InterfaceMode mode : modes) {
-      TaskConfig c = LoadShippedTaskConfig(TaskKindName(task));
+  for (const tasks::TaskKind task : tasks) {
+    for (const tasks::InterfaceMode mode : modes) {
+      tasks::TaskConfig c = tasks::LoadShippedTaskConfig(tasks::TaskKindName(task));
       c.interface = mode;
       c.episode.max_steps = 200;  // more resets per step budget
       const RandomRolloutStats s = RandomRollout(
           c, {.num_envs = envs, .threads = threads, .steps = per_run, .seed = seed + static_cast<std::uint64_t>(steps)});
       fmt::print("  {:<15} {:<16} {:>9} steps {:>6} episodes ({} invalid, {} collisions) {:7.1f} s {:8.0f} steps/s  "
-                 "non-finite {}\n", TaskKindName(task), InterfaceModeName(mode), s.steps, s.episodes,
+                 "non-finite {}\n", tasks::TaskKindName(task), tasks::InterfaceModeName(mode), s.steps, s.episodes,
                  s.invalid_episodes, s.collisions, s.seconds, s.steps / s.seconds, s.nonfinite);
       std::fflush(stdout);
       steps += s.steps;

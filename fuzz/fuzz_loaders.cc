@@ -14,7 +14,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/trainer.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
@@ -82,7 +82,7 @@ void LoadRobotInput(std::string_view bytes) {
   kinematics::LoadRobot(WriteTempFile("robot.urdf", urdf), WriteTempFile("collision.yaml", collision));
 }
 
-void LoadTaskConfigInput(std::string_view bytes) { rl::LoadTaskConfig(WriteTempFile("task.yaml", bytes)); }
+void LoadTaskConfigInput(std::string_view bytes) { tasks::LoadTaskConfig(WriteTempFile("task.yaml", bytes)); }
 
 void LoadTrainConfigInput(std::string_view bytes) { rl::LoadTrainConfig(WriteTempFile("train.yaml", bytes)); }
 

@@ -15,7 +15,7 @@ namespace rmpmarl::fuzz {
 
 enum class Loader {
   kRobot,         ///< URDF + collision YAML (kinematics::LoadRobot), one input split at kCollisionSeparator
-  kTaskConfig,    ///< task config YAML (rl::LoadTaskConfig)
+  kTaskConfig,    ///< task config YAML (tasks::LoadTaskConfig)
   kTrainConfig,   ///< training config YAML (rl::LoadTrainConfig)
   kRmpflowConfig, ///< RMPflow parameters YAML (rmp::LoadRmpflowOptions)
   kCheckpoint,    ///< training checkpoint (rl::ReadCheckpointConfig, rl::ExportCheckpointPolicy)

@@ -12,7 +12,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/sim/controller.h"
@@ -124,18 +124,18 @@ void RunDemo(const DemoArgs& args) {
 // What one method did in the comparison demo's episode.
 struct DemoRun {
   std::string label;
-  rl::EpisodeMetrics metrics;
+  tasks::EpisodeMetrics metrics;
   double step_us = 0.0;  // policy + controller per control step
   std::string video;     // written file ("" none)
 };
 
 // runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
 // env's external controller; renders it when args.video is set.
-DemoRun RunDemoEpisode(rl::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
+DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
                        const DemoArgs& args) {
-  const rl::EnvSpec& spec = env.spec();
+  const tasks::EnvSpec& spec = env.spec();
   const int A = spec.num_agents;
-  rl::StepBuffers buffers(spec);
+  tasks::StepBuffers buffers(spec);
   std::vector<float> actions(static_cast<size_t>(A) * spec.action.size(), 0.0f);
   std::mt19937_64 rng(args.seed);
   env.Reset(rng, buffers.out());
@@ -180,19 +180,19 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   move.collision = args.collision;
   move.scene = args.scenario;
   if (args.obstacle_speed) move.obstacle_speed = *args.obstacle_speed;
-  rl::TaskConfig config = rl::PolicyTaskConfig(file, policy_path, move);
+  tasks::TaskConfig config = rl::PolicyTaskConfig(file, policy_path, move);
   if (!args.urdf.empty()) LoadUserRobot(args.urdf, args.collision);  // says how it was loaded (fitted in memory?)
   if (args.num_obstacles) {
-    if (config.task != rl::TaskKind::kReachAvoid) {
+    if (config.task != tasks::TaskKind::kReachAvoid) {
       throw InputError(fmt::format("--obstacles: the number of obstacles is set in the crossing scene only (the {} "
-                                   "scene has its own)", rl::TaskKindName(config.task)));
+                                   "scene has its own)", tasks::TaskKindName(config.task)));
     }
     config.scenario.crossing.num_obstacles = *args.num_obstacles;
   }
   if (args.target_speed) {
-    if (config.task != rl::TaskKind::kReachAvoid) {
+    if (config.task != tasks::TaskKind::kReachAvoid) {
       throw InputError(fmt::format("--target-speed: the crossing scene only (the {} scene's target is set by the "
-                                   "scene)", rl::TaskKindName(config.task)));
+                                   "scene)", tasks::TaskKindName(config.task)));
     }
     config.scenario.crossing.target_speed = *args.target_speed;
   }
@@ -201,7 +201,7 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   }
   config.observation.max_obstacles = std::max(config.observation.max_obstacles, 6);
   config.randomization.variants = 1;  // the nominal robot
-  const auto context = rl::MakeTaskContext(config);
+  const auto context = tasks::MakeTaskContext(config);
   auto video_for = [&](const std::string& suffix) {
     if (args.video.empty()) return std::string();
     const std::filesystem::path v(args.video);
@@ -210,28 +210,28 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   const std::string label = std::filesystem::path(policy_path).stem().string();
   const kinematics::Robot& robot = context->variant(0).world_model->robot();
   fmt::print("rmpmarl demo: {} ({} dof), task '{}', seed {}, {:.1f} s: the learned per-joint agents ({}) and "
-             "RMPflow on the same episode\n", robot.name, context->nq(), rl::TaskKindName(config.task), args.seed,
+             "RMPflow on the same episode\n", robot.name, context->nq(), tasks::TaskKindName(config.task), args.seed,
              config.episode.max_steps / config.episode.control_rate, policy_path);
   fmt::print("  RMPflow parameters: {}{}\n", rmp::RmpflowConfigPath(robot).string(),
              robot.home.size() > 0 ? " (home found in memory)" : "");
-  fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n", rl::InterfaceModeName(config.interface),
+  fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n", tasks::InterfaceModeName(config.interface),
              config.basic_layer.resolve == rmp::LayerResolve::kCoupled ? "coupled" : "per-joint",
              config.observation.lookahead > 0.0 ? fmt::format(", look-ahead {:g} s", config.observation.lookahead) : "",
              config.options.TargetGated()
                  ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
                  : "");
-  rl::ExternalController agents;
+  tasks::ExternalController agents;
   agents.make_policy = [&](const kinematics::Robot& robot) {
     return rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
   };
   agents.options = config.controller;
-  rl::ManipulatorEnv learned_env(context, agents);
+  tasks::ManipulatorEnv learned_env(context, agents);
   const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args);
-  rl::ExternalController rmpflow;
+  tasks::ExternalController rmpflow;
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
     return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
   };
-  rl::ManipulatorEnv rmpflow_env(context, rmpflow);
+  tasks::ManipulatorEnv rmpflow_env(context, rmpflow);
   const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args);
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
@@ -244,13 +244,13 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   row("settled (t >= 1 s)", mm(learned.metrics.settled_tracking_error_mm),
       mm(baseline.metrics.settled_tracking_error_mm));
   row("final error", mm(learned.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
-  auto clearance = [&](const rl::EpisodeMetrics& m) {
+  auto clearance = [&](const tasks::EpisodeMetrics& m) {
     return std::isfinite(m.min_clearance_m) ? mm(1000.0 * m.min_clearance_m) : std::string("none within 15 cm");
   };
   row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
   row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
   row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
-  auto result = [](const rl::EpisodeMetrics& m) {
+  auto result = [](const tasks::EpisodeMetrics& m) {
     return m.invalid ? std::string("INVALID") : m.collisions == 0 ? std::string("success") : std::string("FAILURE");
   };
   row("result", result(learned.metrics), result(baseline.metrics));

@@ -15,7 +15,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
@@ -28,7 +28,7 @@ void PrintEvalResult(const rl::EvalResult& r) {
   fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
              r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
   fmt::print("settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
-             r.settled_tracking_error_mean_mm, rl::kSettleTime);
+             r.settled_tracking_error_mean_mm, tasks::kSettleTime);
   if (std::isfinite(r.min_clearance_mean_m)) {
     fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",
                r.min_clearance_mean_m);
@@ -95,14 +95,14 @@ void RegisterEval(CLI::App& app) {
       move.scene = args->scenario;
       move.obstacle_speed = args->obstacle_speed;
       move.overrides_yaml = args->overrides;
-      const rl::TaskConfig config = rl::PolicyTaskConfig(file, args->policy, move);
-      const auto context = rl::MakeTaskContext(config);
-      rl::EnvFactory factory = rl::MakeManipulatorEnvFactory(context);
+      const tasks::TaskConfig config = rl::PolicyTaskConfig(file, args->policy, move);
+      const auto context = tasks::MakeTaskContext(config);
+      tasks::EnvFactory factory = tasks::MakeManipulatorEnvFactory(context);
       if (args->as_controller) {
         if (args->stochastic) {
           throw InputError("eval: --stochastic and --as-controller: a controller acts on its deterministic modes");
         }
-        rl::ExternalController learned;
+        tasks::ExternalController learned;
         rl::LearnedControllerOptions options;
         options.max_obstacles = context->num_obstacles();
         options.name = std::filesystem::path(args->policy).stem().string();
@@ -111,14 +111,14 @@ void RegisterEval(CLI::App& app) {
           return std::make_unique<rl::LearnedController>(robot, config, weights, options);
         };
         learned.options = config.controller;
-        factory = [context, learned](int) { return std::make_unique<rl::ManipulatorEnv>(context, learned); };
+        factory = [context, learned](int) { return std::make_unique<tasks::ManipulatorEnv>(context, learned); };
       }
       const rl::EvalResult r = rl::Evaluate(args->policy, factory,
                                             {.episodes = args->episodes, .num_envs = args->envs,
                                              .env_threads = args->env_threads, .seed = args->seed,
                                              .stochastic = args->stochastic});
       fmt::print("eval {} on {} / {} / {}{} ({} episodes, {} actions)\n", args->policy,
-                 rl::TaskKindName(config.task), config.robot, rl::InterfaceModeName(config.interface),
+                 tasks::TaskKindName(config.task), config.robot, tasks::InterfaceModeName(config.interface),
                  args->as_controller ? ", as a controller in a user's loop" : "", r.episodes,
                  args->stochastic ? "sampled" : "deterministic");
       PrintEvalResult(r);

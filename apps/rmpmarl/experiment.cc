@@ -18,7 +18,7 @@
 #include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/experiments/probe.h"
 #include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::apps {
 
@@ -100,8 +100,8 @@ void RegisterProbeLookahead(CLI::App& app) {
     const rl::PolicyFile file = rl::LoadPolicyFile(args->policy);
     rl::TaskMove move;
     move.scene = args->task;
-    rl::TaskConfig task = rl::PolicyTaskConfig(file, args->policy, move);
-    if (task.task == rl::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
+    tasks::TaskConfig task = rl::PolicyTaskConfig(file, args->policy, move);
+    if (task.task == tasks::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
     args->probe.threat_speed = args->speed;
     const experiments::LookaheadProbe p = experiments::ProbeLookahead(args->policy, task, args->probe);
     const double g = task.options.TargetGainRange();

@@ -11,9 +11,9 @@
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/tasks/agent_interface.h"
 #include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::apps {
 namespace {
@@ -75,17 +75,17 @@ void Upgrade(const UpgradeArgs& args) {
     throw InputError(fmt::format("policy upgrade {}: no card names its task: give --task (one of reach-avoid, "
                                  "line-crossing, cluttered, pretrain-2link)", args.in));
   }
-  rl::ParseTaskKind(task);
+  tasks::ParseTaskKind(task);
   if (!args.overrides.empty()) overrides = args.overrides;
-  file.task_yaml = rl::ControllerTaskYaml(rl::TaskConfigPath(task), overrides, interface);
+  file.task_yaml = rl::ControllerTaskYaml(tasks::TaskConfigPath(task), overrides, interface);
   // the network must fit the task it is given: its observation size is fixed by the interface and lookahead
-  const rl::TaskConfig config = rl::ParseTaskConfig(file.task_yaml, args.in + " (upgraded task)");
-  const size_t obs = rl::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size();
+  const tasks::TaskConfig config = tasks::ParseTaskConfig(file.task_yaml, args.in + " (upgraded task)");
+  const size_t obs = tasks::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size();
   if (obs != static_cast<size_t>(file.weights.obs_dim)) {
     throw InputError(fmt::format("policy upgrade {}: the network takes {} observations per joint; task '{}' "
                                  "(interface {}, lookahead {}) gives {}: give the card it was shipped with "
                                  "(--card) or the task keys it was trained with (--overrides)",
-                                 args.in, file.weights.obs_dim, task, rl::InterfaceModeName(config.interface),
+                                 args.in, file.weights.obs_dim, task, tasks::InterfaceModeName(config.interface),
                                  config.observation.lookahead, obs));
   }
   provenance["upgraded_from"] = std::filesystem::path(args.in).filename().string();

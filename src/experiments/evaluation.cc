@@ -17,8 +17,8 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/experiments/statistics.h"
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/controller.h"
@@ -30,13 +30,13 @@ namespace {
 class Actor {
  public:
   virtual ~Actor() = default;
-  virtual void Act(const rl::StepBuffers& step, float* actions) = 0;
+  virtual void Act(const tasks::StepBuffers& step, float* actions) = 0;
 };
 
 class PolicyActor final : public Actor {
  public:
   PolicyActor(const rl::PolicyWeights& weights, int num_agents) : runtime_(weights, num_agents), agents_(num_agents) {}
-  void Act(const rl::StepBuffers& step, float* actions) override {
+  void Act(const tasks::StepBuffers& step, float* actions) override {
     runtime_.Act(step.local_obs.data(), agents_, actions);
   }
 
@@ -49,7 +49,7 @@ class PolicyActor final : public Actor {
 class ConstantActor final : public Actor {
  public:
   explicit ConstantActor(std::vector<float> actions) : actions_(std::move(actions)) {}
-  void Act(const rl::StepBuffers& /*step*/, float* actions) override {
+  void Act(const tasks::StepBuffers& /*step*/, float* actions) override {
     std::copy(actions_.begin(), actions_.end(), actions);
   }
 
@@ -65,7 +65,7 @@ class ThreatGateActor final : public Actor {
                   float clearance_threshold)
       : clear_(std::move(clear)), threat_(std::move(threat)), obs_dim_(obs_dim), index_(clearance_index),
         threshold_(clearance_threshold) {}
-  void Act(const rl::StepBuffers& step, float* actions) override {
+  void Act(const tasks::StepBuffers& step, float* actions) override {
     const int agents = static_cast<int>(step.option_started.size());
     const size_t as = clear_.size() / static_cast<size_t>(agents);
     for (int a = 0; a < agents; ++a) {
@@ -81,13 +81,13 @@ class ThreatGateActor final : public Actor {
   float threshold_;
 };
 
-rl::InterfaceMode EnvInterface(const Method& m) {
-  return m.kind == MethodKind::kPolicy ? m.interface : rl::InterfaceMode::kPerJointRmp;
+tasks::InterfaceMode EnvInterface(const Method& m) {
+  return m.kind == MethodKind::kPolicy ? m.interface : tasks::InterfaceMode::kPerJointRmp;
 }
 
 }  // namespace
 
-Method Method::Policy(std::string name, std::string path, rl::InterfaceMode interface) {
+Method Method::Policy(std::string name, std::string path, tasks::InterfaceMode interface) {
   Method m;
   m.name = std::move(name);
   m.kind = MethodKind::kPolicy;
@@ -97,8 +97,8 @@ Method Method::Policy(std::string name, std::string path, rl::InterfaceMode inte
 }
 
 Method Method::FixedOption(std::string name, int option) {
-  if (option < 0 || option >= rl::kNumRmpOptions) {
-    throw InputError(fmt::format("fixed option: expected 0..{}, got {}", rl::kNumRmpOptions - 1, option));
+  if (option < 0 || option >= tasks::kNumRmpOptions) {
+    throw InputError(fmt::format("fixed option: expected 0..{}, got {}", tasks::kNumRmpOptions - 1, option));
   }
   Method m;
   m.name = std::move(name);
@@ -128,15 +128,15 @@ std::uint64_t EpisodeSeed(std::uint64_t eval_seed, int index) {
   return s;
 }
 
-std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskConfig& task,
+std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::TaskConfig& task,
                                           const EvalProtocol& protocol) {
   if (protocol.episodes < 1) throw InputError(fmt::format("episodes: expected >= 1, got {}", protocol.episodes));
   if (protocol.jobs < 1) throw InputError(fmt::format("jobs: expected >= 1, got {}", protocol.jobs));
-  rl::TaskConfig config = task;
+  tasks::TaskConfig config = task;
   if (method.adjust_task) method.adjust_task(config);
   config.interface = EnvInterface(method);
-  const auto context = rl::MakeTaskContext(config);
-  const rl::EnvSpec& spec = context->spec();
+  const auto context = tasks::MakeTaskContext(config);
+  const tasks::EnvSpec& spec = context->spec();
   const int A = spec.num_agents, as = spec.action.size();
 
   rl::PolicyWeights weights;
@@ -145,17 +145,17 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
     if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != as) {
       throw InputError(fmt::format("{}: policy {} does not fit task {} ({}): it takes obs {} and gives {} action "
                                    "floats, the env has obs {} and actions of {}", method.name, method.policy_path,
-                                   spec.task, rl::InterfaceModeName(config.interface), weights.obs_dim,
+                                   spec.task, tasks::InterfaceModeName(config.interface), weights.obs_dim,
                                    weights.action_size(), spec.local_obs_dim, as));
     }
   }
-  auto constant_actions = [&](const std::array<float, rl::RmpActionLayout::kNumContinuous>& parameters) {
+  auto constant_actions = [&](const std::array<float, tasks::RmpActionLayout::kNumContinuous>& parameters) {
     std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
     for (int a = 0; a < A; ++a) {
       float* u = actions.data() + static_cast<size_t>(a) * as;
-      u[rl::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
-      for (int k = 0; k < rl::RmpActionLayout::kNumContinuous; ++k) {
-        u[rl::RmpActionLayout::kTargetAccelScale + k] = parameters[k];
+      u[tasks::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
+      for (int k = 0; k < tasks::RmpActionLayout::kNumContinuous; ++k) {
+        u[tasks::RmpActionLayout::kTargetAccelScale + k] = parameters[k];
       }
     }
     return actions;
@@ -176,9 +176,9 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
     }
   }
 
-  auto make_env = [&]() -> std::unique_ptr<rl::ManipulatorEnv> {
+  auto make_env = [&]() -> std::unique_ptr<tasks::ManipulatorEnv> {
     if (method.kind == MethodKind::kRmpflow || method.kind == MethodKind::kRrt) {
-      rl::ExternalController external;
+      tasks::ExternalController external;
       external.options = sim::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
       const int max_obstacles = context->num_obstacles();
       if (method.kind == MethodKind::kRmpflow) {
@@ -198,15 +198,15 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
           return std::make_unique<planning::RrtPolicy>(robot, rrt);
         };
       }
-      return std::make_unique<rl::ManipulatorEnv>(context, std::move(external));
+      return std::make_unique<tasks::ManipulatorEnv>(context, std::move(external));
     }
-    return std::make_unique<rl::ManipulatorEnv>(context);
+    return std::make_unique<tasks::ManipulatorEnv>(context);
   };
   auto make_actor = [&]() -> std::unique_ptr<Actor> {
     if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
     if (method.threat_gate) {
       return std::make_unique<ThreatGateActor>(
-          fixed, threat, spec.local_obs_dim, rl::LookaheadOffset(config.interface) + rl::LocalObs::kLookaheadClearance,
+          fixed, threat, spec.local_obs_dim, tasks::LookaheadOffset(config.interface) + tasks::LocalObs::kLookaheadClearance,
           static_cast<float>(method.threat_gate->clearance / config.observation.length_scale));
     }
     return std::make_unique<ConstantActor>(fixed);
@@ -218,9 +218,9 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskCo
   std::mutex error_mutex;
   auto worker = [&] {
     try {
-      std::unique_ptr<rl::ManipulatorEnv> env = make_env();
+      std::unique_ptr<tasks::ManipulatorEnv> env = make_env();
       std::unique_ptr<Actor> actor = make_actor();
-      rl::StepBuffers step(spec);
+      tasks::StepBuffers step(spec);
       std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
       for (int i = next.fetch_add(1); i < protocol.episodes; i = next.fetch_add(1)) {
         EpisodeRecord& r = records[i];

@@ -21,7 +21,7 @@
 #include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/experiments/runs.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::experiments {
@@ -125,8 +125,8 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
 }
 
 
-rl::TaskConfig ExperimentTask(const std::string& name, bool quick) {
-  rl::TaskConfig task = rl::LoadShippedTaskConfig(name);
+tasks::TaskConfig ExperimentTask(const std::string& name, bool quick) {
+  tasks::TaskConfig task = tasks::LoadShippedTaskConfig(name);
   if (name != "pretrain-2link") task.observation.max_obstacles = kObstacleSlots;
   if (quick) task.episode.max_steps = std::min(task.episode.max_steps, 150);
   return task;
@@ -237,7 +237,7 @@ struct Job {
   Method method;
   std::string condition;
   int train_seed = 0;
-  rl::TaskConfig task;
+  tasks::TaskConfig task;
 };
 
 std::vector<ResultRow> RunJobs(const std::vector<Job>& jobs, const EvalProtocol& protocol) {
@@ -260,7 +260,7 @@ std::vector<ResultRow> RunJobs(const std::vector<Job>& jobs, const EvalProtocol&
 }
 
 /// the jobs of `methods` under one condition: learned ones per seed with `policy(method, seed)`.
-void AddJobs(const std::vector<const MethodSpec*>& methods, const std::string& condition, const rl::TaskConfig& task,
+void AddJobs(const std::vector<const MethodSpec*>& methods, const std::string& condition, const tasks::TaskConfig& task,
              int seeds, const std::function<fs::path(const MethodSpec&, int)>& policy, std::vector<Job>* jobs) {
   for (const MethodSpec* m : methods) {
     if (m->kind != MethodSpec::Kind::kLearned) {
@@ -387,7 +387,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
     train();
     protocol.episodes = episodes(100);
-    const rl::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
+    const tasks::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
     const std::vector<std::string> names = {"5K", "10K", "15K"};
     for (int b = 0; b < 3; ++b) {
       if (o.shipped && b < 2) continue;  // the shipped policy is the full budget's
@@ -425,7 +425,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     if (o.name == "table4") {
       protocol.episodes = episodes(40);
       for (double v : {0.2, 0.6, 1.2, 1.8, 2.8}) {
-        rl::TaskConfig task = ExperimentTask("line-crossing", o.quick);
+        tasks::TaskConfig task = ExperimentTask("line-crossing", o.quick);
         task.scenario.line_speeds = {v};
         AddJobs(entries, fmt::format("{:.1f} m/s", v), task, o.seeds, final_policy, &jobs);
       }
@@ -500,13 +500,13 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     std::vector<std::pair<std::string, std::string>> robots;  // (label, robot)
     for (const std::string& arm : arms) robots.emplace_back(arm, arm);
     for (const std::string& urdf : o.urdfs) {
-      if (!rl::IsUrdfPath(urdf) || !std::filesystem::is_regular_file(urdf)) {
+      if (!tasks::IsUrdfPath(urdf) || !std::filesystem::is_regular_file(urdf)) {
         throw InputError(fmt::format("--urdf: expected existing .urdf files, got '{}'", urdf));
       }
       robots.emplace_back(std::filesystem::path(urdf).stem().string(), urdf);
     }
     for (const auto& [label, robot] : robots) {
-      rl::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
+      tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
       task.robot = robot;
       task.scenario.crossing.num_obstacles = 1;
       AddJobs(entries, label, task, o.seeds, final_policy, &jobs);
@@ -520,7 +520,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
         "same episodes. {} episodes per arm and seed.\n\n{}", protocol.episodes, training_note);
     if (std::find_if(entries.begin(), entries.end(), [](const MethodSpec* m) { return m->key == "marl-rmp"; }) !=
         entries.end()) {
-      rl::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
+      tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
       task.scenario.crossing.num_obstacles = 1;
       RenderFig5Frames(arms, task, final_policy(FindMethod("marl-rmp"), 1), o.eval_seed, o.out, &text.notes);
     }

@@ -13,7 +13,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/statistics.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/render.h"
@@ -194,19 +194,19 @@ void WriteFig3Curves(const std::vector<LearnedRuns>& methods, const RunnerOption
             "without pre-training does not converge.\n";
 }
 
-void RenderFig5Frames(const std::vector<std::string>& arms, const rl::TaskConfig& base_task,
+void RenderFig5Frames(const std::vector<std::string>& arms, const tasks::TaskConfig& base_task,
                       const fs::path& policy_path, std::uint64_t eval_seed, const fs::path& out, std::string* notes) {
   const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
   constexpr int kLead = 30;  // the earlier frame: 0.3 s before the closest approach
   std::string written;
   for (const std::string& arm : arms) {
-    rl::TaskConfig task = base_task;
+    tasks::TaskConfig task = base_task;
     task.robot = arm;
-    task.interface = rl::InterfaceMode::kPerJointRmp;
-    const auto context = rl::MakeTaskContext(task);
-    rl::ManipulatorEnv env(context);
+    task.interface = tasks::InterfaceMode::kPerJointRmp;
+    const auto context = tasks::MakeTaskContext(task);
+    tasks::ManipulatorEnv env(context);
     rl::PolicyRuntime runtime(weights, context->num_agents());
-    rl::StepBuffers step(context->spec());
+    tasks::StepBuffers step(context->spec());
     std::vector<float> actions(static_cast<size_t>(context->num_agents()) * context->spec().action.size());
     // pass 1: the step of the closest approach to an obstacle; pass 2 (the same episode): render the frames
     int critical = 0;

@@ -7,7 +7,7 @@
 
 #include "report.h"
 #include "rmpmarl/experiments/runs.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::experiments {
 
@@ -18,7 +18,7 @@ void WriteFig3Curves(const std::vector<LearnedRuns>& methods, const RunnerOption
 
 /// renders, for each arm, episode 0 of `eval_seed` under the policy: fig5_<arm>_start.png, fig5_<arm>_early.png (0.3 s
 /// before the closest approach to an obstacle) and fig5_<arm>_late.png (at it). Appends what it did to `notes`.
-void RenderFig5Frames(const std::vector<std::string>& arms, const rl::TaskConfig& task,
+void RenderFig5Frames(const std::vector<std::string>& arms, const tasks::TaskConfig& task,
                       const std::filesystem::path& policy, std::uint64_t eval_seed,
                       const std::filesystem::path& out, std::string* notes);
 

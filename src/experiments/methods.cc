@@ -76,12 +76,12 @@ std::string FlowMap(const YAML::Node& node, const fs::path& file, const std::str
   return out.c_str();
 }
 
-/// the four continuous parameters u by name (rl::RmpActionLayout order), each in [−1, 1]
-std::array<float, rl::RmpActionLayout::kNumContinuous> Parameters(const YAML::Node& node, const fs::path& file,
+/// the four continuous parameters u by name (tasks::RmpActionLayout order), each in [−1, 1]
+std::array<float, tasks::RmpActionLayout::kNumContinuous> Parameters(const YAML::Node& node, const fs::path& file,
                                                                    const std::string& key) {
   static const std::vector<std::string> names = {"target_accel", "target_metric", "collision_accel",
                                                  "collision_metric"};
-  std::array<float, rl::RmpActionLayout::kNumContinuous> u{};
+  std::array<float, tasks::RmpActionLayout::kNumContinuous> u{};
   if (!node) return u;
   CheckKeys(node, file, key, {names.begin(), names.end()});
   for (size_t i = 0; i < names.size(); ++i) {
@@ -152,8 +152,8 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
     } catch (const InputError& e) {
       Fail(file, "layer", e.what());
     }
-    rl::TaskConfig check = rl::LoadShippedTaskConfig("reach-avoid");  // a bad layer key is refused now
-    rl::ApplyTaskOverrides(check, m.layer_yaml, fmt::format("{}: layer {}", file.string(), m.layer));
+    tasks::TaskConfig check = tasks::LoadShippedTaskConfig("reach-avoid");  // a bad layer key is refused now
+    tasks::ApplyTaskOverrides(check, m.layer_yaml, fmt::format("{}: layer {}", file.string(), m.layer));
   }
   if (m.kind == MethodSpec::Kind::kLearned) {
     const YAML::Node t = root["train"];
@@ -174,11 +174,11 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
     r.two_link = task["name"].as<std::string>() == "pretrain-2link";
     const std::string interface = task["interface"].as<std::string>();
     if (interface == "per-joint-rmp") {
-      m.interface = rl::InterfaceMode::kPerJointRmp;
+      m.interface = tasks::InterfaceMode::kPerJointRmp;
     } else if (interface == "direct") {
-      m.interface = rl::InterfaceMode::kDirect;
+      m.interface = tasks::InterfaceMode::kDirect;
     } else if (interface == "per-joint-direct") {
-      m.interface = rl::InterfaceMode::kPerJointDirect;
+      m.interface = tasks::InterfaceMode::kPerJointDirect;
     } else {
       throw InputError(fmt::format("{}: task.interface: unknown '{}'", train_file.string(), interface));
     }
@@ -205,7 +205,7 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
       CheckKeys(n, file, "train.mix", {"task", "overrides"});
       if (!n["task"]) Fail(file, "train.mix.task", "missing (the second training task)");
       r.mix_task = String(n["task"], file, "train.mix.task");
-      rl::ParseTaskKind(r.mix_task);
+      tasks::ParseTaskKind(r.mix_task);
       r.mix_overrides = FlowMap(n["overrides"], file, "train.mix.overrides");
     }
     m.training = r;
@@ -241,7 +241,7 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
   return m;
 }
 
-fs::path ConfigsDirectory() { return rl::TaskConfigDirectory().parent_path(); }
+fs::path ConfigsDirectory() { return tasks::TaskConfigDirectory().parent_path(); }
 
 std::string LayerOverrides(const std::string& layer) {
   const fs::path file = ConfigsDirectory() / "layers" / (layer + ".yaml");
@@ -311,9 +311,9 @@ Method MakeMethod(const MethodSpec& spec, const std::string& policy_path) {
   }
   if (!spec.layer_yaml.empty() || !spec.evaluate.empty()) {
     m.adjust_task = [layer = spec.layer_yaml, evaluate = spec.evaluate, file = spec.file.string(),
-                     name = spec.layer](rl::TaskConfig& task) {
-      if (!layer.empty()) rl::ApplyTaskOverrides(task, layer, fmt::format("{}: layer {}", file, name));
-      if (!evaluate.empty()) rl::ApplyTaskOverrides(task, evaluate, file + ": evaluate");
+                     name = spec.layer](tasks::TaskConfig& task) {
+      if (!layer.empty()) tasks::ApplyTaskOverrides(task, layer, fmt::format("{}: layer {}", file, name));
+      if (!evaluate.empty()) tasks::ApplyTaskOverrides(task, evaluate, file + ": evaluate");
     };
   }
   return m;

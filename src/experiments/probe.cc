@@ -9,20 +9,20 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 
 namespace rmpmarl::experiments {
 
-LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConfig& task, const ProbeOptions& o) {
+LookaheadProbe ProbeLookahead(const std::string& policy_path, const tasks::TaskConfig& task, const ProbeOptions& o) {
   if (!(task.observation.lookahead > 0.0)) {
     throw InputError(fmt::format("look-ahead probe: expected a task with observation.lookahead > 0 s, got {}",
                                  task.observation.lookahead));
   }
-  if (task.interface != rl::InterfaceMode::kPerJointRmp) {
+  if (task.interface != tasks::InterfaceMode::kPerJointRmp) {
     throw InputError(fmt::format("look-ahead probe: expected the per-joint-rmp interface (RMP parameters), got {}",
-                                 rl::InterfaceModeName(task.interface)));
+                                 tasks::InterfaceModeName(task.interface)));
   }
   if (o.episodes < 1) throw InputError(fmt::format("look-ahead probe: episodes: expected >= 1, got {}", o.episodes));
   if (!(o.threat_time >= 0.0 && o.threat_time <= task.observation.lookahead)) {
@@ -40,8 +40,8 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
     throw InputError(fmt::format("look-ahead probe: threat threshold: expected a finite distance [m], got {}",
                                  o.threat_threshold));
   }
-  const auto context = rl::MakeTaskContext(task);
-  const rl::EnvSpec& spec = context->spec();
+  const auto context = tasks::MakeTaskContext(task);
+  const tasks::EnvSpec& spec = context->spec();
   const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
   if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != spec.action.size()) {
     throw InputError(fmt::format("look-ahead probe: policy {} takes obs {} and gives {} action floats; the task has "
@@ -49,23 +49,23 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
                                  spec.local_obs_dim, spec.action.size()));
   }
   // the action is [option | continuous… | termination] and the head [option logits… | Gaussian means… | termination]
-  const int k = o.parameter - rl::RmpActionLayout::kTargetAccelScale;  // index among the Gaussian means
+  const int k = o.parameter - tasks::RmpActionLayout::kTargetAccelScale;  // index among the Gaussian means
   if (k < 0 || k >= weights.num_continuous) {
     throw InputError(fmt::format("look-ahead probe: parameter: expected an RMP parameter index in [{}, {}], got {}",
-                                 rl::RmpActionLayout::kTargetAccelScale,
-                                 rl::RmpActionLayout::kTargetAccelScale + weights.num_continuous - 1, o.parameter));
+                                 tasks::RmpActionLayout::kTargetAccelScale,
+                                 tasks::RmpActionLayout::kTargetAccelScale + weights.num_continuous - 1, o.parameter));
   }
   const int A = spec.num_agents, D = spec.local_obs_dim, H = weights.head_size();
   const int mean_at = weights.num_options + k;
-  const int c = rl::LookaheadOffset(task.interface);
-  float none[rl::LocalObs::kLookaheadSize], threat[rl::LocalObs::kLookaheadSize];
-  rl::WriteLookaheadBlock(std::numeric_limits<double>::infinity(), 0.0, 0.0, task.observation, none);
-  rl::WriteLookaheadBlock(o.threat_clearance, o.threat_time, o.threat_speed, task.observation, threat);
+  const int c = tasks::LookaheadOffset(task.interface);
+  float none[tasks::LocalObs::kLookaheadSize], threat[tasks::LocalObs::kLookaheadSize];
+  tasks::WriteLookaheadBlock(std::numeric_limits<double>::infinity(), 0.0, 0.0, task.observation, none);
+  tasks::WriteLookaheadBlock(o.threat_clearance, o.threat_time, o.threat_speed, task.observation, threat);
   const float threshold = static_cast<float>(o.threat_threshold / task.observation.length_scale);
 
   rl::PolicyRuntime runtime(weights, A);
-  rl::ManipulatorEnv env(context);
-  rl::StepBuffers step(spec);
+  tasks::ManipulatorEnv env(context);
+  tasks::StepBuffers step(spec);
   std::vector<float> actions(static_cast<size_t>(A) * spec.action.size());
   std::vector<float> head(static_cast<size_t>(A) * H), edited(static_cast<size_t>(A) * D);
   LookaheadProbe p;
@@ -77,7 +77,7 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
     const float* obs = step.local_obs.data();
     std::copy(obs, obs + static_cast<size_t>(A) * D, edited.begin());
     for (int a = 0; a < A; ++a) {
-      std::copy_n(block, rl::LocalObs::kLookaheadSize, edited.begin() + static_cast<size_t>(a) * D + c);
+      std::copy_n(block, tasks::LocalObs::kLookaheadSize, edited.begin() + static_cast<size_t>(a) * D + c);
     }
     runtime.EvaluateHead(edited.data(), A, head.data());
   };
@@ -89,7 +89,7 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConf
       runtime.EvaluateHead(obs, A, head.data());
       for (int a = 0; a < A; ++a) {
         const double u = head[static_cast<size_t>(a) * H + mean_at];
-        if (obs[static_cast<size_t>(a) * D + c + rl::LocalObs::kLookaheadClearance] < threshold) {
+        if (obs[static_cast<size_t>(a) * D + c + tasks::LocalObs::kLookaheadClearance] < threshold) {
           sum_threatened += u;
           ++p.threatened_steps;
         } else {

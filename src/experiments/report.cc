@@ -127,7 +127,7 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
     std::vector<double> tracking, settled, collisions, in_collision, clearance, control;
     int successes = 0;
     for (const EpisodeRecord& e : r.episodes) {
-      const rl::EpisodeMetrics& m = e.metrics;
+      const tasks::EpisodeMetrics& m = e.metrics;
       successes += m.success ? 1 : 0;
       tracking.push_back(m.mean_tracking_error_mm);
       settled.push_back(m.settled_tracking_error_mm);

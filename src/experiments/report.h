@@ -39,7 +39,7 @@ struct ReportText {
 /// The training runs of one learned method, one per training seed (seed = index + 1).
 struct LearnedRuns {
   std::string label;                 ///< e.g. "MARL-RMP"
-  rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;
+  tasks::InterfaceMode interface = tasks::InterfaceMode::kPerJointRmp;
   std::vector<std::string> run_ids;  ///< per seed
 };
 

@@ -19,28 +19,28 @@ math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCa
 
 }  // namespace
 
-LearnedController::LearnedController(const kinematics::Robot& robot, const TaskConfig& config,
+LearnedController::LearnedController(const kinematics::Robot& robot, const tasks::TaskConfig& config,
                                      const PolicyWeights& weights, LearnedControllerOptions options)
     : options_(std::move(options)),
       robot_(robot),
       agents_(config, &robot),
       runtime_(weights, robot.model.nq()) {
-  if (config.interface != InterfaceMode::kPerJointRmp) {
+  if (config.interface != tasks::InterfaceMode::kPerJointRmp) {
     throw InputError(fmt::format("learned controller '{}': the per-joint-rmp interface runs as a controller, got {} "
                                  "(evaluate it in its task with `rmpmarl eval`)", options_.name,
-                                 InterfaceModeName(config.interface)));
+                                 tasks::InterfaceModeName(config.interface)));
   }
   if (!(options_.max_obstacles >= 0)) {
     throw InputError(fmt::format("learned controller '{}': max_obstacles: expected >= 0, got {}", options_.name,
                                  options_.max_obstacles));
   }
   const int nq = robot.model.nq();
-  obs_dim_ = static_cast<int>(PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size());
-  action_size_ = MakeActionSpec(config, nq).size();
+  obs_dim_ = static_cast<int>(tasks::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size());
+  action_size_ = tasks::MakeActionSpec(config, nq).size();
   if (runtime_.obs_dim() != obs_dim_ || runtime_.action_size() != action_size_) {
     throw InputError(fmt::format("learned controller '{}': the actor takes {} observations and gives {} action "
                                  "floats; its task ({}, lookahead {}) has {} and {}", options_.name,
-                                 runtime_.obs_dim(), runtime_.action_size(), InterfaceModeName(config.interface),
+                                 runtime_.obs_dim(), runtime_.action_size(), tasks::InterfaceModeName(config.interface),
                                  config.observation.lookahead, obs_dim_, action_size_));
   }
   layer_ = agents_.MakeLayerPolicy();
@@ -155,7 +155,7 @@ void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
 
 std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,
                                                          const std::string& path, LearnedControllerOptions options) {
-  TaskConfig config = PolicyTaskConfig(file, path);
+  tasks::TaskConfig config = PolicyTaskConfig(file, path);
   if (options.name == "learned") options.name = std::filesystem::path(path).stem().string();
   try {
     return std::make_unique<LearnedController>(robot, config, file.weights, options);

@@ -269,16 +269,16 @@ PolicyFile LoadPolicyFile(const std::string& path) { return ReadFile(path, kPoli
 
 PolicyWeights LoadPolicyFileV1(const std::string& path) { return ReadFile(path, 1).weights; }
 
-TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path) {
+tasks::TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path) {
   if (!file.has_task()) {
     throw InputError(fmt::format("policy file {} carries no task (a policy of a task outside the manipulator "
                                  "tasks): name one with --task", path));
   }
-  return ParseTaskConfig(file.task_yaml, path + " (its task)");
+  return tasks::ParseTaskConfig(file.task_yaml, path + " (its task)");
 }
 
-TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, const TaskMove& move) {
-  TaskConfig own = PolicyTaskConfig(file, path);
+tasks::TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, const TaskMove& move) {
+  tasks::TaskConfig own = PolicyTaskConfig(file, path);
   if (!move.overrides_yaml.empty()) {
     YAML::Node root = ParseYaml(file.task_yaml, path);
     const YAML::Node over = ParseYaml(move.overrides_yaml, "--overrides");
@@ -286,22 +286,22 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
       if (!over.IsMap()) throw InputError("--overrides: expected a YAML mapping, e.g. '{episode: {max_steps: 200}}'");
       internal::MergeYamlMaps(root, over, "--overrides");
     }
-    own = ParseTaskConfig(YAML::Dump(root), path + " (its task) + --overrides");
+    own = tasks::ParseTaskConfig(YAML::Dump(root), path + " (its task) + --overrides");
   }
-  TaskConfig config = own;
+  tasks::TaskConfig config = own;
   if (!move.scene.empty()) {
     const std::string task = move.scene == "crossing" ? "reach-avoid" : move.scene;
-    const std::vector<std::string> tasks = TaskNames();
+    const std::vector<std::string> tasks = tasks::TaskNames();
     if (std::find(tasks.begin(), tasks.end(), task) == tasks.end() || task == "pretrain-2link") {
       throw InputError(fmt::format("{}: --scenario {}: a learned controller runs in the scenes of the arm tasks: "
                                    "crossing (reach-avoid), line-crossing, cluttered (the static-* scenarios run "
                                    "RMPflow alone: `rmpmarl demo --policy rmpflow --scenario {}`)", path, move.scene,
                                    move.scene));
     }
-    if (task != TaskKindName(own.task)) {
+    if (task != tasks::TaskKindName(own.task)) {
       // the scene, reward and randomisation of the shipped task, with the same --overrides as the controller
-      config = move.overrides_yaml.empty() ? LoadShippedTaskConfig(task)
-                                           : LoadTaskConfig(TaskConfigPath(task), move.overrides_yaml);
+      config = move.overrides_yaml.empty() ? tasks::LoadShippedTaskConfig(task)
+                                           : tasks::LoadTaskConfig(tasks::TaskConfigPath(task), move.overrides_yaml);
       config.robot = own.robot;
       config.collision = own.collision;
       config.interface = own.interface;
@@ -309,7 +309,7 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
       config.options = own.options;
       config.observation = own.observation;
       config.observation.max_obstacles = std::max(own.observation.max_obstacles,
-                                                  LoadShippedTaskConfig(task).observation.max_obstacles);
+                                                  tasks::LoadShippedTaskConfig(task).observation.max_obstacles);
       config.basic_layer = own.basic_layer;
       config.direct = own.direct;
       config.episode.control_rate = own.episode.control_rate;
@@ -325,19 +325,19 @@ TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, con
   }
   if (move.obstacle_speed >= 0.0) {
     switch (config.task) {
-      case TaskKind::kReachAvoid:
+      case tasks::TaskKind::kReachAvoid:
         config.scenario.crossing.obstacle_speed = move.obstacle_speed;
         config.scenario.crossing.obstacle_speed_max = 0.0;
         break;
-      case TaskKind::kLineCrossing:
+      case tasks::TaskKind::kLineCrossing:
         config.scenario.line_speeds = {move.obstacle_speed};
         break;
       default:
         throw InputError(fmt::format("{}: --obstacle-speed: the {} scene's obstacles do not move (reach-avoid and "
-                                     "line-crossing have moving ones)", path, TaskKindName(config.task)));
+                                     "line-crossing have moving ones)", path, tasks::TaskKindName(config.task)));
     }
   }
-  ValidateTaskConfig(config, config.source);
+  tasks::ValidateTaskConfig(config, config.source);
   return config;
 }
 
@@ -358,11 +358,11 @@ std::string PolicyCard(const PolicyFile& file, const std::string& path) {
   out << YAML::Key << "termination" << YAML::Value << w.has_termination;
   out << YAML::EndMap;
   if (file.has_task()) {
-    const TaskConfig task = PolicyTaskConfig(file, path);
+    const tasks::TaskConfig task = PolicyTaskConfig(file, path);
     out << YAML::Key << "runs_on" << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "task" << YAML::Value << std::string(TaskKindName(task.task));
+    out << YAML::Key << "task" << YAML::Value << std::string(tasks::TaskKindName(task.task));
     out << YAML::Key << "robot" << YAML::Value << task.robot;
-    out << YAML::Key << "interface" << YAML::Value << std::string(InterfaceModeName(task.interface));
+    out << YAML::Key << "interface" << YAML::Value << std::string(tasks::InterfaceModeName(task.interface));
     out << YAML::EndMap;
     out << YAML::Key << "task" << YAML::Value << ParseYaml(file.task_yaml, path);
   }
@@ -412,7 +412,7 @@ std::string ControllerTaskYaml(const std::filesystem::path& task_file, const std
       merged.remove(scene_key);
     }
   }
-  ParseTaskConfig(YAML::Dump(merged), source + " + overrides");  // validated now, not when the controller is loaded
+  tasks::ParseTaskConfig(YAML::Dump(merged), source + " + overrides");  // validated now, not when the controller is loaded
   return YAML::Dump(merged);
 }
 

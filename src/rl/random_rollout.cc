@@ -5,13 +5,13 @@
 #include <cmath>
 #include <vector>
 
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl {
 
-void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions) {
-  const ActionSpec& a = spec.action;
+void RandomActions(const tasks::EnvSpec& spec, std::mt19937_64& rng, float* actions) {
+  const tasks::ActionSpec& a = spec.action;
   std::uniform_real_distribution<float> u(-1.2f, 1.2f), flag(0.0f, 1.0f);
   for (int agent = 0; agent < spec.num_agents; ++agent) {
     float* row = actions + static_cast<size_t>(agent) * a.size();
@@ -21,11 +21,11 @@ void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions) {
   }
 }
 
-RandomRolloutStats RandomRollout(const TaskConfig& config, const RandomRolloutOptions& options) {
+RandomRolloutStats RandomRollout(const tasks::TaskConfig& config, const RandomRolloutOptions& options) {
   const int N = options.num_envs;
-  VecEnv envs(MakeManipulatorEnvFactory(MakeTaskContext(config)),
+  VecEnv envs(tasks::MakeManipulatorEnvFactory(tasks::MakeTaskContext(config)),
               {.num_envs = N, .seed = options.seed, .num_threads = options.threads});
-  const EnvSpec& spec = envs.spec();
+  const tasks::EnvSpec& spec = envs.spec();
   const size_t stride = static_cast<size_t>(spec.num_agents) * spec.action.size();
   std::vector<float> actions(N * stride);
   std::mt19937_64 rng(options.seed ^ 0x9e3779b97f4a7c15ull);

@@ -15,7 +15,7 @@ namespace rmpmarl::rl {
 namespace {
 
 // checks that two specs describe the same batch layout.
-void CheckSameLayout(const EnvSpec& a, const EnvSpec& b, int env_id) {
+void CheckSameLayout(const tasks::EnvSpec& a, const tasks::EnvSpec& b, int env_id) {
   if (a.num_agents != b.num_agents || a.local_obs_dim != b.local_obs_dim ||
       a.global_state_dim != b.global_state_dim || a.action.size() != b.action.size() ||
       a.reward_terms.size() != b.reward_terms.size()) {
@@ -30,16 +30,16 @@ void CheckSameLayout(const EnvSpec& a, const EnvSpec& b, int env_id) {
 
 struct VecEnv::Impl {
   VecEnvOptions options;
-  std::vector<std::unique_ptr<Env>> envs;
+  std::vector<std::unique_ptr<tasks::Env>> envs;
   std::vector<std::mt19937_64> rngs;
-  EnvSpec spec;
+  tasks::EnvSpec spec;
   Batch batch;
   // scratch of auto-resets: rewards and flags a reset writes must not overwrite the finished step's
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> reset_reward_terms;
   Eigen::VectorXf reset_reward;
   std::vector<std::uint8_t> reset_flags;
   Eigen::VectorXf reset_option_started, reset_parameters_read;
-  std::vector<EpisodeMetrics> reset_metrics;
+  std::vector<tasks::EpisodeMetrics> reset_metrics;
 
   // thread pool
   std::vector<std::thread> workers;
@@ -53,9 +53,9 @@ struct VecEnv::Impl {
   std::exception_ptr error;  // first exception thrown by an env during the current job
   const float* actions = nullptr;
 
-  StepOutput OutputOf(int k) {
+  tasks::StepOutput OutputOf(int k) {
     const int A = spec.num_agents;
-    StepOutput out;
+    tasks::StepOutput out;
     out.local_obs = batch.local_obs.data() + static_cast<size_t>(k) * A * spec.local_obs_dim;
     out.global_state = batch.global_state.data() + static_cast<size_t>(k) * spec.global_state_dim;
     out.reward_terms = batch.reward_terms.data() + static_cast<size_t>(k) * spec.reward_terms.size();
@@ -68,8 +68,8 @@ struct VecEnv::Impl {
     return out;
   }
 
-  StepOutput ResetOutputOf(int k) {
-    StepOutput out = OutputOf(k);
+  tasks::StepOutput ResetOutputOf(int k) {
+    tasks::StepOutput out = OutputOf(k);
     out.reward_terms = reset_reward_terms.data() + static_cast<size_t>(k) * spec.reward_terms.size();
     out.reward = reset_reward.data() + k;
     out.terminated = &reset_flags[2 * k];
@@ -89,7 +89,7 @@ struct VecEnv::Impl {
         envs[k]->Reset(rngs[k], OutputOf(k));
         continue;
       }
-      const StepOutput out = OutputOf(k);
+      const tasks::StepOutput out = OutputOf(k);
       envs[k]->Step(actions + k * action_stride, rngs[k], out);
       if (batch.terminated[k] || batch.truncated[k]) {
         batch.final_global_state.row(k) = batch.global_state.row(k);
@@ -156,7 +156,7 @@ struct VecEnv::Impl {
   }
 };
 
-VecEnv::VecEnv(const EnvFactory& factory, const VecEnvOptions& options) : impl_(std::make_unique<Impl>()) {
+VecEnv::VecEnv(const tasks::EnvFactory& factory, const VecEnvOptions& options) : impl_(std::make_unique<Impl>()) {
   if (options.num_envs < 1) throw InputError(fmt::format("num_envs: expected >= 1, got {}", options.num_envs));
   if (options.num_threads < 1) {
     throw InputError(fmt::format("num_threads: expected >= 1, got {}", options.num_threads));
@@ -171,7 +171,7 @@ VecEnv::VecEnv(const EnvFactory& factory, const VecEnvOptions& options) : impl_(
     CheckSameLayout(impl.spec, impl.envs[k]->spec(), k);
     impl.rngs.emplace_back(options.seed + static_cast<std::uint64_t>(k));
   }
-  const EnvSpec& spec = impl.spec;
+  const tasks::EnvSpec& spec = impl.spec;
   const int N = options.num_envs, A = spec.num_agents, T = static_cast<int>(spec.reward_terms.size());
   Batch& b = impl.batch;
   b.local_obs.setZero(N * A, spec.local_obs_dim);
@@ -184,13 +184,13 @@ VecEnv::VecEnv(const EnvFactory& factory, const VecEnvOptions& options) : impl_(
   b.parameters_read.setOnes(N * A);
   b.final_global_state.setZero(N, spec.global_state_dim);
   b.final_local_obs.setZero(N * A, spec.local_obs_dim);
-  b.metrics.assign(N, EpisodeMetrics{});
+  b.metrics.assign(N, tasks::EpisodeMetrics{});
   impl.reset_reward_terms.setZero(N, T);
   impl.reset_reward.setZero(N);
   impl.reset_flags.assign(2 * N, 0);
   impl.reset_option_started.setZero(N * A);
   impl.reset_parameters_read.setOnes(N * A);
-  impl.reset_metrics.assign(N, EpisodeMetrics{});
+  impl.reset_metrics.assign(N, tasks::EpisodeMetrics{});
   for (int w = 0; w + 1 < impl.options.num_threads; ++w) {
     impl.workers.emplace_back([&impl, w] { impl.WorkerLoop(w); });
   }
@@ -205,7 +205,7 @@ VecEnv::~VecEnv() {
   for (std::thread& t : impl_->workers) t.join();
 }
 
-const EnvSpec& VecEnv::spec() const { return impl_->spec; }
+const tasks::EnvSpec& VecEnv::spec() const { return impl_->spec; }
 int VecEnv::num_envs() const { return static_cast<int>(impl_->envs.size()); }
 const Batch& VecEnv::batch() const { return impl_->batch; }
 

@@ -12,7 +12,7 @@
 
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "run_cli.h"
 
 namespace {

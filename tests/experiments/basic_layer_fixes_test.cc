@@ -16,7 +16,7 @@ struct Summary {
   double success = 0.0, settled_mm = 0.0;
 };
 
-Summary Evaluate(const rl::TaskConfig& task, int option, int episodes) {
+Summary Evaluate(const tasks::TaskConfig& task, int option, int episodes) {
   const auto records = EvaluateMethod(Method::FixedOption("fixed", option), task,
                                       {.episodes = episodes, .eval_seed = 99, .jobs = 2});
   Summary s;
@@ -33,8 +33,8 @@ Summary Evaluate(const rl::TaskConfig& task, int option, int episodes) {
   return s;
 }
 
-rl::TaskConfig Task(const char* name, double weight, rl::OptionWarnings warnings) {
-  rl::TaskConfig c = rl::LoadShippedTaskConfig(name);
+tasks::TaskConfig Task(const char* name, double weight, tasks::OptionWarnings warnings) {
+  tasks::TaskConfig c = tasks::LoadShippedTaskConfig(name);
   c.options.collision_target_weight = weight;
   c.options.warnings = warnings;
   return c;
@@ -43,12 +43,12 @@ rl::TaskConfig Task(const char* name, double weight, rl::OptionWarnings warnings
 // measured (40 episodes): target-then-collision everywhere, collision RMPs alone: 100 % success, 353 mm settled;
 // with the target at 1e-4 priority: 100 %, 134 mm (the target option alone: 0 %, 109 mm — it runs into the cube)
 TEST(BasicLayerFixesTest, CollisionOptionReturnsToTrackingOnTheTwoLinkArm) {
-  auto on_path = [](rl::TaskConfig c) {  // the scene these numbers were measured on: the cube on the target's path
+  auto on_path = [](tasks::TaskConfig c) {  // the scene these numbers were measured on: the cube on the target's path
     c.scenario.pretrain.obstacle_path_offset = {0.0, 0.0};
     return c;
   };
-  const Summary before = Evaluate(on_path(Task("pretrain-2link", 0.0, rl::OptionWarnings::kAll)), 2, 24);
-  const Summary after = Evaluate(on_path(Task("pretrain-2link", 1e-4, rl::OptionWarnings::kObstacles)), 2, 24);
+  const Summary before = Evaluate(on_path(Task("pretrain-2link", 0.0, tasks::OptionWarnings::kAll)), 2, 24);
+  const Summary after = Evaluate(on_path(Task("pretrain-2link", 1e-4, tasks::OptionWarnings::kObstacles)), 2, 24);
   EXPECT_GE(after.success, 0.9);
   EXPECT_GE(after.success, before.success - 0.05);
   EXPECT_LT(after.settled_mm, 0.6 * before.settled_mm);
@@ -57,8 +57,8 @@ TEST(BasicLayerFixesTest, CollisionOptionReturnsToTrackingOnTheTwoLinkArm) {
 // measured (20 episodes, one crossing cube): before: 15 % success, 396 mm settled (self-contacts keep the composite
 // in phase b, where the collision RMPs do nothing against the robot's own links); after: 95 %, 16.6 mm
 TEST(BasicLayerFixesTest, CompositeOptionTracksAndAvoidsOnThePanda) {
-  const Summary before = Evaluate(Task("reach-avoid", 0.0, rl::OptionWarnings::kAll), 2, 16);
-  const Summary after = Evaluate(Task("reach-avoid", 1e-4, rl::OptionWarnings::kObstacles), 2, 16);
+  const Summary before = Evaluate(Task("reach-avoid", 0.0, tasks::OptionWarnings::kAll), 2, 16);
+  const Summary after = Evaluate(Task("reach-avoid", 1e-4, tasks::OptionWarnings::kObstacles), 2, 16);
   EXPECT_LE(before.success, 0.5);
   EXPECT_GT(before.settled_mm, 200.0);
   EXPECT_GE(after.success, 0.85);
@@ -67,7 +67,7 @@ TEST(BasicLayerFixesTest, CompositeOptionTracksAndAvoidsOnThePanda) {
 
 // without obstacles W_i stays empty under fix 2, so the composite never leaves phase a: exactly the target option
 TEST(BasicLayerFixesTest, WithoutObstaclesTheCompositeIsTheTargetOption) {
-  rl::TaskConfig c = Task("reach-avoid", 1e-4, rl::OptionWarnings::kObstacles);
+  tasks::TaskConfig c = Task("reach-avoid", 1e-4, tasks::OptionWarnings::kObstacles);
   c.scenario.crossing.num_obstacles = 0;
   c.episode.max_steps = 200;
   const auto target = EvaluateMethod(Method::FixedOption("t", 0), c, {.episodes = 4, .eval_seed = 99});
@@ -75,7 +75,7 @@ TEST(BasicLayerFixesTest, WithoutObstaclesTheCompositeIsTheTargetOption) {
   for (int i = 0; i < 4; ++i) {
     EXPECT_EQ(target[i].metrics.mean_tracking_error_mm, composite[i].metrics.mean_tracking_error_mm);
   }
-  c.options.warnings = rl::OptionWarnings::kAll;  // self-contacts make W_i non-empty: the composite differs
+  c.options.warnings = tasks::OptionWarnings::kAll;  // self-contacts make W_i non-empty: the composite differs
   const auto all = EvaluateMethod(Method::FixedOption("c", 2), c, {.episodes = 4, .eval_seed = 99});
   int differ = 0;
   for (int i = 0; i < 4; ++i) differ += all[i].metrics.mean_tracking_error_mm != target[i].metrics.mean_tracking_error_mm;
@@ -85,8 +85,8 @@ TEST(BasicLayerFixesTest, WithoutObstaclesTheCompositeIsTheTargetOption) {
 // ---- the v2 layer (docs/learning.md): 2 ms substeps, 35 cm sensing, collision length scales × s_a^e, centred on
 // fast-obstacle gains ----
 
-rl::TaskConfig V2(const char* name) {
-  rl::TaskConfig c = rl::LoadShippedTaskConfig(name);
+tasks::TaskConfig V2(const char* name) {
+  tasks::TaskConfig c = tasks::LoadShippedTaskConfig(name);
   c.controller.max_substep = 0.002;
   c.observation.warning_distance = 0.35;
   c.options.collision_length_exponent = 0.75;
@@ -100,8 +100,8 @@ rl::TaskConfig V2(const char* name) {
 }
 
 /// 200 steps of line-crossing at one speed on the v2 layer
-rl::TaskConfig ShortV2LineCrossing(double speed) {
-  rl::TaskConfig c = V2("line-crossing");
+tasks::TaskConfig ShortV2LineCrossing(double speed) {
+  tasks::TaskConfig c = V2("line-crossing");
   c.scenario.line_speeds = {speed};
   c.episode.max_steps = 200;
   return c;
@@ -119,15 +119,15 @@ void ExpectSameEpisodes(const std::vector<EpisodeRecord>& a, const std::vector<E
 /// the composite option everywhere with the collision parameter u (s_a = 4^u)
 Method Composite(float u) {
   Method m = Method::FixedOption("composite", 2);
-  m.fixed_parameters[rl::RmpActionLayout::kCollisionAccelScale - rl::RmpActionLayout::kTargetAccelScale] = u;
+  m.fixed_parameters[tasks::RmpActionLayout::kCollisionAccelScale - tasks::RmpActionLayout::kTargetAccelScale] = u;
   return m;
 }
 
 // the env applies s_l = s_a^e: with u = 1 (s_a = gain_range = 4) and e = 0.75 the episodes equal those of e = 0 on a
 // config whose l_p, l_d are multiplied by 4^0.75 by hand
 TEST(BasicLayerV2Test, LengthExponentEqualsHandScaledLengthScales) {
-  rl::TaskConfig learned = ShortV2LineCrossing(1.8);
-  rl::TaskConfig by_hand = learned;
+  tasks::TaskConfig learned = ShortV2LineCrossing(1.8);
+  tasks::TaskConfig by_hand = learned;
   by_hand.options.collision_length_exponent = 0.0;
   const double s = std::pow(learned.options.gain_range, 0.75);
   by_hand.basic_layer.params.collision.repulsion_std_dev *= s;
@@ -146,10 +146,10 @@ TEST(BasicLayerV2Test, LengthExponentEqualsHandScaledLengthScales) {
 // measured on held-out seed 99 (24 episodes at 1.8 m/s): the paper-parameter layer at 2 ms succeeds in 10 of 24
 // (1.8 collisions per episode); the v2 layer at its centre u = 0 in 20 of 24 (0.5)
 TEST(BasicLayerV2Test, CentreAvoidsFastCubesThePaperParametersDoNot) {
-  rl::TaskConfig v1 = rl::LoadShippedTaskConfig("line-crossing");
+  tasks::TaskConfig v1 = tasks::LoadShippedTaskConfig("line-crossing");
   v1.controller.max_substep = 0.002;
   v1.scenario.line_speeds = {1.8};
-  rl::TaskConfig v2 = V2("line-crossing");
+  tasks::TaskConfig v2 = V2("line-crossing");
   v2.scenario.line_speeds = {1.8};
   auto success = [](const std::vector<EpisodeRecord>& records) {
     double n = 0.0;
@@ -166,10 +166,10 @@ TEST(BasicLayerV2Test, CentreAvoidsFastCubesThePaperParametersDoNot) {
 // the lower end u = −1 (s_a = 1/4) of the v2 layer is the paper-default collision RMP (k_p 800, k_d 50, l_p 1 cm,
 // l_d 4 cm) up to the rounding of the centre's length scales
 TEST(BasicLayerV2Test, LowerEndIsThePaperDefaultRmp) {
-  rl::TaskConfig v2 = ShortV2LineCrossing(1.2);
-  rl::TaskConfig paper = v2;
+  tasks::TaskConfig v2 = ShortV2LineCrossing(1.2);
+  tasks::TaskConfig paper = v2;
   paper.options.collision_length_exponent = 0.0;
-  paper.basic_layer.params.collision = rl::LoadShippedTaskConfig("line-crossing").basic_layer.params.collision;
+  paper.basic_layer.params.collision = tasks::LoadShippedTaskConfig("line-crossing").basic_layer.params.collision;
   paper.basic_layer.params.collision.metric_modulation_radius = 0.35;
   const auto a = EvaluateMethod(Composite(-1.0f), v2, {.episodes = 4, .eval_seed = 99});
   const auto b = EvaluateMethod(Method::FixedOption("paper", 2), paper, {.episodes = 4, .eval_seed = 99});
@@ -178,8 +178,8 @@ TEST(BasicLayerV2Test, LowerEndIsThePaperDefaultRmp) {
 
 // options.fixed_option: the action's option index is ignored, every joint runs the configured option
 TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
-  const rl::TaskConfig c = ShortV2LineCrossing(1.2);
-  rl::TaskConfig fixed = c;
+  const tasks::TaskConfig c = ShortV2LineCrossing(1.2);
+  tasks::TaskConfig fixed = c;
   fixed.options.fixed_option = 2;
   const auto composite = EvaluateMethod(Method::FixedOption("composite", 2), c, {.episodes = 3, .eval_seed = 99});
   const auto asks_target = EvaluateMethod(Method::FixedOption("target", 0), fixed, {.episodes = 3, .eval_seed = 99});
@@ -195,7 +195,7 @@ TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
 // RMPflow's options can be adjusted per method: an identity adjustment changes nothing, the tuned collision gains
 // change the episodes
 TEST(BasicLayerV2Test, RmpflowAdjustmentIsApplied) {
-  rl::TaskConfig c = rl::LoadShippedTaskConfig("line-crossing");
+  tasks::TaskConfig c = tasks::LoadShippedTaskConfig("line-crossing");
   c.scenario.line_speeds = {1.2};
   c.episode.max_steps = 200;
   Method plain = Method::Rmpflow();

@@ -9,14 +9,14 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/statistics.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/sim/controller.h"
 
 namespace rmpmarl::experiments {
 namespace {
 
-rl::TaskConfig SmallTask(rl::TaskKind kind, int max_steps) {
-  rl::TaskConfig c = rl::DefaultTaskConfig(kind);
+tasks::TaskConfig SmallTask(tasks::TaskKind kind, int max_steps) {
+  tasks::TaskConfig c = tasks::DefaultTaskConfig(kind);
   c.randomization.variants = 3;
   c.episode.max_steps = max_steps;
   return c;
@@ -37,32 +37,32 @@ TEST(EpisodeSeedTest, DeterministicDistinctAndNeverATrainingSeed) {
 // Every interface mode and the external baselines start episode i of a seed in the same state, and the scenario
 // (target and obstacle paths) evolves identically whatever the robot does, until an obstacle hits the robot.
 TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
-  rl::TaskConfig base = SmallTask(rl::TaskKind::kReachAvoid, 60);
+  tasks::TaskConfig base = SmallTask(tasks::TaskKind::kReachAvoid, 60);
   base.scenario.crossing.num_obstacles = 2;
-  std::vector<std::unique_ptr<rl::ManipulatorEnv>> envs;
-  for (rl::InterfaceMode mode : {rl::InterfaceMode::kPerJointRmp, rl::InterfaceMode::kDirect,
-                                 rl::InterfaceMode::kPerJointDirect}) {
-    rl::TaskConfig c = base;
+  std::vector<std::unique_ptr<tasks::ManipulatorEnv>> envs;
+  for (tasks::InterfaceMode mode : {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect,
+                                 tasks::InterfaceMode::kPerJointDirect}) {
+    tasks::TaskConfig c = base;
     c.interface = mode;
-    envs.push_back(std::make_unique<rl::ManipulatorEnv>(rl::MakeTaskContext(c)));
+    envs.push_back(std::make_unique<tasks::ManipulatorEnv>(tasks::MakeTaskContext(c)));
   }
-  rl::ExternalController rmpflow;
+  tasks::ExternalController rmpflow;
   rmpflow.make_policy = [](const kinematics::Robot& robot) {
     return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 4);
   };
-  envs.push_back(std::make_unique<rl::ManipulatorEnv>(rl::MakeTaskContext(base), rmpflow));
+  envs.push_back(std::make_unique<tasks::ManipulatorEnv>(tasks::MakeTaskContext(base), rmpflow));
 
   for (int episode = 0; episode < 6; ++episode) {
-    std::vector<std::unique_ptr<rl::StepBuffers>> buffers;
+    std::vector<std::unique_ptr<tasks::StepBuffers>> buffers;
     std::vector<std::mt19937_64> rngs;
     for (auto& env : envs) {
-      buffers.push_back(std::make_unique<rl::StepBuffers>(env->spec()));
+      buffers.push_back(std::make_unique<tasks::StepBuffers>(env->spec()));
       rngs.emplace_back(EpisodeSeed(7, episode));
       env->Reset(rngs.back(), buffers.back()->out());
     }
-    const rl::ManipulatorEnv& ref = *envs[0];
+    const tasks::ManipulatorEnv& ref = *envs[0];
     for (size_t k = 1; k < envs.size(); ++k) {
-      const rl::ManipulatorEnv& e = *envs[k];
+      const tasks::ManipulatorEnv& e = *envs[k];
       EXPECT_EQ(e.variant(), ref.variant());
       EXPECT_EQ(e.scenario_setting(), ref.scenario_setting());
       EXPECT_EQ(e.world().q(), ref.world().q());
@@ -89,7 +89,7 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
 }
 
 TEST(EvaluateMethodTest, ResultsDoNotDependOnTheThreadCountAndRecordTheEpisode) {
-  const rl::TaskConfig task = SmallTask(rl::TaskKind::kLineCrossing, 80);
+  const tasks::TaskConfig task = SmallTask(tasks::TaskKind::kLineCrossing, 80);
   const Method basic = Method::FixedOption("basic", 0);
   const auto one = EvaluateMethod(basic, task, {.episodes = 5, .eval_seed = 3, .jobs = 1});
   const auto two = EvaluateMethod(basic, task, {.episodes = 5, .eval_seed = 3, .jobs = 2});
@@ -107,7 +107,7 @@ TEST(EvaluateMethodTest, ResultsDoNotDependOnTheThreadCountAndRecordTheEpisode) 
 }
 
 TEST(EvaluateMethodTest, RmpflowConvergesOnTheTargetAndTheBasicLayerStaysCollisionFree) {
-  rl::TaskConfig task = SmallTask(rl::TaskKind::kReachAvoid, 300);
+  tasks::TaskConfig task = SmallTask(tasks::TaskKind::kReachAvoid, 300);
   task.scenario.crossing.num_obstacles = 0;
   // measured (eval seed 1, 3 s episodes): RMPflow ends within 0.1–4.0 mm of the moving target; its settled error
   // (t >= 1 s) is 30–110 mm because it needs 1–2 s to get there
@@ -124,8 +124,8 @@ TEST(EvaluateMethodTest, RmpflowConvergesOnTheTargetAndTheBasicLayerStaysCollisi
 }
 
 TEST(EvaluateMethodTest, APolicyOfTheWrongShapeIsRejectedWithAMessage) {
-  const rl::TaskConfig task = SmallTask(rl::TaskKind::kReachAvoid, 10);
-  EXPECT_THROW(EvaluateMethod(Method::Policy("x", "/nonexistent.rmpp", rl::InterfaceMode::kDirect), task, {}),
+  const tasks::TaskConfig task = SmallTask(tasks::TaskKind::kReachAvoid, 10);
+  EXPECT_THROW(EvaluateMethod(Method::Policy("x", "/nonexistent.rmpp", tasks::InterfaceMode::kDirect), task, {}),
                InputError);
   EXPECT_THROW(Method::FixedOption("bad", 3), InputError);
   EXPECT_THROW(EvaluateMethod(Method::Rmpflow(), task, {.episodes = 0}), InputError);
@@ -135,10 +135,10 @@ TEST(EvaluateMethodTest, APolicyOfTheWrongShapeIsRejectedWithAMessage) {
 // option with the threat parameters, one that never fires is the fixed option with the clear ones, and on fast
 // crossings a 15 cm gate fires in some episodes and not in others.
 TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
-  rl::TaskConfig task = SmallTask(rl::TaskKind::kLineCrossing, 150);
+  tasks::TaskConfig task = SmallTask(tasks::TaskKind::kLineCrossing, 150);
   task.scenario.line_speeds = {1.8};
-  auto lookahead = [](rl::TaskConfig& t) { t.observation.lookahead = 1.0; };
-  std::array<float, rl::RmpActionLayout::kNumContinuous> clear{}, threat{};
+  auto lookahead = [](tasks::TaskConfig& t) { t.observation.lookahead = 1.0; };
+  std::array<float, tasks::RmpActionLayout::kNumContinuous> clear{}, threat{};
   clear[0] = 1.0f;    // target accel scale x4
   threat[2] = -1.0f;  // collision accel scale / 4
   Method clear_fixed = Method::FixedOption("clear", 2), threat_fixed = Method::FixedOption("threat", 2);

@@ -66,7 +66,7 @@ TEST(MethodsTest, EachExperimentListsExistingMethodsThePaperSevenInTable4) {
 }
 
 // what a task's fields look like after a layer (the fields the layers set, and a few they leave)
-std::string Fields(const rl::TaskConfig& c) {
+std::string Fields(const tasks::TaskConfig& c) {
   const rmp::TargetRmpParams& t = c.basic_layer.params.target;
   const rmp::CollisionRmpParams& k = c.basic_layer.params.collision;
   return fmt::format(
@@ -91,24 +91,24 @@ TEST(MethodsTest, LayersApplyOntoATaskAsTheLoaderMergesThem) {
     ASSERT_FALSE(yaml.empty()) << layer;
     for (const char* task : {"reach-avoid", "line-crossing", "pretrain-2link"}) {
       SCOPED_TRACE(fmt::format("{} on {}", layer, task));
-      rl::TaskConfig applied = rl::LoadShippedTaskConfig(task);
-      rl::ApplyTaskOverrides(applied, yaml, "test");
-      const rl::TaskConfig merged = rl::LoadTaskConfig(rl::TaskConfigPath(task), yaml);
+      tasks::TaskConfig applied = tasks::LoadShippedTaskConfig(task);
+      tasks::ApplyTaskOverrides(applied, yaml, "test");
+      const tasks::TaskConfig merged = tasks::LoadTaskConfig(tasks::TaskConfigPath(task), yaml);
       EXPECT_EQ(Fields(applied), Fields(merged));
-      EXPECT_NE(Fields(applied), Fields(rl::LoadShippedTaskConfig(task)));  // the layer changes something
+      EXPECT_NE(Fields(applied), Fields(tasks::LoadShippedTaskConfig(task)));  // the layer changes something
     }
   }
 }
 
 TEST(MethodsTest, ApplyTaskOverridesRefusesBadKeysAndKeepsTheConfig) {
-  rl::TaskConfig c = rl::LoadShippedTaskConfig("reach-avoid");
+  tasks::TaskConfig c = tasks::LoadShippedTaskConfig("reach-avoid");
   const std::string before = Fields(c);
-  EXPECT_THROW(rl::ApplyTaskOverrides(c, "{options: {horizon: -3}}", "test"), InputError);
-  EXPECT_THROW(rl::ApplyTaskOverrides(c, "{optionz: {horizon: 3}}", "test"), InputError);
-  EXPECT_THROW(rl::ApplyTaskOverrides(c, "{task: cluttered}", "test"), InputError);
-  EXPECT_THROW(rl::ApplyTaskOverrides(c, "[1, 2]", "test"), InputError);
+  EXPECT_THROW(tasks::ApplyTaskOverrides(c, "{options: {horizon: -3}}", "test"), InputError);
+  EXPECT_THROW(tasks::ApplyTaskOverrides(c, "{optionz: {horizon: 3}}", "test"), InputError);
+  EXPECT_THROW(tasks::ApplyTaskOverrides(c, "{task: cluttered}", "test"), InputError);
+  EXPECT_THROW(tasks::ApplyTaskOverrides(c, "[1, 2]", "test"), InputError);
   EXPECT_EQ(Fields(c), before);
-  rl::ApplyTaskOverrides(c, "{task: reach-avoid, options: {horizon: 7}}", "test");
+  tasks::ApplyTaskOverrides(c, "{task: reach-avoid, options: {horizon: 7}}", "test");
   EXPECT_EQ(c.options.horizon, 7);
 }
 

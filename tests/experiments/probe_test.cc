@@ -9,8 +9,8 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/probe.h"
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 
@@ -18,8 +18,8 @@ namespace rmpmarl::experiments {
 namespace {
 namespace fs = std::filesystem;
 
-rl::TaskConfig LookaheadTask() {
-  rl::TaskConfig c = rl::DefaultTaskConfig(rl::TaskKind::kLineCrossing);
+tasks::TaskConfig LookaheadTask() {
+  tasks::TaskConfig c = tasks::DefaultTaskConfig(tasks::TaskKind::kLineCrossing);
   c.randomization.variants = 2;
   c.episode.max_steps = 120;
   c.scenario.line_speeds = {1.8};
@@ -34,22 +34,22 @@ struct BlockWeights {
 
 /// a per-joint-rmp actor with no hidden layer: every head output is 0 but the target-stiffness mean, which is
 /// u = w · (look-ahead block) + b. `extra_obs` > 0 makes it expect a longer observation than the task's.
-std::string LinearPolicy(const rl::TaskConfig& task, BlockWeights w_block, float b, const std::string& name,
+std::string LinearPolicy(const tasks::TaskConfig& task, BlockWeights w_block, float b, const std::string& name,
                          int extra_obs = 0) {
-  const auto context = rl::MakeTaskContext(task);
+  const auto context = tasks::MakeTaskContext(task);
   const int D = context->spec().local_obs_dim + extra_obs;
   rl::PolicyWeights w;
   w.obs_dim = D;
-  w.num_options = rl::kNumRmpOptions;
-  w.num_continuous = rl::RmpActionLayout::kNumContinuous;
+  w.num_options = tasks::kNumRmpOptions;
+  w.num_continuous = tasks::RmpActionLayout::kNumContinuous;
   w.has_termination = true;
   w.head.weight = Eigen::MatrixXf::Zero(w.head_size(), D);
   w.head.bias = Eigen::VectorXf::Zero(w.head_size());
-  const int row = w.num_options + (rl::RmpActionLayout::kTargetAccelScale - 1);
-  const int c = rl::LookaheadOffset(rl::InterfaceMode::kPerJointRmp);
-  w.head.weight(row, c + rl::LocalObs::kLookaheadClearance) = w_block.clearance;
-  w.head.weight(row, c + rl::LocalObs::kLookaheadTime) = w_block.time;
-  w.head.weight(row, c + rl::LocalObs::kLookaheadSpeed) = w_block.speed;
+  const int row = w.num_options + (tasks::RmpActionLayout::kTargetAccelScale - 1);
+  const int c = tasks::LookaheadOffset(tasks::InterfaceMode::kPerJointRmp);
+  w.head.weight(row, c + tasks::LocalObs::kLookaheadClearance) = w_block.clearance;
+  w.head.weight(row, c + tasks::LocalObs::kLookaheadTime) = w_block.time;
+  w.head.weight(row, c + tasks::LocalObs::kLookaheadSpeed) = w_block.speed;
   w.head.bias(row) = b;
   w.obs_mean = Eigen::VectorXf::Zero(D);
   w.obs_inv_std = Eigen::VectorXf::Ones(D);
@@ -64,7 +64,7 @@ std::string LinearPolicy(const rl::TaskConfig& task, BlockWeights w_block, float
 }
 
 TEST(ProbeLookaheadTest, RecoversAHandMadeResponseToTheBlock) {
-  const rl::TaskConfig task = LookaheadTask();
+  const tasks::TaskConfig task = LookaheadTask();
   const ProbeOptions options{.episodes = 3, .eval_seed = 5, .threat_clearance = 0.05, .threat_time = 0.3,
                              .threat_speed = 1.8, .threat_threshold = 0.15};
   const float ell = static_cast<float>(task.observation.length_scale);
@@ -94,17 +94,17 @@ TEST(ProbeLookaheadTest, RecoversAHandMadeResponseToTheBlock) {
 }
 
 TEST(ProbeLookaheadTest, RefusesWhatItCannotProbe) {
-  rl::TaskConfig task = LookaheadTask();
+  tasks::TaskConfig task = LookaheadTask();
   const std::string policy = LinearPolicy(task, {1.0f, 0.0f, 0.0f}, 0.0f, "refuse");
-  rl::TaskConfig no_block = task;
+  tasks::TaskConfig no_block = task;
   no_block.observation.lookahead = 0.0;
   EXPECT_THROW(ProbeLookahead(policy, no_block, {}), InputError);  // no block to substitute
-  rl::TaskConfig direct = task;
-  direct.interface = rl::InterfaceMode::kPerJointDirect;
+  tasks::TaskConfig direct = task;
+  direct.interface = tasks::InterfaceMode::kPerJointDirect;
   EXPECT_THROW(ProbeLookahead(policy, direct, {.episodes = 1}), InputError);  // no RMP parameters
   const std::string longer = LinearPolicy(task, {1.0f, 0.0f, 0.0f}, 0.0f, "longer", 1);
   EXPECT_THROW(ProbeLookahead(longer, task, {.episodes = 1}), InputError);  // expects another observation size
-  rl::TaskConfig other_robot = task;
+  tasks::TaskConfig other_robot = task;
   other_robot.robot = "ur5e";  // 6 joints, the same local observation: fits
   EXPECT_NO_THROW(ProbeLookahead(policy, other_robot, {.episodes = 1}));
   EXPECT_THROW(ProbeLookahead(policy, task, {.episodes = 1, .threat_time = 2.0}), InputError);  // > lookahead

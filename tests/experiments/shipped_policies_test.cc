@@ -11,7 +11,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/methods.h"
-#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/tasks/agent_interface.h"
 #include "rmpmarl/rl/policy_file.h"
 
 namespace rmpmarl::experiments {
@@ -19,7 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path Shipped(const std::string& name) {
-  return rl::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" / name;
+  return tasks::TaskConfigDirectory().parent_path().parent_path() / "models" / "policies" / name;
 }
 
 // the methods that name a shipped file are the ones in models/policies/, and nothing else is shipped
@@ -46,14 +46,14 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
     const rl::PolicyFile file = rl::LoadPolicyFile(path.string());
-    EXPECT_EQ(file.weights.num_options, rl::kNumRmpOptions);
+    EXPECT_EQ(file.weights.num_options, tasks::kNumRmpOptions);
     // the file carries the task it runs on: the shipped task with its method's basic layer
     const MethodSpec& method = FindMethod(c.method);
     EXPECT_EQ(method.shipped, c.file);
-    rl::TaskConfig task = rl::PolicyTaskConfig(file, path.string());
+    tasks::TaskConfig task = rl::PolicyTaskConfig(file, path.string());
     const YAML::Node carried = YAML::Load(file.task_yaml);
     const YAML::Node recipe = YAML::Load(rl::ControllerTaskYaml(
-        rl::TaskConfigPath(rl::TaskKindName(task.task)), method.layer_yaml, "per-joint-rmp"));
+        tasks::TaskConfigPath(tasks::TaskKindName(task.task)), method.layer_yaml, "per-joint-rmp"));
     for (const char* section : {"task", "robot", "interface", "episode", "controller", "options", "rmp"}) {
       EXPECT_EQ(YAML::Dump(carried[section]), YAML::Dump(recipe[section])) << section;
     }
@@ -70,8 +70,8 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     EXPECT_EQ(card, rl::PolicyCard(file, path.string()));
     task.randomization.variants = 2;
     task.episode.max_steps = 200;
-    if (task.task != rl::TaskKind::kPretrain2Link) task.observation.max_obstacles = 6;
-    const auto records = EvaluateMethod(Method::Policy("shipped", path.string(), rl::InterfaceMode::kPerJointRmp),
+    if (task.task != tasks::TaskKind::kPretrain2Link) task.observation.max_obstacles = 6;
+    const auto records = EvaluateMethod(Method::Policy("shipped", path.string(), tasks::InterfaceMode::kPerJointRmp),
                                         task, {.episodes = 6, .eval_seed = 5, .jobs = 2});
     int successes = 0;
     for (const EpisodeRecord& r : records) {

@@ -10,7 +10,7 @@
 #include <random>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
 
@@ -29,12 +29,12 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
     SCOPED_TRACE(robot);
     TaskMove move;
     move.robot = robot;
-    TaskConfig config = PolicyTaskConfig(file, ShippedDefault(), move);
+    tasks::TaskConfig config = PolicyTaskConfig(file, ShippedDefault(), move);
     config.randomization.variants = 1;
     config.scenario.crossing.num_obstacles = 4;
-    const auto context = MakeTaskContext(config);
-    ManipulatorEnv env(context);
-    StepBuffers buffers(env.spec());
+    const auto context = tasks::MakeTaskContext(config);
+    tasks::ManipulatorEnv env(context);
+    tasks::StepBuffers buffers(env.spec());
     PolicyRuntime runtime(file.weights, context->nq());
     std::vector<float> env_actions(static_cast<size_t>(context->nq()) * env.spec().action.size());
     int compared_warnings = 0;
@@ -59,25 +59,25 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
       const int d = env.spec().local_obs_dim;
       for (int i = 0; i < context->nq(); ++i) {
         for (int k = 0; k < d; ++k) {
-          if (k == LocalObs::kProgress || (k >= LocalObs::kOption && k < LocalObs::kRmpSize)) continue;  // episode state
+          if (k == tasks::LocalObs::kProgress || (k >= tasks::LocalObs::kOption && k < tasks::LocalObs::kRmpSize)) continue;  // episode state
           const double diff = std::abs(controller.observations()[i * d + k] - buffers.local_obs[i * d + k]);
           max_diff[k] = std::max(max_diff[k], diff);
         }
-        compared_warnings += buffers.local_obs[i * d + LocalObs::kWarningFlag] > 0.5f;
+        compared_warnings += buffers.local_obs[i * d + tasks::LocalObs::kWarningFlag] > 0.5f;
       }
       runtime.Act(buffers.local_obs.data(), context->nq(), env_actions.data());
       // the controller's observations with the episode state (progress, running option) the fresh controller cannot
       // know: the actions they give
       std::vector<float> obs = controller.observations(), actions(env_actions.size());
       for (int i = 0; i < context->nq(); ++i) {
-        for (int k : {LocalObs::kProgress, LocalObs::kOption, LocalObs::kOption + 1, LocalObs::kOption + 2,
-                      LocalObs::kOptionPhaseB, LocalObs::kOptionAge}) {
+        for (int k : {tasks::LocalObs::kProgress, tasks::LocalObs::kOption, tasks::LocalObs::kOption + 1, tasks::LocalObs::kOption + 2,
+                      tasks::LocalObs::kOptionPhaseB, tasks::LocalObs::kOptionAge}) {
           obs[i * d + k] = buffers.local_obs[i * d + k];
         }
       }
       runtime.Act(obs.data(), context->nq(), actions.data());
       // the continuous parameters (this controller runs a fixed option: its option logits are near-tied and unused)
-      const ActionSpec& a = env.spec().action;
+      const tasks::ActionSpec& a = env.spec().action;
       for (int i = 0; i < context->nq(); ++i) {
         for (int c = 0; c < a.num_continuous; ++c) {
           const size_t k = static_cast<size_t>(i) * a.size() + a.continuous_offset() + c;
@@ -88,10 +88,10 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
     // MuJoCo's narrow phase and math:: agree on the distances to 0.2 mm; the witness points of near-parallel
     // capsules (a link beside its neighbour) are not unique, and MuJoCo picks others: their direction and lever differ
     for (int k = 0; k < static_cast<int>(max_diff.size()); ++k) {
-      const bool witness = (k >= LocalObs::kWarningDirection && k < LocalObs::kWarningDistance) ||
-                           (k >= LocalObs::kWitnessLever && k < LocalObs::kDistanceGradient + 1);
-      const double tolerance = witness ? 0.05 : k == LocalObs::kWarningDistance ? 1e-3 : 2e-5;
-      EXPECT_LE(max_diff[k], tolerance) << PerJointObservationNames(config.interface, true)[k];
+      const bool witness = (k >= tasks::LocalObs::kWarningDirection && k < tasks::LocalObs::kWarningDistance) ||
+                           (k >= tasks::LocalObs::kWitnessLever && k < tasks::LocalObs::kDistanceGradient + 1);
+      const double tolerance = witness ? 0.05 : k == tasks::LocalObs::kWarningDistance ? 1e-3 : 2e-5;
+      EXPECT_LE(max_diff[k], tolerance) << tasks::PerJointObservationNames(config.interface, true)[k];
     }
     EXPECT_LE(max_action_diff, 0.05);  // the parameters the agents read from those observations
     EXPECT_GT(compared_warnings, 0);  // the warning features were compared where they are set
@@ -102,14 +102,14 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
 // state as the env does (progress, running option, its age) and sees and acts as they do all along
 TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisodes) {
   const PolicyFile file = LoadPolicyFile(ShippedDefault());
-  TaskConfig config = PolicyTaskConfig(file, ShippedDefault());
+  tasks::TaskConfig config = PolicyTaskConfig(file, ShippedDefault());
   config.randomization.variants = 1;
-  const auto context = MakeTaskContext(config);
-  ManipulatorEnv env(context);
-  StepBuffers buffers(env.spec());
+  const auto context = tasks::MakeTaskContext(config);
+  tasks::ManipulatorEnv env(context);
+  tasks::StepBuffers buffers(env.spec());
   PolicyRuntime runtime(file.weights, context->nq());
   const int nq = context->nq(), d = env.spec().local_obs_dim;
-  const ActionSpec& a = env.spec().action;
+  const tasks::ActionSpec& a = env.spec().action;
   std::vector<float> env_actions(static_cast<size_t>(nq) * a.size());
   LearnedControllerOptions options;
   options.max_obstacles = context->num_obstacles();
@@ -128,11 +128,11 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
       for (int i = 0; i < nq; ++i) {
         const float* mine = controller.observations().data() + static_cast<size_t>(i) * d;
         const float* env_obs = buffers.local_obs.data() + static_cast<size_t>(i) * d;
-        for (int k : {LocalObs::kProgress, LocalObs::kOption, LocalObs::kOption + 1, LocalObs::kOption + 2,
-                      LocalObs::kOptionPhaseB, LocalObs::kOptionAge}) {
+        for (int k : {tasks::LocalObs::kProgress, tasks::LocalObs::kOption, tasks::LocalObs::kOption + 1, tasks::LocalObs::kOption + 2,
+                      tasks::LocalObs::kOptionPhaseB, tasks::LocalObs::kOptionAge}) {
           max_state_diff = std::max(max_state_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
-        for (int k = LocalObs::kJointPosition; k <= LocalObs::kJointIndex; ++k) {
+        for (int k = tasks::LocalObs::kJointPosition; k <= tasks::LocalObs::kJointIndex; ++k) {
           max_joint_diff = std::max(max_joint_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
         for (int c = 0; c < a.num_continuous; ++c) {
@@ -166,12 +166,12 @@ TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
   scene.has_target = true;
   scene.p_WT = Eigen::Vector3d(0.3, 0.3, 0.3);
   controller.BeginControlStep(q, qd, scene);
-  EXPECT_GT(std::abs(controller.observations()[LocalObs::kEeToTarget]), 0.01);
+  EXPECT_GT(std::abs(controller.observations()[tasks::LocalObs::kEeToTarget]), 0.01);
   scene.has_target = false;
   q[0] += 0.5;  // the arm moved: the end effector is elsewhere, and that is the target now
   controller.BeginControlStep(q, qd, scene);
   for (int i = 0; i < nq; ++i) {
-    for (int k = LocalObs::kEeToTarget; k < LocalObs::kEeToTarget + 4; ++k) {
+    for (int k = tasks::LocalObs::kEeToTarget; k < tasks::LocalObs::kEeToTarget + 4; ++k) {
       EXPECT_NEAR(controller.observations()[static_cast<size_t>(i) * d + k], 0.0, 1e-6) << "joint " << i << " feature " << k;
     }
   }
@@ -221,10 +221,10 @@ TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {
 TEST(LearnedControllerTest, RefusesWhatDoesNotFit) {
   const PolicyFile file = LoadPolicyFile(ShippedDefault());
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  TaskConfig direct = PolicyTaskConfig(file, ShippedDefault());
-  direct.interface = InterfaceMode::kPerJointDirect;
+  tasks::TaskConfig direct = PolicyTaskConfig(file, ShippedDefault());
+  direct.interface = tasks::InterfaceMode::kPerJointDirect;
   EXPECT_THROW(LearnedController(robot, direct, file.weights), InputError);
-  TaskConfig no_lookahead = PolicyTaskConfig(file, ShippedDefault());
+  tasks::TaskConfig no_lookahead = PolicyTaskConfig(file, ShippedDefault());
   no_lookahead.observation.lookahead = 0.0;
   no_lookahead.options.target_gate_clearance = -INFINITY;
   try {

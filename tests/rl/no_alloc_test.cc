@@ -4,33 +4,33 @@
 #include "../support/alloc_counter.h"
 #include "rl_test_util.h"
 #include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 
 namespace rmpmarl::rl {
 namespace {
 
 TEST(NoAllocTest, EnvStepDoesNotAllocate) {
   struct Case {
-    TaskKind task;
-    InterfaceMode mode;
+    tasks::TaskKind task;
+    tasks::InterfaceMode mode;
     const char* robot;
     rmp::LayerResolve resolve = rmp::LayerResolve::kPerJoint;
   };
-  const Case cases[] = {{TaskKind::kPretrain2Link, InterfaceMode::kPerJointRmp, ""},
-                        {TaskKind::kReachAvoid, InterfaceMode::kPerJointRmp, "panda"},
-                        {TaskKind::kReachAvoid, InterfaceMode::kDirect, "ur5e"},
-                        {TaskKind::kLineCrossing, InterfaceMode::kPerJointRmp, "panda"},
-                        {TaskKind::kReachAvoid, InterfaceMode::kPerJointRmp, "panda", rmp::LayerResolve::kCoupled},
-                        {TaskKind::kCluttered, InterfaceMode::kPerJointDirect, "panda"}};
+  const Case cases[] = {{tasks::TaskKind::kPretrain2Link, tasks::InterfaceMode::kPerJointRmp, ""},
+                        {tasks::TaskKind::kReachAvoid, tasks::InterfaceMode::kPerJointRmp, "panda"},
+                        {tasks::TaskKind::kReachAvoid, tasks::InterfaceMode::kDirect, "ur5e"},
+                        {tasks::TaskKind::kLineCrossing, tasks::InterfaceMode::kPerJointRmp, "panda"},
+                        {tasks::TaskKind::kReachAvoid, tasks::InterfaceMode::kPerJointRmp, "panda", rmp::LayerResolve::kCoupled},
+                        {tasks::TaskKind::kCluttered, tasks::InterfaceMode::kPerJointDirect, "panda"}};
   for (const Case& c : cases) {
-    SCOPED_TRACE(TaskKindName(c.task));
-    TaskConfig config = testing::SmallConfig(c.task, c.robot, 1);
+    SCOPED_TRACE(tasks::TaskKindName(c.task));
+    tasks::TaskConfig config = testing::SmallConfig(c.task, c.robot, 1);
     config.interface = c.mode;
     config.basic_layer.resolve = c.resolve;
     config.episode.max_steps = 100000;  // no episode end inside the counted window
-    if (c.task == TaskKind::kReachAvoid) config.scenario.crossing.num_obstacles = 4;
-    ManipulatorEnv env(MakeTaskContext(config));
-    const EnvSpec& s = env.spec();
+    if (c.task == tasks::TaskKind::kReachAvoid) config.scenario.crossing.num_obstacles = 4;
+    tasks::ManipulatorEnv env(tasks::MakeTaskContext(config));
+    const tasks::EnvSpec& s = env.spec();
     testing::Buffers b(s);
     std::mt19937_64 rng(3), arng(4);
     env.Reset(rng, b.out());

@@ -11,7 +11,7 @@ namespace rmpmarl::rl {
 namespace {
 
 // A 1-D random walk per agent: x_a += action + N(0, 0.1); terminated when any |x_a| > 3, truncated after 15 steps.
-class RandomWalkEnv : public Env {
+class RandomWalkEnv : public tasks::Env {
  public:
   explicit RandomWalkEnv(int num_agents = 2) : x_(num_agents, 0.0) {
     spec_.task = "random-walk";
@@ -25,9 +25,9 @@ class RandomWalkEnv : public Env {
     spec_.reward_terms = {"distance", "alive"};
     spec_.max_episode_steps = 15;
   }
-  const EnvSpec& spec() const override { return spec_; }
+  const tasks::EnvSpec& spec() const override { return spec_; }
 
-  void Reset(std::mt19937_64& rng, const StepOutput& out) override {
+  void Reset(std::mt19937_64& rng, const tasks::StepOutput& out) override {
     for (double& x : x_) x = std::uniform_real_distribution<double>(-1.0, 1.0)(rng);
     steps_ = 0;
     Write(out);
@@ -35,7 +35,7 @@ class RandomWalkEnv : public Env {
     out.terminated[0] = out.truncated[0] = 0;
   }
 
-  void Step(const float* actions, std::mt19937_64& rng, const StepOutput& out) override {
+  void Step(const float* actions, std::mt19937_64& rng, const tasks::StepOutput& out) override {
     double distance = 0.0;
     bool out_of_bounds = false;
     for (size_t a = 0; a < x_.size(); ++a) {
@@ -57,7 +57,7 @@ class RandomWalkEnv : public Env {
   }
 
  private:
-  void Write(const StepOutput& out) const {
+  void Write(const tasks::StepOutput& out) const {
     for (size_t a = 0; a < x_.size(); ++a) {
       out.local_obs[2 * a] = static_cast<float>(x_[a]);
       out.local_obs[2 * a + 1] = static_cast<float>(a);
@@ -65,12 +65,12 @@ class RandomWalkEnv : public Env {
       out.option_started[a] = 0.0f;
     }
   }
-  EnvSpec spec_;
+  tasks::EnvSpec spec_;
   std::vector<double> x_;
   int steps_ = 0;
 };
 
-EnvFactory Factory() {
+tasks::EnvFactory Factory() {
   return [](int) { return std::make_unique<RandomWalkEnv>(); };
 }
 
@@ -112,7 +112,7 @@ TEST(VecEnvTest, EnvKIsSeededWithSeedPlusK) {
     std::vector<float> obs(4), state(2), terms(2), option(2);
     float reward;
     std::uint8_t term, trunc;
-    EpisodeMetrics metrics;
+    tasks::EpisodeMetrics metrics;
     reference.Reset(rng, {obs.data(), state.data(), terms.data(), &reward, &term, &trunc, option.data(), &metrics});
     EXPECT_EQ(env.batch().local_obs(2 * k, 0), obs[0]);
     EXPECT_EQ(env.batch().global_state(k, 1), state[1]);
@@ -161,11 +161,11 @@ TEST(VecEnvTest, TruncationAtTheHorizon) {
 // An env whose reset throws (as a scenario that cannot place its obstacles does).
 class ThrowingEnv : public RandomWalkEnv {
  public:
-  void Reset(std::mt19937_64&, const StepOutput&) override { throw InputError("cannot place obstacles"); }
+  void Reset(std::mt19937_64&, const tasks::StepOutput&) override { throw InputError("cannot place obstacles"); }
 };
 
 TEST(VecEnvTest, ExceptionsOnWorkerThreadsReachTheCaller) {
-  auto factory = [](int k) -> std::unique_ptr<Env> {
+  auto factory = [](int k) -> std::unique_ptr<tasks::Env> {
     if (k == 3) return std::make_unique<ThrowingEnv>();
     return std::make_unique<RandomWalkEnv>();
   };

@@ -159,7 +159,7 @@ TEST(HybridHeadTest, HeadSizesComeFromTheActionSpec) {
   torch::manual_seed(1);
   for (const auto& [options, continuous, termination] :
        std::vector<std::tuple<int, int, bool>>{{3, 1, true}, {0, 4, false}, {5, 0, false}, {0, 0, true}, {2, 7, true}}) {
-    EnvSpec spec;
+    tasks::EnvSpec spec;
     spec.task = "sizes";
     spec.local_obs_dim = 4;
     spec.global_state_dim = 6;
@@ -185,7 +185,7 @@ TEST(HybridHeadTest, HeadSizesComeFromTheActionSpec) {
       EXPECT_TRUE(((b == 0) | (b == 1)).all().item<bool>());
     }
   }
-  EnvSpec empty;
+  tasks::EnvSpec empty;
   empty.local_obs_dim = empty.global_state_dim = 2;
   EXPECT_THROW(Ppo(empty, NetworkOptions{}, PpoOptions{}, 1), InputError);
 }
@@ -251,11 +251,11 @@ TEST(RunningMeanStdTest, MatchesTheBatchStatisticsAfterSeveralUpdates) {
 }
 
 // ---------------------------------------------------------------------------------------------------- runtime
-EnvSpec ToySpec(int agents) { return ToyReachEnv(ToyReachOptions{.agents = agents, .options = true}).spec(); }
+tasks::EnvSpec ToySpec(int agents) { return ToyReachEnv(ToyReachOptions{.agents = agents, .options = true}).spec(); }
 
 // a learner with non-trivial weights and observation statistics.
 std::unique_ptr<Ppo> TrainedLookingLearner() {
-  const EnvSpec spec = ToySpec(7);
+  const tasks::EnvSpec spec = ToySpec(7);
   auto ppo = std::make_unique<Ppo>(spec, NetworkOptions{}.actor_output_gain(1.0), PpoOptions{}, 11);
   torch::manual_seed(3);
   ppo->obs_norm().Update(torch::randn({64, spec.local_obs_dim}) * 3.0 + 1.0);
@@ -308,7 +308,7 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
   const std::string path = ::testing::TempDir() + "/runtime_test.rmpp";
   PolicyFile file;
   file.weights = w;
-  file.task_yaml = ControllerTaskYaml(TaskConfigPath("reach-avoid"), "{options: {gain_range: 3}, scenario: "
+  file.task_yaml = ControllerTaskYaml(tasks::TaskConfigPath("reach-avoid"), "{options: {gain_range: 3}, scenario: "
                                       "{num_obstacles: 1}}", "per-joint-direct");
   file.provenance_yaml = "{seed: 4, commit: abc}";
   SavePolicyFile(file, path);
@@ -316,10 +316,10 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
   const PolicyWeights& back = loaded.weights;
   EXPECT_EQ(loaded.provenance_yaml, file.provenance_yaml);
   // the controller sections keep the training overrides, the scene goes back to the shipped task's
-  const TaskConfig task = PolicyTaskConfig(loaded, path);
+  const tasks::TaskConfig task = PolicyTaskConfig(loaded, path);
   EXPECT_EQ(task.options.gain_range, 3.0);
-  EXPECT_EQ(task.interface, InterfaceMode::kPerJointDirect);
-  EXPECT_EQ(task.scenario.crossing.num_obstacles, LoadShippedTaskConfig("reach-avoid").scenario.crossing.num_obstacles);
+  EXPECT_EQ(task.interface, tasks::InterfaceMode::kPerJointDirect);
+  EXPECT_EQ(task.scenario.crossing.num_obstacles, tasks::LoadShippedTaskConfig("reach-avoid").scenario.crossing.num_obstacles);
   EXPECT_NE(PolicyCard(loaded, path).find("gain_range: 3"), std::string::npos);
   EXPECT_EQ(back.hidden.size(), 3u);
   EXPECT_EQ(back.hidden[1].weight, w.hidden[1].weight);

@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
 
 namespace rmpmarl::rl {
@@ -119,13 +119,13 @@ task:
   const TrainConfig back = ParseTrainConfig(ToYaml(c), "round trip");
   EXPECT_EQ(FlattenTrainConfig(back), FlattenTrainConfig(c));
   EXPECT_EQ(back.task.mix_overrides_yaml, c.task.mix_overrides_yaml);
-  const EnvFactory factory = MakeTaskFactory(c.task);
+  const tasks::EnvFactory factory = MakeTaskFactory(c.task);
   for (int k = 0; k < 4; ++k) {
-    const std::unique_ptr<Env> env = factory(k);
-    const auto* m = dynamic_cast<const ManipulatorEnv*>(env.get());
+    const std::unique_ptr<tasks::Env> env = factory(k);
+    const auto* m = dynamic_cast<const tasks::ManipulatorEnv*>(env.get());
     ASSERT_NE(m, nullptr);
-    EXPECT_EQ(m->context().config().task, k % 2 == 1 ? TaskKind::kCluttered : TaskKind::kReachAvoid) << k;
-    EXPECT_EQ(m->context().config().interface, InterfaceMode::kPerJointRmp) << k;
+    EXPECT_EQ(m->context().config().task, k % 2 == 1 ? tasks::TaskKind::kCluttered : tasks::TaskKind::kReachAvoid) << k;
+    EXPECT_EQ(m->context().config().interface, tasks::InterfaceMode::kPerJointRmp) << k;
     EXPECT_EQ(m->context().config().observation.max_obstacles, 6) << k;
   }
   const TrainConfig plain = ParseTrainConfig("task: {name: toy-reach}\n", "inline");
@@ -343,7 +343,7 @@ TEST(LearningTest, HrlRmpOnReducedPretrain2LinkBeatsRandomOptions) {
   c.write_tensorboard = false;
   c.network = NetworkOptions{}.actor_hidden({64, 64}).critic_hidden({64, 64});
   c.ppo = PpoOptions{}.rollout_steps(100).epochs(4).minibatches(4).lr(1e-3);
-  const EnvFactory factory = MakeTaskFactory(c.task);
+  const tasks::EnvFactory factory = MakeTaskFactory(c.task);
   TrainConfig untrained = c;
   untrained.total_updates = 1;
   untrained.ppo.lr(1e-12);

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "rmpmarl/planning/rrt.h"
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/env.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/env.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
 namespace rmpmarl::experiments {
@@ -34,27 +34,27 @@ struct Method {
   std::string name;                                         ///< row label, e.g. "MARL-RMP"
   MethodKind kind = MethodKind::kRmpflow;
   std::string policy_path;                                  ///< kPolicy: the .rmpp file
-  rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
-  int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (rl::RmpOption order)
-  /// kFixedOption: the raw continuous parameters u of every joint (rl::RmpActionLayout order: target accel, target
+  tasks::InterfaceMode interface = tasks::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
+  int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (tasks::RmpOption order)
+  /// kFixedOption: the raw continuous parameters u of every joint (tasks::RmpActionLayout order: target accel, target
   /// metric, collision accel, collision metric); 0 = unit scales
-  std::array<float, rl::RmpActionLayout::kNumContinuous> fixed_parameters{};
+  std::array<float, tasks::RmpActionLayout::kNumContinuous> fixed_parameters{};
   /// kFixedOption, a hand rule on the look-ahead block of the local observation (needs observation.lookahead > 0):
   /// joint i acts with `parameters` while a moving obstacle is predicted to pass within `clearance` [m] of a capsule
   /// joint i moves, and with fixed_parameters otherwise. The rule compares the clipped feature (clearance / ℓ in
   /// [−1, 2]), so a clearance ≥ 2ℓ always fires; an obstacle moving away counts with its current clearance.
   struct ThreatGate {
     double clearance = 0.0;
-    std::array<float, rl::RmpActionLayout::kNumContinuous> parameters{};
+    std::array<float, tasks::RmpActionLayout::kNumContinuous> parameters{};
   };
   std::optional<ThreatGate> threat_gate;
   /// kRmpflow: changes to the robot's RMPflow config (configs/rmpflow) for this method (e.g. tuned gains); empty: none
   std::function<void(rmp::RmpflowOptions&)> adjust_rmpflow;
   planning::RrtOptions rrt;                                 ///< kRrt
   /// changes to the task this method is evaluated on (e.g. the basic-layer settings it was trained with); empty: none
-  std::function<void(rl::TaskConfig&)> adjust_task;
+  std::function<void(tasks::TaskConfig&)> adjust_task;
 
-  static Method Policy(std::string name, std::string path, rl::InterfaceMode interface);
+  static Method Policy(std::string name, std::string path, tasks::InterfaceMode interface);
   static Method FixedOption(std::string name, int option);
   static Method Rmpflow(std::string name = "RMPflow");
   static Method Rrt(std::string name = "RRT", planning::RrtOptions options = {});
@@ -72,7 +72,7 @@ struct EvalProtocol {
 struct EpisodeRecord {
   int index = 0;                   ///< episode index i
   std::uint64_t episode_seed = 0;  ///< EpisodeSeed(S, i)
-  rl::EpisodeMetrics metrics;      ///< the env's metrics (success, collisions, tracking, settled, clearance, …)
+  tasks::EpisodeMetrics metrics;      ///< the env's metrics (success, collisions, tracking, settled, clearance, …)
   int variant = 0;                 ///< the robot variant of the episode
   int setting = 0;                 ///< the scenario setting (line-crossing: index into the speeds)
   /// wall time per control step of the whole method: the policy's forward pass (learned methods) plus the env's
@@ -89,7 +89,7 @@ std::uint64_t EpisodeSeed(std::uint64_t eval_seed, int index);
 
 /// runs protocol.episodes episodes of `task` (its interface replaced by the method's) with `method`; the records
 /// are in episode order. Throws InputError when a policy does not fit the task.
-std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const rl::TaskConfig& task,
+std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::TaskConfig& task,
                                           const EvalProtocol& protocol);
 
 /// A method's episodes split by what a reference method did on the same episodes (matched by index): "free" are the

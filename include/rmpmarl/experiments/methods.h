@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "rmpmarl/experiments/evaluation.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::experiments {
 
@@ -36,12 +36,12 @@ struct MethodSpec {
   std::filesystem::path file;
   enum class Kind { kLearned, kBasicLayer, kRmpflow, kRrt } kind = Kind::kRmpflow;
   std::optional<TrainingRecipe> training;  ///< kLearned
-  rl::InterfaceMode interface = rl::InterfaceMode::kPerJointRmp;  ///< kLearned: from the training config
+  tasks::InterfaceMode interface = tasks::InterfaceMode::kPerJointRmp;  ///< kLearned: from the training config
   std::string shipped;            ///< kLearned: models/policies/<shipped> evaluated by `--shipped` ("" none)
   std::string layer;              ///< configs/layers/<layer>.yaml ("" the task's own layer)
   std::string layer_yaml;         ///< that file's overrides as a YAML flow mapping
   int option = 0;                 ///< kBasicLayer: 0 target, 1 collision, 2 target-then-collision
-  std::array<float, rl::RmpActionLayout::kNumContinuous> parameters{};  ///< kBasicLayer: raw u (0: unit scales)
+  std::array<float, tasks::RmpActionLayout::kNumContinuous> parameters{};  ///< kBasicLayer: raw u (0: unit scales)
   std::optional<Method::ThreatGate> gate;  ///< kBasicLayer: the hand rule on the look-ahead block
   std::string evaluate;           ///< kBasicLayer: evaluation task overrides after the layer ("" none)
   std::string rmpflow;            ///< kRmpflow: overrides of the robot's configs/rmpflow file ("" none)

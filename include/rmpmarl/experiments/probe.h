@@ -11,15 +11,15 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::experiments {
 
 struct ProbeOptions {
   int episodes = 10;
   std::uint64_t eval_seed = 7;    ///< episodes as EvaluateMethod's under this seed (7: the selection seed)
-  int parameter = rl::RmpActionLayout::kTargetAccelScale;  ///< which RMP parameter (RmpActionLayout index 1..4)
+  int parameter = tasks::RmpActionLayout::kTargetAccelScale;  ///< which RMP parameter (RmpActionLayout index 1..4)
   double threat_clearance = 0.0;  ///< [m] the substituted pass: predicted clearance ...
   double threat_time = 0.3;       ///< [s] ... time of closest approach (≤ observation.lookahead) ...
   double threat_speed = 2.8;      ///< [m/s] ... and the obstacle's speed
@@ -40,6 +40,6 @@ struct LookaheadProbe {
 
 /// \throws InputError when the task has no look-ahead block (observation.lookahead 0) or is not per-joint-rmp, the
 /// options are out of range, or the policy does not fit the task's observation and action sizes.
-LookaheadProbe ProbeLookahead(const std::string& policy_path, const rl::TaskConfig& task, const ProbeOptions& options);
+LookaheadProbe ProbeLookahead(const std::string& policy_path, const tasks::TaskConfig& task, const ProbeOptions& options);
 
 }  // namespace rmpmarl::experiments

@@ -22,10 +22,10 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/joint_agents.h"
+#include "rmpmarl/tasks/joint_agents.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/world.h"
 
@@ -48,7 +48,7 @@ class LearnedController final : public sim::AccelerationPolicy {
   /// agents of `config` (the controller file's task: interface, observation, options, basic layer, controller) with
   /// the actor `weights`, on `robot`. Throws InputError when the interface is not per-joint-rmp or the actor does not
   /// take this config's observation or give its actions (message: expected vs got).
-  LearnedController(const kinematics::Robot& robot, const TaskConfig& config, const PolicyWeights& weights,
+  LearnedController(const kinematics::Robot& robot, const tasks::TaskConfig& config, const PolicyWeights& weights,
                     LearnedControllerOptions options = {});
   ~LearnedController() override;
 
@@ -66,7 +66,7 @@ class LearnedController final : public sim::AccelerationPolicy {
   /// resynchronisation, control rate). Drive the controller with these.
   sim::ControllerOptions controller_options() const;
   /// the agents (their observations, options, warnings) after the last control step.
-  const JointAgents& agents() const { return agents_; }
+  const tasks::JointAgents& agents() const { return agents_; }
   /// the local observations of the last control step (nq × obs_dim, row-major) and the actions taken on them.
   const std::vector<float>& observations() const { return obs_; }
   const std::vector<float>& actions() const { return actions_; }
@@ -81,7 +81,7 @@ class LearnedController final : public sim::AccelerationPolicy {
 
   LearnedControllerOptions options_;
   const kinematics::Robot& robot_;
-  JointAgents agents_;
+  tasks::JointAgents agents_;
   std::unique_ptr<sim::AccelerationPolicy> layer_;
   PolicyRuntime runtime_;
   int obs_dim_ = 0;

@@ -20,7 +20,7 @@
 #include <string>
 
 #include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::rl {
 
@@ -54,7 +54,7 @@ PolicyWeights LoadPolicyFileV1(const std::string& path);
 
 /// the file's task config: ParseTaskConfig(task_yaml) with messages naming `path`. Throws InputError when the file
 /// carries no task, naming the flag that supplies one.
-TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path);
+tasks::TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path);
 
 /// Where a controller runs besides its own task: another robot, scene or obstacle speed (empty / unset: the file's).
 struct TaskMove {
@@ -74,7 +74,7 @@ struct TaskMove {
 /// observation, basic layer, control rate and physics timestep) on the scene, reward and randomisation of the
 /// shipped task `move.scene` (the file's own task when empty), with `move.robot` and `move.obstacle_speed` applied.
 /// Throws InputError naming `path` and the flag (--scenario, --obstacle-speed) for what cannot fit.
-TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, const TaskMove& move);
+tasks::TaskConfig PolicyTaskConfig(const PolicyFile& file, const std::string& path, const TaskMove& move);
 
 /// the card of a controller file as YAML text: its name, format, network, interface sizes, the task it runs on and
 /// its provenance. Generated, never read back.

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 
 namespace rmpmarl::rl {
 

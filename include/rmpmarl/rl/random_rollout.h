@@ -4,14 +4,14 @@
 #include <cstdint>
 #include <random>
 
-#include "rmpmarl/rl/env.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/env.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::rl {
 
 /// uniformly random actions for every agent of one env: option indices, continuous values a bit beyond [-1, 1] (the
 /// env clips), termination flags set with probability 0.2.
-void RandomActions(const EnvSpec& spec, std::mt19937_64& rng, float* actions);
+void RandomActions(const tasks::EnvSpec& spec, std::mt19937_64& rng, float* actions);
 
 /// How long and on what a random rollout runs.
 struct RandomRolloutOptions {
@@ -29,6 +29,6 @@ struct RandomRolloutStats {
 
 /// steps `config`'s task with random actions; every value of every observation, global state, reward term, reward
 /// and final observation after every step counts towards `nonfinite`.
-RandomRolloutStats RandomRollout(const TaskConfig& config, const RandomRolloutOptions& options);
+RandomRolloutStats RandomRollout(const tasks::TaskConfig& config, const RandomRolloutOptions& options);
 
 }  // namespace rmpmarl::rl

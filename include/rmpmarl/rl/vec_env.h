@@ -8,12 +8,10 @@
 #include <memory>
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 
 namespace rmpmarl::rl {
 
-/// makes env number `env_id` (called once per env at construction, on the constructing thread).
-using EnvFactory = std::function<std::unique_ptr<Env>(int env_id)>;
 
 struct VecEnvOptions {
   int num_envs = 1;
@@ -37,18 +35,18 @@ struct Batch {
   /// truncated episodes; rows of envs that did not end are unspecified.
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> final_global_state;
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> final_local_obs;  ///< likewise, (N·A) × obs
-  std::vector<EpisodeMetrics> metrics;  ///< N, valid where terminated or truncated this step
+  std::vector<tasks::EpisodeMetrics> metrics;  ///< N, valid where terminated or truncated this step
 };
 
 class VecEnv {
  public:
   /// builds num_envs envs with `factory`; all must share one EnvSpec layout (checked). Throws InputError.
-  VecEnv(const EnvFactory& factory, const VecEnvOptions& options);
+  VecEnv(const tasks::EnvFactory& factory, const VecEnvOptions& options);
   ~VecEnv();
   VecEnv(const VecEnv&) = delete;
   VecEnv& operator=(const VecEnv&) = delete;
 
-  const EnvSpec& spec() const;
+  const tasks::EnvSpec& spec() const;
   int num_envs() const;
   /// resets every env (RNGs re-seeded with seed + k) and fills the batch with first observations.
   void Reset();

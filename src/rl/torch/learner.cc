@@ -100,7 +100,7 @@ HeadOutputs ToFloat(HeadOutputs h) {
 }  // namespace
 
 // ------------------------------------------------------------------------------------------------- networks
-HeadLayout HeadLayout::From(const ActionSpec& spec) {
+HeadLayout HeadLayout::From(const tasks::ActionSpec& spec) {
   if (spec.num_options < 0 || spec.num_continuous < 0) {
     throw InputError(fmt::format("action spec: expected non-negative sizes, got {} options and {} continuous",
                                  spec.num_options, spec.num_continuous));
@@ -252,7 +252,7 @@ SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, 
 }
 
 PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
-                          float obs_clip, const ActionSpec& spec) {
+                          float obs_clip, const tasks::ActionSpec& spec) {
   PolicyWeights w;
   const HeadLayout& layout = actor->layout();
   w.obs_dim = actor->obs_dim();
@@ -437,7 +437,7 @@ LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {
 }
 
 // ------------------------------------------------------------------------------------------------- learner
-Ppo::Ppo(const EnvSpec& spec, const NetworkOptions& network, const PpoOptions& options, std::uint64_t seed)
+Ppo::Ppo(const tasks::EnvSpec& spec, const NetworkOptions& network, const PpoOptions& options, std::uint64_t seed)
     : spec_(spec),
       network_(network),
       options_(options),

@@ -8,8 +8,8 @@
 #include <limits>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/manipulator_env.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
@@ -50,7 +50,7 @@ ToyReachEnv::ToyReachEnv(const ToyReachOptions& options) : options_(options) {
   option_.assign(A, -1);
 }
 
-void ToyReachEnv::Write(const StepOutput& out) const {
+void ToyReachEnv::Write(const tasks::StepOutput& out) const {
   const int A = options_.agents, d = spec_.local_obs_dim;
   for (int a = 0; a < A; ++a) {
     float* o = out.local_obs + a * d;
@@ -64,7 +64,7 @@ void ToyReachEnv::Write(const StepOutput& out) const {
   }
 }
 
-void ToyReachEnv::Reset(std::mt19937_64& rng, const StepOutput& out) {
+void ToyReachEnv::Reset(std::mt19937_64& rng, const tasks::StepOutput& out) {
   std::uniform_real_distribution<double> start(-1.0, 1.0), target(-0.8, 0.8);
   for (int a = 0; a < options_.agents; ++a) {
     x_[a] = start(rng);
@@ -79,7 +79,7 @@ void ToyReachEnv::Reset(std::mt19937_64& rng, const StepOutput& out) {
   out.terminated[0] = out.truncated[0] = 0;
 }
 
-void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const StepOutput& out) {
+void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const tasks::StepOutput& out) {
   const int A = options_.agents, as = spec_.action.size();
   bool invalid = false;
   for (int i = 0; i < A * as; ++i) invalid |= !std::isfinite(actions[i]);
@@ -117,7 +117,7 @@ void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const Ste
     out.reward[0] = out.reward_terms[0] = out.reward_terms[1] = 0.0f;
     out.terminated[0] = 1;
     out.truncated[0] = 0;
-    *out.metrics = EpisodeMetrics{};
+    *out.metrics = tasks::EpisodeMetrics{};
     out.metrics->invalid = true;
     out.metrics->length = steps_;
     return;
@@ -132,8 +132,8 @@ void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const Ste
   if (out.terminated[0] || out.truncated[0]) {
     bool success = !out_of_bounds;
     for (int a = 0; a < A; ++a) success &= std::abs(g_[a] - x_[a]) < options_.tolerance;
-    EpisodeMetrics& m = *out.metrics;
-    m = EpisodeMetrics{};
+    tasks::EpisodeMetrics& m = *out.metrics;
+    m = tasks::EpisodeMetrics{};
     m.success = success;
     m.length = steps_;
     m.mean_tracking_error_mm = 1000.0 * error_sum_ / steps_;
@@ -178,28 +178,28 @@ ToyReachOptions ToyOptions(const TaskSelection& task) {
 }
 
 // the manipulator task config: the task file (shipped or task.config), the overrides merged in, the interface.
-TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
-  const std::filesystem::path path = task.config.empty() ? TaskConfigPath(task.name) : std::filesystem::path(task.config);
-  TaskConfig config;
+tasks::TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
+  const std::filesystem::path path = task.config.empty() ? tasks::TaskConfigPath(task.name) : std::filesystem::path(task.config);
+  tasks::TaskConfig config;
   if (task.overrides_yaml.empty()) {
-    config = LoadTaskConfig(path);
+    config = tasks::LoadTaskConfig(path);
   } else {
     // the task loader merges the overrides itself (mappings key by key, non-scalar keys refused)
     try {
-      config = LoadTaskConfig(path, task.overrides_yaml);
+      config = tasks::LoadTaskConfig(path, task.overrides_yaml);
     } catch (const InputError& e) {
       throw InputError(fmt::format("task {} ({} with the training config's task.overrides): {}", task.name,
                                    path.string(), e.what()));
     }
   }
-  if (TaskKindName(config.task) != task.name) {
-    throw InputError(fmt::format("task config {} is for task {}, not {}", path.string(), TaskKindName(config.task),
+  if (tasks::TaskKindName(config.task) != task.name) {
+    throw InputError(fmt::format("task config {} is for task {}, not {}", path.string(), tasks::TaskKindName(config.task),
                                  task.name));
   }
   if (!task.interface.empty()) {
     bool found = false;
-    for (InterfaceMode mode : {InterfaceMode::kPerJointRmp, InterfaceMode::kDirect, InterfaceMode::kPerJointDirect}) {
-      if (InterfaceModeName(mode) == task.interface) {
+    for (tasks::InterfaceMode mode : {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect}) {
+      if (tasks::InterfaceModeName(mode) == task.interface) {
         config.interface = mode;
         found = true;
       }
@@ -215,13 +215,13 @@ TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
 }  // namespace
 
 std::vector<std::string> KnownTasks() {
-  std::vector<std::string> names = TaskNames();
+  std::vector<std::string> names = tasks::TaskNames();
   names.push_back("toy-reach");
   return names;
 }
 
-EnvFactory MakeTaskFactory(const TaskSelection& task) {
-  const std::vector<std::string> manipulator = TaskNames();
+tasks::EnvFactory MakeTaskFactory(const TaskSelection& task) {
+  const std::vector<std::string> manipulator = tasks::TaskNames();
   auto is_manipulator = [&](const std::string& name) {
     return std::find(manipulator.begin(), manipulator.end(), name) != manipulator.end();
   };
@@ -237,8 +237,8 @@ EnvFactory MakeTaskFactory(const TaskSelection& task) {
     mix.name = task.mix_name;
     mix.interface = task.interface;
     mix.overrides_yaml = task.mix_overrides_yaml;
-    const EnvFactory first = MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(task)));
-    const EnvFactory second = MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(mix)));
+    const tasks::EnvFactory first = tasks::MakeManipulatorEnvFactory(tasks::MakeTaskContext(ManipulatorTaskConfig(task)));
+    const tasks::EnvFactory second = tasks::MakeManipulatorEnvFactory(tasks::MakeTaskContext(ManipulatorTaskConfig(mix)));
     const double f = task.mix_fraction;
     // env k runs the mix task when the running share floor(k f) steps up at k: spread evenly over the envs
     return [first, second, f](int k) {
@@ -252,7 +252,7 @@ EnvFactory MakeTaskFactory(const TaskSelection& task) {
   }
   if (is_manipulator(task.name)) {
     // the context (robot variants, one WorldModel each) is built once and shared by every env of every segment
-    return MakeManipulatorEnvFactory(MakeTaskContext(ManipulatorTaskConfig(task)));
+    return tasks::MakeManipulatorEnvFactory(tasks::MakeTaskContext(ManipulatorTaskConfig(task)));
   }
   std::string known;
   for (const std::string& name : KnownTasks()) known += (known.empty() ? "" : ", ") + name;

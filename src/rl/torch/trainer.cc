@@ -23,7 +23,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/tensor_archive.h"
 #include "rmpmarl/rl/torch/tensorboard.h"
@@ -46,7 +46,7 @@ bool IsRunLocalKey(const std::string& key) {
          key.rfind("logging.", 0) == 0;
 }
 
-std::string SpecFingerprint(const EnvSpec& s) {
+std::string SpecFingerprint(const tasks::EnvSpec& s) {
   return fmt::format("task={} agents={} local_obs={} global_state={} options={} continuous={} termination={} "
                      "reward_terms={}", s.task, s.num_agents, s.local_obs_dim, s.global_state_dim,
                      s.action.num_options, s.action.num_continuous, s.action.has_termination, s.reward_terms.size());
@@ -139,8 +139,8 @@ void CheckSpecValue(const std::string& key, std::int64_t value, std::int64_t lo,
 }
 
 // the env layout stored in a checkpoint (enough to rebuild the networks).
-EnvSpec ReadSpec(const TensorArchive& archive) {
-  EnvSpec s;
+tasks::EnvSpec ReadSpec(const TensorArchive& archive) {
+  tasks::EnvSpec s;
   auto read = [&](const char* key, std::int64_t lo, std::int64_t hi) {
     const std::int64_t v = archive.Int(key);
     CheckSpecValue(key, v, lo, hi);
@@ -162,7 +162,7 @@ EnvSpec ReadSpec(const TensorArchive& archive) {
   return s;
 }
 
-void WriteSpec(TensorArchive& archive, const EnvSpec& s) {
+void WriteSpec(TensorArchive& archive, const tasks::EnvSpec& s) {
   archive.Put("spec/task", s.task);
   archive.Put("spec/num_agents", std::int64_t{s.num_agents});
   archive.Put("spec/local_obs_dim", std::int64_t{s.local_obs_dim});
@@ -178,7 +178,7 @@ void WriteSpec(TensorArchive& archive, const EnvSpec& s) {
 // Before networks are built from a stored config and layout: their weight matrices alone (consecutive layer sizes,
 // float32) must fit in the archive that holds them, so a corrupt config cannot make the reader allocate more than
 // the file's size in networks.
-void CheckNetworkFitsArchive(const TrainConfig& config, const EnvSpec& spec, std::size_t archive_bytes,
+void CheckNetworkFitsArchive(const TrainConfig& config, const tasks::EnvSpec& spec, std::size_t archive_bytes,
                              const std::string& path) {
   auto weights = [](std::int64_t in, const std::vector<int>& hidden) {
     double n = 0.0;
@@ -198,7 +198,7 @@ void CheckNetworkFitsArchive(const TrainConfig& config, const EnvSpec& spec, std
 
 struct LoadedCheckpoint {
   TrainConfig config;
-  EnvSpec spec;
+  tasks::EnvSpec spec;
   std::unique_ptr<Ppo> ppo;
   int update = 0;
   std::int64_t env_steps = 0;
@@ -228,7 +228,7 @@ struct EpisodeStats {
   double return_sum = 0.0, track_sum = 0.0, track_sq = 0.0, final_track_sum = 0.0, clearance_sum = 0.0;
   double length_sum = 0.0, settled_sum = 0.0;
   int settled_count = 0;
-  void Add(const EpisodeMetrics& m) {
+  void Add(const tasks::EpisodeMetrics& m) {
     ++episodes;
     if (std::isfinite(m.settled_tracking_error_mm)) {
       settled_sum += m.settled_tracking_error_mm;
@@ -274,15 +274,15 @@ void SetTorchThreads(int threads) {
 // ------------------------------------------------------------------------------------------------- Trainer
 struct Trainer::Impl {
   TrainConfig config;
-  EnvFactory factory;
-  EnvSpec spec;
+  tasks::EnvFactory factory;
+  tasks::EnvSpec spec;
   std::unique_ptr<VecEnv> env;
   std::unique_ptr<Ppo> ppo;
   int update = 0;
   std::int64_t env_steps = 0;
   int env_built_for = 0;   // the segment-start update the current VecEnv was seeded for
   int envs_reset_at = -1;  // update at which the current envs were seeded and reset
-  std::deque<EpisodeMetrics> recent;  // the last stats_window finished episodes (checkpointed)
+  std::deque<tasks::EpisodeMetrics> recent;  // the last stats_window finished episodes (checkpointed)
 
   // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
   void ResetEnvs(int u) {
@@ -298,7 +298,7 @@ struct Trainer::Impl {
   UpdateSummary RunUpdate();
 };
 
-Trainer::Trainer(const TrainConfig& config, EnvFactory factory) : impl_(std::make_unique<Impl>()) {
+Trainer::Trainer(const TrainConfig& config, tasks::EnvFactory factory) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.config = config;
   m.factory = std::move(factory);
@@ -326,7 +326,7 @@ bool Trainer::finished() const { return impl_->update >= impl_->config.total_upd
 int Trainer::update() const { return impl_->update; }
 std::int64_t Trainer::env_steps() const { return impl_->env_steps; }
 const TrainConfig& Trainer::config() const { return impl_->config; }
-const EnvSpec& Trainer::spec() const { return impl_->spec; }
+const tasks::EnvSpec& Trainer::spec() const { return impl_->spec; }
 
 UpdateSummary Trainer::RunUpdate() { return impl_->RunUpdate(); }
 
@@ -417,7 +417,7 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   env_steps += static_cast<std::int64_t>(T) * N;
 
   EpisodeStats episodes;
-  for (const EpisodeMetrics& m : recent) episodes.Add(m);
+  for (const tasks::EpisodeMetrics& m : recent) episodes.Add(m);
   UpdateSummary s;
   s.update = update;
   s.env_steps = env_steps;
@@ -452,10 +452,10 @@ UpdateSummary Trainer::Impl::RunUpdate() {
 namespace {
 
 // the recent-episode window as a tensor (8 numbers per episode)
-torch::Tensor RecentEpisodesTensor(const std::deque<EpisodeMetrics>& recent) {
+torch::Tensor RecentEpisodesTensor(const std::deque<tasks::EpisodeMetrics>& recent) {
   torch::Tensor t = torch::zeros({static_cast<int64_t>(recent.size()), 8}, torch::kDouble);
   for (size_t i = 0; i < recent.size(); ++i) {
-    const EpisodeMetrics& e = recent[i];
+    const tasks::EpisodeMetrics& e = recent[i];
     const double row[8] = {double(e.success), double(e.invalid), double(e.collisions), e.mean_tracking_error_mm,
                            e.final_tracking_error_mm, e.min_clearance_m, double(e.length), e.episode_return};
     for (int j = 0; j < 8; ++j) t[i][j] = row[j];
@@ -464,7 +464,7 @@ torch::Tensor RecentEpisodesTensor(const std::deque<EpisodeMetrics>& recent) {
 }
 
 // the payload of a format-2 checkpoint
-std::string CheckpointArchiveBytes(const TrainConfig& config, const EnvSpec& spec, std::int64_t update,
+std::string CheckpointArchiveBytes(const TrainConfig& config, const tasks::EnvSpec& spec, std::int64_t update,
                                    std::int64_t env_steps, const torch::Tensor& recent, const Ppo& ppo) {
   TensorArchive archive;
   archive.Put("meta/format", std::string("rmpmarl-checkpoint"));
@@ -519,7 +519,7 @@ void Trainer::Resume(const std::string& path) {
     const torch::Tensor r = recent.contiguous();
     for (int64_t i = 0; i < r.size(0); ++i) {
       const double* row = r.data_ptr<double>() + i * 8;
-      EpisodeMetrics e;
+      tasks::EpisodeMetrics e;
       e.success = row[0] != 0.0;
       e.invalid = row[1] != 0.0;
       e.collisions = static_cast<int>(row[2]);
@@ -546,10 +546,10 @@ namespace {
 PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::int64_t env_steps) {
   PolicyFile file;
   file.weights = ppo.Export();
-  const std::vector<std::string> manipulator = TaskNames();
+  const std::vector<std::string> manipulator = tasks::TaskNames();
   if (std::find(manipulator.begin(), manipulator.end(), config.task.name) != manipulator.end()) {
     const std::filesystem::path task_file =
-        config.task.config.empty() ? TaskConfigPath(config.task.name) : std::filesystem::path(config.task.config);
+        config.task.config.empty() ? tasks::TaskConfigPath(config.task.name) : std::filesystem::path(config.task.config);
     file.task_yaml = ControllerTaskYaml(task_file, config.task.overrides_yaml, config.task.interface);
   }
   YAML::Emitter out;
@@ -627,7 +627,7 @@ void UpgradeCheckpoint(const std::string& path, const std::string& out_path) {
       return v.toInt();
     };
     const TrainConfig config = ParseTrainConfig(string("meta/config"), path + " (stored config)");
-    EnvSpec spec;
+    tasks::EnvSpec spec;
     spec.task = string("spec/task");
     spec.num_agents = static_cast<int>(integer("spec/num_agents"));
     spec.local_obs_dim = static_cast<int>(integer("spec/local_obs_dim"));
@@ -712,7 +712,7 @@ void TruncateCsv(const std::string& path, int update) {
 
 }  // namespace
 
-UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, const RunOptions& options) {
+UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& factory, const RunOptions& options) {
   namespace fs = std::filesystem;
   const bool files = !config.output_dir.empty();
   const std::string out = config.output_dir;
@@ -819,13 +819,13 @@ UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, 
 }
 
 // ------------------------------------------------------------------------------------------------- Evaluate
-EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options) {
+EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& factory, const EvalOptions& options) {
   if (options.episodes < 1) throw InputError(fmt::format("episodes: expected >= 1, got {}", options.episodes));
   const std::string head = ReadFile(policy_path, "policy").substr(0, 8);
   const bool is_checkpoint = head == std::string(kCheckpointMagic, 8);
   const int N = std::max(1, std::min(options.num_envs, options.episodes));
   VecEnv env(factory, VecEnvOptions{N, options.seed, options.env_threads});
-  const EnvSpec& spec = env.spec();
+  const tasks::EnvSpec& spec = env.spec();
   const int A = spec.num_agents, d = spec.local_obs_dim, S = spec.global_state_dim, as = spec.action.size();
 
   std::function<void(const Batch&, float*)> act;

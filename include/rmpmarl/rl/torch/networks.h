@@ -14,7 +14,7 @@
 
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/rl/torch/ppo_options.h"
 
@@ -26,7 +26,7 @@ struct HeadLayout {
   int num_continuous = 0;
   bool has_termination = false;
 
-  static HeadLayout From(const ActionSpec& spec);
+  static HeadLayout From(const tasks::ActionSpec& spec);
   /// network outputs: logits, means, termination logit.
   int outputs() const { return num_options + num_continuous + (has_termination ? 1 : 0); }
   /// floats of one flat action (env.h layout).
@@ -130,6 +130,6 @@ SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, 
 
 /// the actor as plain arrays for the torch-free runtime (observation normaliser and action bounds supplied).
 PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
-                          float obs_clip, const ActionSpec& spec);
+                          float obs_clip, const tasks::ActionSpec& spec);
 
 }  // namespace rmpmarl::rl

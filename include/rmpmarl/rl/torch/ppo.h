@@ -14,7 +14,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 #include "rmpmarl/rl/torch/networks.h"
 #include "rmpmarl/rl/torch/ppo_options.h"
 
@@ -150,7 +150,7 @@ struct ActResult {
 class Ppo {
  public:
   /// builds fresh networks for `spec` (seeded: the same seed gives the same initial parameters).
-  Ppo(const EnvSpec& spec, const NetworkOptions& network, const PpoOptions& options, std::uint64_t seed);
+  Ppo(const tasks::EnvSpec& spec, const NetworkOptions& network, const PpoOptions& options, std::uint64_t seed);
 
   /// normalises (optionally folding the batch into the normaliser statistics first), then samples actions
   /// (deterministic: modes) and evaluates the critic. local_obs: (N·A) × obs_dim, global_state: N × state_dim.
@@ -174,7 +174,7 @@ class Ppo {
   /// on untrusted files (tensor_archive.h)
   void Load(torch::serialize::InputArchive& archive);
 
-  const EnvSpec& spec() const { return spec_; }
+  const tasks::EnvSpec& spec() const { return spec_; }
   const PpoOptions& options() const { return options_; }
   const NetworkOptions& network() const { return network_; }
   Actor& actor() { return actor_; }
@@ -188,7 +188,7 @@ class Ppo {
   PolicyWeights Export();
 
  private:
-  EnvSpec spec_;
+  tasks::EnvSpec spec_;
   NetworkOptions network_;
   PpoOptions options_;
   HeadLayout layout_;

@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 
 namespace rmpmarl::rl {
 
@@ -24,17 +24,17 @@ struct ToyReachOptions {
   double tolerance = 0.05;
 };
 
-class ToyReachEnv : public Env {
+class ToyReachEnv : public tasks::Env {
  public:
   explicit ToyReachEnv(const ToyReachOptions& options);
-  const EnvSpec& spec() const override { return spec_; }
-  void Reset(std::mt19937_64& rng, const StepOutput& out) override;
-  void Step(const float* actions, std::mt19937_64& rng, const StepOutput& out) override;
+  const tasks::EnvSpec& spec() const override { return spec_; }
+  void Reset(std::mt19937_64& rng, const tasks::StepOutput& out) override;
+  void Step(const float* actions, std::mt19937_64& rng, const tasks::StepOutput& out) override;
 
  private:
-  void Write(const StepOutput& out) const;
+  void Write(const tasks::StepOutput& out) const;
   ToyReachOptions options_;
-  EnvSpec spec_;
+  tasks::EnvSpec spec_;
   std::vector<double> x_, g_;
   std::vector<int> option_;  // running option per agent (-1: none)
   int steps_ = 0;

@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
+#include "rmpmarl/tasks/env.h"
 #include "rmpmarl/rl/torch/ppo_options.h"
 #include "rmpmarl/rl/vec_env.h"
 
@@ -67,7 +67,7 @@ std::string ToYaml(const TrainConfig& config);
 
 /// makes the env factory of a task: the built-in "toy-reach" (any number of agents; interface "options" or
 /// "direct") and the manipulator tasks. Throws InputError for an unknown task, listing the known ones.
-EnvFactory MakeTaskFactory(const TaskSelection& task);
+tasks::EnvFactory MakeTaskFactory(const TaskSelection& task);
 std::vector<std::string> KnownTasks();
 
 /// One update's numbers. Episode metrics are over the last `logging.window` episodes that ended (across updates;
@@ -94,7 +94,7 @@ struct UpdateSummary {
 class Trainer {
  public:
   /// builds fresh networks (initialised from config.init_actor_from when set) and the envs. Throws InputError.
-  Trainer(const TrainConfig& config, EnvFactory factory);
+  Trainer(const TrainConfig& config, tasks::EnvFactory factory);
   ~Trainer();
   Trainer(const Trainer&) = delete;
   Trainer& operator=(const Trainer&) = delete;
@@ -108,7 +108,7 @@ class Trainer {
   int update() const;
   std::int64_t env_steps() const;
   const TrainConfig& config() const;
-  const EnvSpec& spec() const;
+  const tasks::EnvSpec& spec() const;
 
   /// writes the full state (networks, optimiser, normalisers, RNG states, counters, config) atomically.
   void SaveCheckpoint(const std::string& path) const;
@@ -132,7 +132,7 @@ struct RunOptions {
 /// trains `config` to total_updates with progress output, CSV/TensorBoard metrics, periodic and final checkpoints
 /// (<output_dir>/checkpoint.ckpt, final.ckpt) and the exported policy (<output_dir>/policy.rmpp). Returns the last
 /// summary.
-UpdateSummary RunTraining(const TrainConfig& config, const EnvFactory& factory, const RunOptions& options = {});
+UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& factory, const RunOptions& options = {});
 
 /// the config stored in a checkpoint (throws InputError for a corrupt file).
 TrainConfig ReadCheckpointConfig(const std::string& checkpoint_path);
@@ -161,7 +161,7 @@ struct EvalResult {
 
 /// runs `options.episodes` episodes (env k runs its share, so short failing episodes are not over-counted) with
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
-EvalResult Evaluate(const std::string& policy_path, const EnvFactory& factory, const EvalOptions& options);
+EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& factory, const EvalOptions& options);
 
 /// rewrites a format-1 checkpoint (a torch::serialize archive) as format 2 (TensorArchive) at
 /// out_path (may equal path). Format 1 is read through TorchScript's importer, which is not safe on untrusted files

@@ -4,13 +4,15 @@
 /// with preallocated batch buffers. Multi-agent aware: each env has `num_agents` agents with same-sized local
 /// observations and actions (one per joint for the per-joint agents; 1 for single-agent baselines) and one global
 /// state for a centralised critic.
+#include <functional>
+#include <memory>
 #include <cstdint>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// Layout of one agent's action as a flat float vector: [option?, continuous..., terminate?].
 ///  - option: a categorical choice in {0, …, num_options − 1}, sent as a float holding the index (absent when
@@ -125,4 +127,7 @@ class Env {
   virtual void Step(const float* actions, std::mt19937_64& rng, const StepOutput& out) = 0;
 };
 
-}  // namespace rmpmarl::rl
+/// makes env number `env_id` (called once per env at construction, on the constructing thread).
+using EnvFactory = std::function<std::unique_ptr<Env>(int env_id)>;
+
+}  // namespace rmpmarl::tasks

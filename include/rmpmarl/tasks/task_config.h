@@ -16,7 +16,7 @@
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/scenario.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// How the agents act (the three learners of the paper's comparison).
 enum class InterfaceMode {
@@ -280,4 +280,4 @@ bool IsUrdfPath(const std::string& robot);
 
 void ValidateTaskConfig(const TaskConfig& config, std::string_view where);
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -1,6 +1,6 @@
 // The manipulator environment: layouts, observation features and rewards against hand-computed values, options,
 // domain randomisation and the variant pool, determinism, invalid input.
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/common/error.h"
 
 #include <gtest/gtest.h>
@@ -9,19 +9,19 @@
 #include <functional>
 #include <set>
 
-#include "rl_test_util.h"
+#include "../rl/rl_test_util.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/math/geometry.h"
-#include "rmpmarl/rl/pretrain_scenario.h"
+#include "rmpmarl/tasks/pretrain_scenario.h"
 #include "rmpmarl/rl/vec_env.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
-using testing::Buffers;
-using testing::IndexOf;
-using testing::RandomActions;
-using testing::SmallConfig;
+using rl::testing::Buffers;
+using rl::testing::IndexOf;
+using rl::testing::RandomActions;
+using rl::testing::SmallConfig;
 
 // ---------------------------------------------------------------------------------------------- layouts
 
@@ -823,7 +823,7 @@ TEST(ManipulatorEnvTest, ResetsReuseTheVariantPool) {
   auto context = MakeTaskContext(c);
   EXPECT_EQ(WorldModelsBuilt() - before_context, 4);  // K models, once
   const long before = WorldModelsBuilt();
-  VecEnv envs(MakeManipulatorEnvFactory(context), {.num_envs = 3, .seed = 11, .num_threads = 1});
+  rl::VecEnv envs(MakeManipulatorEnvFactory(context), {.num_envs = 3, .seed = 11, .num_threads = 1});
   std::vector<std::unique_ptr<ManipulatorEnv>> direct;
   for (int k = 0; k < 2; ++k) direct.push_back(std::make_unique<ManipulatorEnv>(context));
   std::set<const sim::WorldModel*> used;
@@ -1008,8 +1008,8 @@ TEST(ManipulatorEnvTest, VecEnvResultsDoNotDependOnTheThreadCount) {
   TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "ur5e", 3);
   c.episode.max_steps = 40;
   auto context = MakeTaskContext(c);
-  VecEnv one(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 1});
-  VecEnv two(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 2});
+  rl::VecEnv one(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 1});
+  rl::VecEnv two(MakeManipulatorEnvFactory(context), {.num_envs = 4, .seed = 3, .num_threads = 2});
   one.Reset();
   two.Reset();
   const EnvSpec& s = one.spec();
@@ -1075,4 +1075,4 @@ TEST(ManipulatorEnvTest, InvalidActionsEndTheEpisodeWithoutNaN) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

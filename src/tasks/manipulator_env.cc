@@ -1,5 +1,5 @@
 // The manipulator environment: variant pool, scenario, per-joint basic layer or direct Δq, observations, eq (14).
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 
 #include <fmt/format.h>
 
@@ -11,11 +11,11 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot_setup.h"
-#include "rmpmarl/rl/pretrain_scenario.h"
+#include "rmpmarl/tasks/pretrain_scenario.h"
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -600,4 +600,4 @@ EnvFactory MakeManipulatorEnvFactory(std::shared_ptr<const TaskContext> context)
   return [context](int /*env_id*/) -> std::unique_ptr<Env> { return std::make_unique<ManipulatorEnv>(context); };
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -1,5 +1,5 @@
 // The pre-training scenario: moving target, one cube beside (or on) its path.
-#include "rmpmarl/rl/pretrain_scenario.h"
+#include "rmpmarl/tasks/pretrain_scenario.h"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 sim::SceneSpec PretrainScene(const PretrainScenarioOptions& o) {
@@ -153,4 +153,4 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
   if (o.obstacle_out_of_reach) cube.p_start.z() += 10.0;  // after every draw: the episode is otherwise the same
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

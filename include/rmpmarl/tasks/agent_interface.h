@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/rl/env.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/env.h"
+#include "rmpmarl/tasks/task_config.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// The discrete options of a per-joint RMP agent (paper III.C).
 enum class RmpOption {
@@ -169,4 +169,4 @@ struct GlobalStateLayout {
 /// the names of the env's reward terms: joint_reach, distance, time, collision.
 std::vector<std::string> RewardTermNames();
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

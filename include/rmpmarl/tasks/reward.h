@@ -4,9 +4,9 @@
 #include <Eigen/Core>
 #include <limits>
 
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// The four logged terms of one step (their sum is the reward).
 struct RewardTerms {
@@ -57,4 +57,4 @@ class ReachCycleTracker {
   double previous_ = std::numeric_limits<double>::infinity();
 };
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -2,8 +2,8 @@
 /// The manipulator environment (docs/environments.md): ONE Env implementation parameterised by robot, scenario and
 /// interface mode; the paper's tasks (pretrain-2link, reach-avoid, line-crossing, cluttered) are TaskConfigs.
 ///
-///   auto context = rl::MakeTaskContext(rl::LoadShippedTaskConfig("reach-avoid"));  // builds the variant pool once
-///   rl::VecEnv envs(rl::MakeManipulatorEnvFactory(context), {.num_envs = 64, .seed = 1, .num_threads = 2});
+///   auto context = tasks::MakeTaskContext(tasks::LoadShippedTaskConfig("reach-avoid"));  // builds the variant pool once
+///   rl::VecEnv envs(tasks::MakeManipulatorEnvFactory(context), {.num_envs = 64, .seed = 1, .num_threads = 2});
 ///
 /// A TaskContext is built once per config and shared (read-only) by every env: it owns the pool of K link-length
 /// variants, each compiled into one sim::WorldModel. An env picks a variant per reset and never builds a model.
@@ -16,17 +16,16 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/env.h"
-#include "rmpmarl/rl/joint_agents.h"
-#include "rmpmarl/rl/reward.h"
-#include "rmpmarl/rl/task_config.h"
-#include "rmpmarl/rl/vec_env.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/env.h"
+#include "rmpmarl/tasks/joint_agents.h"
+#include "rmpmarl/tasks/reward.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// a geometrically similar copy of `robot` scaled by s: joint offsets, capsule end points and radii, and the
 /// end-effector offset (so self-collision properties are unchanged). Throws InputError unless s > 0.
@@ -204,4 +203,4 @@ class ManipulatorEnv final : public Env {
 /// an EnvFactory making ManipulatorEnvs that share `context` (the lambda holds the shared_ptr).
 EnvFactory MakeManipulatorEnvFactory(std::shared_ptr<const TaskContext> context);
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

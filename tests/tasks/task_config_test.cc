@@ -1,5 +1,5 @@
 // Task configs: the shipped YAML equals the C++ defaults; bad files fail with the file and key in the message.
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 // every value of a config as name → number (enums and flags as numbers), for whole-config comparisons.
@@ -314,4 +314,4 @@ TEST(TaskConfigTest, MissingFileIsAnInputError) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <limits>
 
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/reward.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/reward.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 TEST(RewardTest, DistanceRewardIsOnePointPerMillimetre) {
@@ -166,4 +166,4 @@ TEST(OptionMachineTest, CompositeRunsTargetThenCollision) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -7,10 +7,10 @@
 /// the start configuration (SetNextStart, pre-training only).
 #include <Eigen/Core>
 
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/scenario.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// the position reached after t seconds by a point starting at p with velocity v that reflects at the faces of
 /// `box` (as sim::Scenario::Advance moves the target); along degenerate box axes the coordinate is pinned.
@@ -44,4 +44,4 @@ class PretrainScenario final : public sim::Scenario {
   Eigen::VectorXd ready_;
 };
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -1,6 +1,6 @@
 // The per-joint agents: sensing (nearest warning, look-ahead), local observations, options and held parameters, and
 // the basic layer their actions set. Shared by ManipulatorEnv and LearnedController.
-#include "rmpmarl/rl/joint_agents.h"
+#include "rmpmarl/tasks/joint_agents.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,7 @@
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 // velocity of the material point of link L at p_W.
@@ -373,4 +373,4 @@ void JointAgents::End() {
   for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, option_warning_[i] != 0);
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

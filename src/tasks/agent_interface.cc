@@ -1,5 +1,5 @@
 // Action layouts, the option state machine, observation/state layouts.
-#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/tasks/agent_interface.h"
 
 #include <fmt/format.h>
 
@@ -8,7 +8,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 int NumAgents(InterfaceMode mode, int nq) { return mode == InterfaceMode::kDirect ? 1 : nq; }
 
@@ -192,4 +192,4 @@ std::vector<std::string> GlobalStateLayout::Names() const {
 
 std::vector<std::string> RewardTermNames() { return {"joint_reach", "distance", "time", "collision"}; }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -12,13 +12,13 @@
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/agent_interface.h"
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/world.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 /// The nearest warning contact of joint i (W_i): among the robot contacts within the warning distance whose robot
 /// capsule joint i moves while the partner (obstacle, floor, or a link) is not moved by it.
@@ -129,4 +129,4 @@ class JointAgents {
   std::unique_ptr<Layer> layer_;  // per-joint-rmp
 };
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

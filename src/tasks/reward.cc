@@ -1,9 +1,9 @@
 // Reward terms of eq (14).
-#include "rmpmarl/rl/reward.h"
+#include "rmpmarl/tasks/reward.h"
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 
 void JointReachRewards(const Eigen::Vector3d& e_W, const Eigen::Ref<const Eigen::Matrix3Xd>& J_WE,
                        const Eigen::Ref<const Eigen::VectorXd>& dq, double tolerance, Eigen::Ref<Eigen::VectorXd> R) {
@@ -47,4 +47,4 @@ double ReachCycleTracker::Update(double d) {
   return r;
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -1,5 +1,5 @@
 // Task configurations: defaults per task, YAML loading with file/key messages, validation.
-#include "rmpmarl/rl/task_config.h"
+#include "rmpmarl/tasks/task_config.h"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -14,9 +14,9 @@
 #include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/agent_interface.h"
+#include "rmpmarl/tasks/agent_interface.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -776,4 +776,4 @@ bool IsUrdfPath(const std::string& robot) {
   return robot.size() > 5 && robot.compare(robot.size() - 5, 5, ".urdf") == 0;
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks

@@ -7,16 +7,16 @@
 #include <random>
 #include <vector>
 
-#include "rl_test_util.h"
+#include "../rl/rl_test_util.h"
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/manipulator_env.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/sim/controller.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::tasks {
 namespace {
 
-using testing::Buffers;
-using testing::SmallConfig;
+using rl::testing::Buffers;
+using rl::testing::SmallConfig;
 
 // runs one episode with constant actions; returns the distances after each step.
 std::vector<double> RunEpisode(ManipulatorEnv& env, Buffers& b, const std::vector<float>& actions, std::uint64_t seed) {
@@ -116,4 +116,4 @@ TEST(EpisodeMetricsTest, ExternalControllerWithoutAPolicyMakerIsRejected) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::tasks
