@@ -296,8 +296,8 @@ std::string TrainingPlan(const std::vector<TrainingRun>& runs, const RunnerOptio
   for (const std::string& k : order) parts.push_back(fmt::format("{} x{} ({} updates)", k, todo[k].first, todo[k].second));
   std::string out = fmt::format("training {} of {} runs before evaluating: {}\n", count, runs.size(),
                                 fmt::join(parts, ", "));
-  out += fmt::format("  about {:.0f} min with {} at once (per-update times measured on a 2-core Xeon, one process "
-                     "per core; dependencies may idle a core){}\n", seconds / 60.0 / std::max(1, runner.jobs),
+  out += fmt::format("  about {:.0f} min with {} at once (per-update times measured on a 2-core AMD EPYC in fp32, one "
+                     "process per core; dependencies may idle a core){}\n", seconds / 60.0 / std::max(1, runner.jobs),
                      runner.jobs,
                      unknown.empty() ? "" : fmt::format(", plus {} without a measured cost", fmt::join(unknown, ", ")));
   return out;

@@ -109,7 +109,7 @@ struct OptionConfig {
   int parameter_period = 1;
   OptionWarnings warnings = OptionWarnings::kObstacles;
   /// A hand prior under the learned target accel scale (residual learning over the hand threat gate,
-  /// docs/learning.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
+  /// docs/method.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
   /// predicted by the look-ahead block (observation.lookahead) to pass within target_gate_clearance [m] of a capsule
   /// joint i moves, and u_agent + target_gate_threat while one is; the sum is clipped to [−1, 1]. The prior is read
   /// every step, the agent's part as options.parameter_period says. With u_agent = 0 the layer is the hand gate
