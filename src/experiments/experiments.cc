@@ -33,25 +33,21 @@ namespace {
 /// size on reach-avoid (training, 1–4 cubes), line-crossing (5) and cluttered (6).
 constexpr int kObstacleSlots = 6;
 
-/// the training configs (configs/train/).
-std::string TrainConfigPath(const std::string& name) {
-  return (ConfigsDirectory() / "train" / (name + ".yaml")).string();
-}
-
-/// merges the contents of YAML flow mappings (later ones win; nested mappings merge key by key, so two parts may both
-/// set keys of one section) into one flow mapping: a run's task overrides
+/// merges YAML flow mappings ("" ones skipped; later ones win; nested mappings merge key by key, so two parts may both
+/// set keys of one section) into one flow mapping ("" when every part is empty): a run's task overrides
 std::string MergeOverrides(const std::vector<std::string>& parts) {
-  if (parts.empty()) return "";
   YAML::Node merged(YAML::NodeType::Map);
   for (const std::string& p : parts) {
+    if (p.empty()) continue;
     YAML::Node node;
     try {
-      node = YAML::Load("{" + p + "}");
+      node = YAML::Load(p);
     } catch (const YAML::Exception& e) {
       throw InputError(fmt::format("training run task overrides: malformed YAML '{}': {}", p, e.msg));
     }
     internal::MergeYamlMaps(merged, node, "training run task overrides");
   }
+  if (merged.size() == 0) return "";
   YAML::Emitter out;
   out << YAML::Flow << merged;
   return out.c_str();
@@ -95,21 +91,14 @@ std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds
     }
     TrainingRun run;
     run.id = id;
-    run.base_config = TrainConfigPath(r.config);
+    run.base_config = TrainConfigPath(r.config).string();
     run.seed = static_cast<std::uint64_t>(seed);
     run.total_updates = r.two_link ? b.pretrain : b.panda;
     if (r.updates > 0) run.total_updates = std::min(run.total_updates, r.updates);
     if (r.two_link) run.snapshot_updates = pretrain_snapshots;
     run.init_from = init;
-    const std::string slots = fmt::format("observation: {{max_obstacles: {}}}", kObstacleSlots);
-    auto parts = [&](const std::string& own) {
-      std::vector<std::string> p;
-      if (!r.two_link) p.push_back(slots);
-      for (const std::string& s : {m.layer_yaml, own, r.reward}) {
-        if (!s.empty()) p.push_back(s.substr(1, s.size() - 2));  // the flow mapping's contents
-      }
-      return MergeOverrides(p);
-    };
+    const std::string slots = r.two_link ? "" : fmt::format("{{observation: {{max_obstacles: {}}}}}", kObstacleSlots);
+    auto parts = [&](const std::string& own) { return MergeOverrides({slots, m.layer_yaml, own, r.reward}); };
     run.task_overrides = parts(r.overrides);
     if (!r.mix_task.empty()) {
       run.mix_task = r.mix_task;

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <set>
 
+#include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
@@ -27,33 +28,11 @@ YAML::Node LoadYaml(const fs::path& path, const char* what) {
   }
 }
 
-[[noreturn]] void Fail(const fs::path& file, const std::string& key, const std::string& what) {
-  throw InputError(fmt::format("{}: key '{}': {}", file.string(), key, what));
-}
-
-void CheckKeys(const YAML::Node& node, const fs::path& file, const std::string& where,
-               const std::set<std::string>& allowed) {
-  if (!node.IsMap()) Fail(file, where.empty() ? "(top level)" : where, "expected a mapping");
-  for (const auto& kv : node) {
-    const std::string k = kv.first.as<std::string>();
-    if (!allowed.count(k)) {
-      Fail(file, where.empty() ? k : where + "." + k,
-           fmt::format("unknown key (expected one of: {})", fmt::join(allowed, ", ")));
-    }
-  }
-}
-
-std::string String(const YAML::Node& node, const fs::path& file, const std::string& key) {
-  if (!node.IsScalar() || node.Scalar().empty()) Fail(file, key, "expected a non-empty string");
-  return node.Scalar();
-}
-
-double Number(const YAML::Node& node, const fs::path& file, const std::string& key) {
-  try {
-    if (node.IsScalar()) return node.as<double>();
-  } catch (const YAML::Exception&) {
-  }
-  Fail(file, key, fmt::format("expected a number, got '{}'", node.IsScalar() ? node.Scalar() : YAML::Dump(node)));
+/// a non-empty string
+std::string String(const internal::YamlReader& r, const YAML::Node& node, const std::string& key) {
+  const std::string v = r.String(node, key);
+  if (v.empty()) r.Fail(node, key, "expected a non-empty string");
+  return v;
 }
 
 void SetFlowStyle(YAML::Node node) {
@@ -66,9 +45,9 @@ void SetFlowStyle(YAML::Node node) {
 }
 
 /// a mapping of overrides as one single-line YAML flow mapping ("" for none), whatever style the file wrote it in
-std::string FlowMap(const YAML::Node& node, const fs::path& file, const std::string& key) {
+std::string FlowMap(const internal::YamlReader& r, const YAML::Node& node, const std::string& key) {
   if (!node || node.IsNull()) return "";
-  if (!node.IsMap()) Fail(file, key, "expected a mapping of config keys");
+  if (!node.IsMap()) r.Fail(node, key, "expected a mapping of config keys");
   const YAML::Node copy = YAML::Clone(node);
   SetFlowStyle(copy);
   YAML::Emitter out;
@@ -77,17 +56,17 @@ std::string FlowMap(const YAML::Node& node, const fs::path& file, const std::str
 }
 
 /// the four continuous parameters u by name (tasks::RmpActionLayout order), each in [−1, 1]
-std::array<float, tasks::RmpActionLayout::kNumContinuous> Parameters(const YAML::Node& node, const fs::path& file,
-                                                                   const std::string& key) {
+std::array<float, tasks::RmpActionLayout::kNumContinuous> Parameters(const internal::YamlReader& r,
+                                                                   const YAML::Node& node, const std::string& key) {
   static const std::vector<std::string> names = {"target_accel", "target_metric", "collision_accel",
                                                  "collision_metric"};
   std::array<float, tasks::RmpActionLayout::kNumContinuous> u{};
   if (!node) return u;
-  CheckKeys(node, file, key, {names.begin(), names.end()});
+  r.CheckKeys(node, key, {names.begin(), names.end()});
   for (size_t i = 0; i < names.size(); ++i) {
     if (const YAML::Node v = node[names[i]]) {
-      const double x = Number(v, file, key + "." + names[i]);
-      if (!(x >= -1.0 && x <= 1.0)) Fail(file, key + "." + names[i], fmt::format("expected u in [-1, 1], got {}", x));
+      const double x = r.Number(v, key + "." + names[i]);
+      if (!(x >= -1.0 && x <= 1.0)) r.Fail(v, key + "." + names[i], fmt::format("expected u in [-1, 1], got {}", x));
       u[i] = static_cast<float>(x);
     }
   }
@@ -117,23 +96,24 @@ std::vector<std::string> KeysIn(const char* dir) {
 
 MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
   const YAML::Node root = LoadYaml(file, "method file");
-  CheckKeys(root, file, "",
+  const internal::YamlReader r(file.string());
+  r.CheckKeys(root, "",
             {"label", "kind", "train", "shipped", "layer", "option", "parameters", "gate", "evaluate", "rmpflow"});
   MethodSpec m;
   m.key = key;
   m.file = file;
-  if (!root["label"]) Fail(file, "label", "missing (the method's row and legend label)");
-  m.label = String(root["label"], file, "label");
-  if (!root["kind"]) Fail(file, "kind", "missing (expected learned, basic-layer, rmpflow or rrt)");
-  const std::string kind = String(root["kind"], file, "kind");
+  if (!root["label"]) r.Fail(root, "label", "missing (the method's row and legend label)");
+  m.label = String(r, root["label"], "label");
+  if (!root["kind"]) r.Fail(root, "kind", "missing (expected learned, basic-layer, rmpflow or rrt)");
+  const std::string kind = String(r, root["kind"], "kind");
   const std::map<std::string, MethodSpec::Kind> kinds = {{"learned", MethodSpec::Kind::kLearned},
                                                          {"basic-layer", MethodSpec::Kind::kBasicLayer},
                                                          {"rmpflow", MethodSpec::Kind::kRmpflow},
                                                          {"rrt", MethodSpec::Kind::kRrt}};
-  if (!kinds.count(kind)) Fail(file, "kind", fmt::format("expected learned, basic-layer, rmpflow or rrt, got '{}'", kind));
+  if (!kinds.count(kind)) r.Fail(root, "kind", fmt::format("expected learned, basic-layer, rmpflow or rrt, got '{}'", kind));
   m.kind = kinds.at(kind);
   auto only_for = [&](const char* k, MethodSpec::Kind allowed, const char* kind_name) {
-    if (root[k] && m.kind != allowed) Fail(file, k, fmt::format("only a {} method has it", kind_name));
+    if (root[k] && m.kind != allowed) r.Fail(root, k, fmt::format("only a {} method has it", kind_name));
   };
   only_for("train", MethodSpec::Kind::kLearned, "learned");
   only_for("shipped", MethodSpec::Kind::kLearned, "learned");
@@ -143,35 +123,37 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
   only_for("evaluate", MethodSpec::Kind::kBasicLayer, "basic-layer");
   only_for("rmpflow", MethodSpec::Kind::kRmpflow, "rmpflow");
   if (root["layer"] && m.kind != MethodSpec::Kind::kLearned && m.kind != MethodSpec::Kind::kBasicLayer) {
-    Fail(file, "layer", "only a learned or basic-layer method runs on a basic layer");
+    r.Fail(root, "layer", "only a learned or basic-layer method runs on a basic layer");
   }
   if (const YAML::Node n = root["layer"]) {
-    m.layer = String(n, file, "layer");
+    m.layer = String(r, n, "layer");
     try {
       m.layer_yaml = LayerOverrides(m.layer);
     } catch (const InputError& e) {
-      Fail(file, "layer", e.what());
+      r.Fail(root, "layer", e.what());
     }
-    tasks::TaskConfig check = tasks::LoadShippedTaskConfig("reach-avoid");  // a bad layer key is refused now
+    // a bad layer key is refused now, not mid-experiment
+    static const tasks::TaskConfig reach_avoid = tasks::LoadShippedTaskConfig("reach-avoid");
+    tasks::TaskConfig check = reach_avoid;
     tasks::ApplyTaskOverrides(check, m.layer_yaml, fmt::format("{}: layer {}", file.string(), m.layer));
   }
   if (m.kind == MethodSpec::Kind::kLearned) {
     const YAML::Node t = root["train"];
-    if (!t) Fail(file, "train", "missing (a learned method states how it is trained)");
-    CheckKeys(t, file, "train", {"config", "init", "updates", "overrides", "reward", "mix", "seconds_per_update"});
-    TrainingRecipe r;
-    if (!t["config"]) Fail(file, "train.config", "missing (a training config in configs/train/)");
-    r.config = String(t["config"], file, "train.config");
-    const fs::path train_file = ConfigsDirectory() / "train" / (r.config + ".yaml");
+    if (!t) r.Fail(root, "train", "missing (a learned method states how it is trained)");
+    r.CheckKeys(t, "train", {"config", "init", "updates", "overrides", "reward", "mix", "seconds_per_update"});
+    TrainingRecipe recipe;
+    if (!t["config"]) r.Fail(root, "train.config", "missing (a training config in configs/train/)");
+    recipe.config = String(r, t["config"], "train.config");
+    const fs::path train_file = TrainConfigPath(recipe.config);
     if (!fs::exists(train_file)) {
-      Fail(file, "train.config", fmt::format("no training config {}", train_file.string()));
+      r.Fail(root, "train.config", fmt::format("no training config {}", train_file.string()));
     }
     const YAML::Node train = LoadYaml(train_file, "training config");
     const YAML::Node task = train["task"];
     if (!task || !task.IsMap() || !task["name"] || !task["interface"]) {
       throw InputError(fmt::format("{}: expected task.name and task.interface", train_file.string()));
     }
-    r.two_link = task["name"].as<std::string>() == "pretrain-2link";
+    recipe.two_link = task["name"].as<std::string>() == "pretrain-2link";
     const std::string interface = task["interface"].as<std::string>();
     if (interface == "per-joint-rmp") {
       m.interface = tasks::InterfaceMode::kPerJointRmp;
@@ -182,59 +164,59 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
     } else {
       throw InputError(fmt::format("{}: task.interface: unknown '{}'", train_file.string(), interface));
     }
-    if (const YAML::Node n = t["init"]) r.init = String(n, file, "train.init");
+    if (const YAML::Node n = t["init"]) recipe.init = String(r, n, "train.init");
     if (const YAML::Node n = t["updates"]) {
-      const double u = Number(n, file, "train.updates");
-      if (!(u >= 1 && u == static_cast<int>(u))) Fail(file, "train.updates", fmt::format("expected an integer >= 1, got {}", u));
-      r.updates = static_cast<int>(u);
+      const double u = r.Number(n, "train.updates");
+      if (!(u >= 1 && u == static_cast<int>(u))) r.Fail(root, "train.updates", fmt::format("expected an integer >= 1, got {}", u));
+      recipe.updates = static_cast<int>(u);
     }
     if (const YAML::Node n = t["seconds_per_update"]) {
-      r.seconds_per_update = Number(n, file, "train.seconds_per_update");
-      if (!(r.seconds_per_update > 0.0)) {
-        Fail(file, "train.seconds_per_update", fmt::format("expected > 0, got {}", r.seconds_per_update));
+      recipe.seconds_per_update = r.Number(n, "train.seconds_per_update");
+      if (!(recipe.seconds_per_update > 0.0)) {
+        r.Fail(root, "train.seconds_per_update", fmt::format("expected > 0, got {}", recipe.seconds_per_update));
       }
     }
-    r.overrides = FlowMap(t["overrides"], file, "train.overrides");
+    recipe.overrides = FlowMap(r, t["overrides"], "train.overrides");
     if (const YAML::Node n = t["reward"]) {
-      if (!n.IsMap()) Fail(file, "train.reward", "expected a mapping of reward keys");
+      if (!n.IsMap()) r.Fail(root, "train.reward", "expected a mapping of reward keys");
       YAML::Node wrapped(YAML::NodeType::Map);
       wrapped["reward"] = n;
-      r.reward = FlowMap(wrapped, file, "train.reward");
+      recipe.reward = FlowMap(r, wrapped, "train.reward");
     }
     if (const YAML::Node n = t["mix"]) {
-      CheckKeys(n, file, "train.mix", {"task", "overrides"});
-      if (!n["task"]) Fail(file, "train.mix.task", "missing (the second training task)");
-      r.mix_task = String(n["task"], file, "train.mix.task");
-      tasks::ParseTaskKind(r.mix_task);
-      r.mix_overrides = FlowMap(n["overrides"], file, "train.mix.overrides");
+      r.CheckKeys(n, "train.mix", {"task", "overrides"});
+      if (!n["task"]) r.Fail(root, "train.mix.task", "missing (the second training task)");
+      recipe.mix_task = String(r, n["task"], "train.mix.task");
+      tasks::ParseTaskKind(recipe.mix_task);
+      recipe.mix_overrides = FlowMap(r, n["overrides"], "train.mix.overrides");
     }
-    m.training = r;
-    if (const YAML::Node n = root["shipped"]) m.shipped = String(n, file, "shipped");
+    m.training = recipe;
+    if (const YAML::Node n = root["shipped"]) m.shipped = String(r, n, "shipped");
   }
   if (m.kind == MethodSpec::Kind::kBasicLayer) {
     if (const YAML::Node n = root["option"]) {
-      const std::string o = String(n, file, "option");
+      const std::string o = String(r, n, "option");
       const std::vector<std::string> options = {"target", "collision", "target-then-collision"};
       const auto it = std::find(options.begin(), options.end(), o);
-      if (it == options.end()) Fail(file, "option", fmt::format("expected target, collision or target-then-collision, got '{}'", o));
+      if (it == options.end()) r.Fail(root, "option", fmt::format("expected target, collision or target-then-collision, got '{}'", o));
       m.option = static_cast<int>(it - options.begin());
     } else {
-      Fail(file, "option", "missing (target, collision or target-then-collision at every joint)");
+      r.Fail(root, "option", "missing (target, collision or target-then-collision at every joint)");
     }
-    m.parameters = Parameters(root["parameters"], file, "parameters");
+    m.parameters = Parameters(r, root["parameters"], "parameters");
     if (const YAML::Node g = root["gate"]) {
-      CheckKeys(g, file, "gate", {"clearance", "parameters"});
-      if (!g["clearance"]) Fail(file, "gate.clearance", "missing (predicted pass clearance [m] that fires the rule)");
+      r.CheckKeys(g, "gate", {"clearance", "parameters"});
+      if (!g["clearance"]) r.Fail(root, "gate.clearance", "missing (predicted pass clearance [m] that fires the rule)");
       Method::ThreatGate gate;
-      gate.clearance = Number(g["clearance"], file, "gate.clearance");
-      if (!(gate.clearance >= 0.0)) Fail(file, "gate.clearance", fmt::format("expected >= 0, got {}", gate.clearance));
-      gate.parameters = Parameters(g["parameters"], file, "gate.parameters");
+      gate.clearance = r.Number(g["clearance"], "gate.clearance");
+      if (!(gate.clearance >= 0.0)) r.Fail(root, "gate.clearance", fmt::format("expected >= 0, got {}", gate.clearance));
+      gate.parameters = Parameters(r, g["parameters"], "gate.parameters");
       m.gate = gate;
     }
-    m.evaluate = FlowMap(root["evaluate"], file, "evaluate");
+    m.evaluate = FlowMap(r, root["evaluate"], "evaluate");
   }
   if (m.kind == MethodSpec::Kind::kRmpflow) {
-    m.rmpflow = FlowMap(root["rmpflow"], file, "rmpflow");
+    m.rmpflow = FlowMap(r, root["rmpflow"], "rmpflow");
     rmp::RmpflowOptions check;
     rmp::ApplyRmpflowOverrides(check, m.rmpflow, file.string() + ": rmpflow");  // refused now, not mid-experiment
   }
@@ -242,6 +224,8 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
 }
 
 fs::path ConfigsDirectory() { return tasks::TaskConfigDirectory().parent_path(); }
+
+fs::path TrainConfigPath(const std::string& name) { return ConfigsDirectory() / "train" / (name + ".yaml"); }
 
 std::string LayerOverrides(const std::string& layer) {
   const fs::path file = ConfigsDirectory() / "layers" / (layer + ".yaml");
@@ -251,7 +235,7 @@ std::string LayerOverrides(const std::string& layer) {
   }
   const YAML::Node root = LoadYaml(file, "layer file");
   if (root.IsNull()) return "";
-  return FlowMap(root, file, "(top level)");
+  return FlowMap(internal::YamlReader(file.string()), root, "<root>");
 }
 
 const MethodSpec& FindMethod(const std::string& key) {
@@ -278,11 +262,12 @@ std::vector<std::string> MethodKeys() {
 std::vector<std::string> DefaultMethods(const std::string& experiment) {
   const fs::path file = ConfigsDirectory() / "experiments" / (experiment + ".yaml");
   const YAML::Node root = LoadYaml(file, "experiment file");
-  CheckKeys(root, file, "", {"methods"});
+  const internal::YamlReader r(file.string());
+  r.CheckKeys(root, "", {"methods"});
   const YAML::Node list = root["methods"];
-  if (!list || !list.IsSequence() || list.size() == 0) Fail(file, "methods", "expected a non-empty list of method keys");
+  if (!list || !list.IsSequence() || list.size() == 0) r.Fail(root, "methods", "expected a non-empty list of method keys");
   std::vector<std::string> keys;
-  for (size_t i = 0; i < list.size(); ++i) keys.push_back(String(list[i], file, fmt::format("methods[{}]", i)));
+  for (size_t i = 0; i < list.size(); ++i) keys.push_back(String(r, list[i], fmt::format("methods[{}]", i)));
   return keys;
 }
 

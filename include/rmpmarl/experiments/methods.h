@@ -49,6 +49,8 @@ struct MethodSpec {
 
 /// configs/ (beside the task configs).
 std::filesystem::path ConfigsDirectory();
+/// configs/train/<name>.yaml.
+std::filesystem::path TrainConfigPath(const std::string& name);
 /// reads one method file (`key` names it in runs and messages). Throws InputError naming the file and key for unknown
 /// keys, a missing label or kind, keys of another kind, a missing layer or training config, out-of-range values.
 MethodSpec LoadMethodFile(const std::string& key, const std::filesystem::path& file);

@@ -41,7 +41,6 @@ using namespace internal;
 constexpr std::uint32_t kCheckpointVersion = 2;
 constexpr std::uint32_t kTorchArchiveVersion = 1;
 constexpr std::size_t kCheckpointHeader = 8 + 4 + 8 + 4;  // magic, version, payload size, crc32c
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // keys that may differ between a checkpoint's config and the resuming config.
 bool IsRunLocalKey(const std::string& key) {

@@ -16,6 +16,7 @@
 
 namespace rmpmarl::rl::internal {
 
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 inline constexpr char kCheckpointMagic[8] = {'R', 'M', 'P', 'M', 'C', 'K', 'P', 'T'};
 
 /// what shapes a learner: two specs with equal fingerprints fit the same networks
@@ -59,7 +60,7 @@ struct EpisodeStats {
       ++clearance_count;
     }
   }
-  double Mean(double sum) const { return episodes > 0 ? sum / episodes : std::numeric_limits<double>::quiet_NaN(); }
+  double Mean(double sum) const { return episodes > 0 ? sum / episodes : kNaN; }
 };
 
 inline std::string FormatDuration(double seconds) {

@@ -35,7 +35,6 @@ namespace rmpmarl::rl {
 
 using namespace internal;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 namespace {
 
