@@ -1,4 +1,4 @@
-// `rmpmarl experiment NAME [--quick] [--seeds N] [--episodes N] [--eval-seed S] [--methods a,b] [--jobs N]
+// `rmpmarl experiment NAME [--quick | --budget short|full] [--seeds N] [--episodes N] [--eval-seed S] [--methods a,b] [--jobs N]
 // [--out DIR]`: the paper's tables and figures, one command each (docs/experiments.md);
 // `rmpmarl experiment NAME --list`: its default method keys, one per line;
 // `rmpmarl probe-lookahead POLICY`: what a learned agent does with the look-ahead block.
@@ -35,6 +35,11 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
       ->required()
       ->check(CLI::IsMember(experiments::ExperimentNames()));
   cmd->add_flag("--quick", options->quick, "tiny budgets: the whole pipeline in under 2 minutes (numbers meaningless)");
+  cmd->add_option("--budget", options->budget,
+                  "training budgets: short (600 two-link / 300 Panda updates; table4 with training in under an hour "
+                  "on 2 cores) or full (1200 / 600, as the shipped policies were trained)")
+      ->check(CLI::IsMember(experiments::BudgetNames()))
+      ->capture_default_str();
   cmd->add_option("--seeds", options->seeds, "training seeds per learned method (default 3)")
       ->check(CLI::Range(1, 20));
   cmd->add_option("--episodes", options->episodes,
@@ -50,7 +55,8 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   cmd->add_option("--jobs", options->jobs, "training processes / evaluation threads (default 2)")
       ->check(CLI::Range(1, 64));
   cmd->add_option("--out", *out, "output directory (default results/NAME)");
-  cmd->add_option("--runs", *runs, "training runs directory, shared by experiments (default: beside --out, runs/)");
+  cmd->add_option("--runs", *runs, "training runs directory, shared by experiments (default: beside --out, runs/; runs-full/ with "
+                  "--budget full)");
   cmd->add_flag("--no-plots", [options](std::int64_t) { options->plots = false; }, "skip the PNG plots");
   cmd->add_flag("--shipped", options->shipped,
                 "evaluation only: learned methods from the policies shipped in models/policies/ (others left out)");

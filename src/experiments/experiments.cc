@@ -61,13 +61,18 @@ fs::path ShippedPolicy(const MethodSpec& m) {
   return ConfigsDirectory().parent_path() / "models" / "policies" / m.shipped;
 }
 
-/// budgets in updates: full runs use the shipped budgets; --quick a few updates.
+/// training budgets in updates (of 16 envs × 128 steps): "full" is what the shipped policies were trained with,
+/// "short" half of it (table4 with training in under an hour on 2 cores), --quick a few updates.
 struct Budgets {
-  int pretrain = 1200;  ///< two-link pre-training (the paper's 15K, see table3)
-  int panda = 600;      ///< reach-avoid training
+  int pretrain = 600;  ///< two-link pre-training (the paper's 15K, see table3)
+  int panda = 300;     ///< reach-avoid training
 };
 
-Budgets BudgetsFor(bool quick) { return quick ? Budgets{3, 2} : Budgets{}; }
+Budgets BudgetsFor(const ExperimentOptions& o) {
+  if (o.quick) return {3, 2};
+  if (o.budget == "full") return {1200, 600};
+  return {};
+}
 
 /// the runs of the learned methods in `keys` (and their pre-training) for seeds 1..N.
 std::vector<TrainingRun> RunsFor(const std::vector<std::string>& keys, int seeds, const Budgets& b) {
@@ -305,6 +310,8 @@ std::vector<std::string> LearnedKeys(const std::vector<const MethodSpec*>& metho
 
 std::vector<std::string> ExperimentNames() { return {"table3", "table4", "fig3", "fig5", "cluttered"}; }
 
+std::vector<std::string> BudgetNames() { return {"short", "full"}; }
+
 std::vector<std::string> ExperimentMethods(const std::string& name) {
   if (std::find(ExperimentNames().begin(), ExperimentNames().end(), name) == ExperimentNames().end()) {
     throw InputError(fmt::format("unknown experiment '{}' (known: {})", name, fmt::join(ExperimentNames(), ", ")));
@@ -334,10 +341,15 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   if (o.jobs < 1) throw InputError(fmt::format("--jobs: expected >= 1, got {}", o.jobs));
   if (o.episodes < 0) throw InputError(fmt::format("--episodes: expected >= 1 (0: the default), got {}", o.episodes));
   if (o.out.empty()) o.out = fs::path("results") / o.name;
-  if (o.runs.empty()) o.runs = o.out.parent_path() / (o.quick ? "runs-quick" : "runs");
+  if (std::find(BudgetNames().begin(), BudgetNames().end(), o.budget) == BudgetNames().end()) {
+    throw InputError(fmt::format("--budget: expected one of {}, got '{}'", fmt::join(BudgetNames(), ", "), o.budget));
+  }
+  if (o.runs.empty()) {
+    o.runs = o.out.parent_path() / (o.quick ? "runs-quick" : o.budget == "full" ? "runs-full" : "runs");
+  }
   fs::create_directories(o.out);
   const auto start = std::chrono::steady_clock::now();
-  const Budgets budgets = BudgetsFor(o.quick);
+  const Budgets budgets = BudgetsFor(o);
   RunnerOptions runner{o.runs, o.cli, o.jobs, 30.0};
   EvalProtocol protocol{.episodes = 0, .eval_seed = o.eval_seed, .jobs = o.jobs};
   auto episodes = [&](int full) { return o.episodes > 0 ? o.episodes : (o.quick ? 2 : full); };
@@ -363,7 +375,12 @@ fs::path RunExperiment(const ExperimentOptions& options) {
                                "policy are left out.")
                  : fmt::format("Training: every learned method with training seeds 1..{} (shipped configs in "
                                "configs/train/, one process per core), runs kept in `{}` and reused by every "
-                               "experiment.", o.seeds, o.runs.string())) +
+                               "experiment. **Budget `{}`:** {} updates of two-link pre-training and {} on the Panda "
+                               "(16 envs × 128 steps each; at most a method's own `train.updates`){}.", o.seeds,
+                               o.runs.string(), o.quick ? "quick" : o.budget, budgets.pretrain, budgets.panda,
+                               o.quick || o.budget == "full"
+                                   ? ""
+                                   : ", half of what the shipped policies were trained with (`--budget full`)")) +
       fmt::format(" Evaluation: deterministic actions, evaluation seed {} (episode i is seeded with splitmix64(seed, "
                   "i) ≥ 2^32, never a training seed), the same episodes for every method and training seed.",
                   o.eval_seed);
@@ -371,8 +388,8 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   fmt::print("experiment {}{}: output {}, runs {}\n", o.name, o.quick ? " (quick)" : "", o.out.string(),
              o.runs.string());
   if (o.name == "table3") {
-    // The paper's budgets 5K / 10K / 15K: 15K is our shipped pre-training budget (1200 updates × 16 envs × 128
-    // steps = 2.46 M env steps); 5K and 10K are the snapshots after 1/3 and 2/3 of it.
+    // The paper's budgets 5K / 10K / 15K: 15K is the pre-training budget (1200 updates × 16 envs × 128 steps =
+    // 2.46 M env steps with --budget full, as the shipped policy); 5K and 10K are the snapshots after 1/3 and 2/3.
     const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
     train();
     protocol.episodes = episodes(100);
@@ -399,9 +416,9 @@ fs::path RunExperiment(const ExperimentOptions& options) {
         "configs/train/pretrain-2link.yaml); PPO = one agent commanding both joints directly "
         "(configs/train/ppo-pretrain-2link.yaml). **Budgets:** the paper's 5K / 10K / 15K are mapped to 1/3, 2/3 and "
         "all of our pre-training budget: {} / {} / {} updates of 16 envs × 128 steps ({:.2f} / {:.2f} / {:.2f} M env "
-        "steps, i.e. 1K ≈ 80 updates); the 5K and 10K policies are snapshots of the 15K runs. {} episodes per "
+        "steps, i.e. 1K ≈ {} updates); the 5K and 10K policies are snapshots of the 15K runs. {} episodes per "
         "budget and seed.\n\n{}", at[0], at[1], at[2], at[0] * 2048e-6, at[1] * 2048e-6, at[2] * 2048e-6,
-        protocol.episodes, training_note);
+        at[2] / 15, protocol.episodes, training_note);
     const std::map<std::string, std::pair<std::string, std::string>> hrl = {
         {"5K", {"83.4 %", "22.6 ± 12.1"}}, {"10K", {"95.6 %", "14.3 ± 5.4"}}, {"15K", {"99.6 %", "6.3 ± 0.6"}}};
     const std::map<std::string, std::pair<std::string, std::string>> ppo = {

@@ -45,6 +45,7 @@ LearnedController::LearnedController(const kinematics::Robot& robot, const tasks
   }
   layer_ = agents_.MakeLayerPolicy();
   obs_.assign(static_cast<size_t>(nq) * obs_dim_, 0.0f);
+  hold_scene_.obstacles.reserve(options_.max_obstacles);
   actions_.assign(static_cast<size_t>(nq) * action_size_, 0.0f);
   // the pairs the tasks' MuJoCo worlds check: capsules of distinct, non-excluded links
   const int nc = static_cast<int>(robot.capsules.size());
@@ -75,6 +76,7 @@ void LearnedController::Reset(const Eigen::Ref<const Eigen::VectorXd>& /*q0*/) {
   agents_.Reset();
   steps_ = 0;
   started_ = false;
+  holding_ = false;
 }
 
 void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
@@ -128,12 +130,18 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
                                  scene.obstacles.size(), options_.max_obstacles));
   }
   // the kinematics first (the warnings need the capsules where the arm is), then the joints' warnings. Without a
-  // target the agents hold the end effector where it is now: the target is its position at this q.
+  // target the agents hold the end effector where it was at the first step without one (a target that followed the
+  // end effector would let the layer's posture and obstacle terms carry it away).
   if (scene.has_target) {
+    holding_ = false;
     agents_.SenseState(q, qd, scene.p_WT, scene.v_WT);
   } else {
-    agents_.SenseState(q, qd, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
-    agents_.SenseState(q, qd, agents_.p_WE(), Eigen::Vector3d::Zero());
+    if (!holding_) {
+      agents_.SenseState(q, qd, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+      p_hold_ = agents_.p_WE();
+      holding_ = true;
+    }
+    agents_.SenseState(q, qd, p_hold_, Eigen::Vector3d::Zero());
   }
   ComputeWarnings(scene);
   agents_.SenseContacts(contacts_, scene);
@@ -150,7 +158,16 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
 void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
                                  const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene,
                                  Eigen::Ref<Eigen::VectorXd> qdd) {
-  layer_->Evaluate(q, qd, scene, qdd);
+  if (!holding_ || scene.has_target) {
+    layer_->Evaluate(q, qd, scene, qdd);
+    return;
+  }
+  // the held position is the layer's target too (the obstacles copied into reserved storage: no allocation)
+  hold_scene_.obstacles = scene.obstacles;
+  hold_scene_.has_target = true;
+  hold_scene_.p_WT = p_hold_;
+  hold_scene_.v_WT.setZero();
+  layer_->Evaluate(q, qd, hold_scene_, qdd);
 }
 
 std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,

@@ -40,6 +40,7 @@ struct VecEnv::Impl {
   std::vector<std::uint8_t> reset_flags;
   Eigen::VectorXf reset_option_started, reset_parameters_read;
   std::vector<tasks::EpisodeMetrics> reset_metrics;
+  std::vector<std::uint8_t> reset_next;  // kNextStep: the env's episode ended last Step, reset it in this one
 
   // thread pool
   std::vector<std::thread> workers;
@@ -85,13 +86,16 @@ struct VecEnv::Impl {
     const int A = spec.num_agents;
     const size_t action_stride = static_cast<size_t>(A) * spec.action.size();
     for (int k = begin; k < end; ++k) {
-      if (job == Job::kReset) {
+      if (job == Job::kReset || reset_next[k]) {
+        reset_next[k] = 0;
         envs[k]->Reset(rngs[k], OutputOf(k));
         continue;
       }
       const tasks::StepOutput out = OutputOf(k);
       envs[k]->Step(actions + k * action_stride, rngs[k], out);
-      if (batch.terminated[k] || batch.truncated[k]) {
+      if (options.autoreset == Autoreset::kNextStep) {
+        reset_next[k] = batch.terminated[k] || batch.truncated[k];
+      } else if (batch.terminated[k] || batch.truncated[k]) {
         batch.final_global_state.row(k) = batch.global_state.row(k);
         batch.final_local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A) =
             batch.local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A);
@@ -191,6 +195,7 @@ VecEnv::VecEnv(const tasks::EnvFactory& factory, const VecEnvOptions& options) :
   impl.reset_option_started.setZero(N * A);
   impl.reset_parameters_read.setOnes(N * A);
   impl.reset_metrics.assign(N, tasks::EpisodeMetrics{});
+  impl.reset_next.assign(N, 0);
   for (int w = 0; w + 1 < impl.options.num_threads; ++w) {
     impl.workers.emplace_back([&impl, w] { impl.WorkerLoop(w); });
   }
@@ -213,6 +218,15 @@ void VecEnv::Reset() {
   for (size_t k = 0; k < impl_->rngs.size(); ++k) impl_->rngs[k].seed(impl_->options.seed + k);
   impl_->Run(Impl::Job::kReset, nullptr);
 }
+
+void VecEnv::Reset(std::uint64_t seed) {
+  impl_->options.seed = seed;
+  Reset();
+}
+
+void VecEnv::ResetContinuing() { impl_->Run(Impl::Job::kReset, nullptr); }
+
+const VecEnvOptions& VecEnv::options() const { return impl_->options; }
 
 void VecEnv::Step(const float* actions) {
   RMPMARL_ASSERT(actions != nullptr, "VecEnv::Step needs actions");

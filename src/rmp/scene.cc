@@ -29,8 +29,21 @@ Obstacle Obstacle::MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d&
 }
 
 void ValidateScene(const Scene& scene, std::string_view what) {
+  // beyond a kilometre (or a kilometre per second) a value is a unit or sign error, not a scene
+  constexpr double kLimit = 1e3;
+  auto in_range = [&](const Eigen::Vector3d& v) { return v.allFinite() && v.cwiseAbs().maxCoeff() <= kLimit; };
+  auto text = [](const Eigen::Vector3d& v) { return fmt::format("[{}, {}, {}]", v.x(), v.y(), v.z()); };
   for (size_t i = 0; i < scene.obstacles.size(); ++i) {
     const Obstacle& o = scene.obstacles[i];
+    const Eigen::Vector3d p = o.shape == ObstacleShape::kSphere ? o.sphere.p_WC : o.box.X_WB.translation();
+    const Eigen::Vector3d size = o.shape == ObstacleShape::kSphere ? Eigen::Vector3d::Constant(o.sphere.radius)
+                                                                   : o.box.half_size;
+    if (p.allFinite() && o.v_WO.allFinite() && size.allFinite() &&
+        !(in_range(p) && in_range(o.v_WO) && in_range(size))) {
+      throw InputError(fmt::format("{}: obstacles[{}]: expected a position, velocity and size within ±{} m (m/s), got "
+                                   "position {}, velocity {}, size {}", what, i, kLimit, text(p), text(o.v_WO),
+                                   text(size)));
+    }
     if (!o.v_WO.allFinite()) throw InputError(fmt::format("{}: obstacles[{}].v_WO must be finite", what, i));
     if (o.shape == ObstacleShape::kSphere) {
       if (!o.sphere.p_WC.allFinite() || !(o.sphere.radius > 0.0) || !std::isfinite(o.sphere.radius)) {
@@ -48,6 +61,10 @@ void ValidateScene(const Scene& scene, std::string_view what) {
   }
   if (!scene.p_WT.allFinite() || !scene.v_WT.allFinite()) {
     throw InputError(fmt::format("{}: target position and velocity must be finite", what));
+  }
+  if (!in_range(scene.p_WT) || !in_range(scene.v_WT)) {
+    throw InputError(fmt::format("{}: target: expected a position and velocity within ±{} m (m/s), got position {}, "
+                                 "velocity {}", what, kLimit, text(scene.p_WT), text(scene.v_WT)));
   }
 }
 

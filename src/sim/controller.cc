@@ -101,9 +101,17 @@ ReactiveController::ReactiveController(const WorldModel& model, std::unique_ptr<
   q_target_ = q_cmd_;
 }
 
-void ReactiveController::Reset(const World& world) {
-  q_cmd_ = world.q().cwiseMax(lower_).cwiseMin(upper_);
-  qd_cmd_ = world.qd().cwiseMax(-v_max_).cwiseMin(v_max_);
+void ReactiveController::Reset(const World& world) { Reset(world.q(), world.qd()); }
+
+void ReactiveController::Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd) {
+  for (const auto& [v, what] : {std::pair{&q, "q"}, std::pair{&qd, "qd"}}) {
+    if (v->size() != nq() || !v->allFinite()) {
+      throw InputError(fmt::format("ReactiveController::Reset: {}: expected {} finite values, got {}{}", what, nq(),
+                                   v->size(), v->allFinite() ? "" : " (non-finite)"));
+    }
+  }
+  q_cmd_ = q.cwiseMax(lower_).cwiseMin(upper_);
+  qd_cmd_ = qd.cwiseMax(-v_max_).cwiseMin(v_max_);
   qdd_.setZero();
   q_target_ = q_cmd_;
   stats_ = ControllerStats{};

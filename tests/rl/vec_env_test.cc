@@ -145,6 +145,61 @@ TEST(VecEnvTest, AutoResetKeepsTheFinalStateAndTheStepsReward) {
   EXPECT_TRUE(saw_end);
 }
 
+// Next-step autoreset replays the same episodes as same-step autoreset: each env's sequence of (observation,
+// reward, flags) is the same-step one with the final observation in place and one extra row per ended episode (the
+// reset: the new first observation, reward 0, no flags), during which the env ignores its action.
+TEST(VecEnvTest, NextStepAutoresetReplaysTheSameEpisodes) {
+  const int num_envs = 3, steps = 40;
+  VecEnv same(Factory(), {.num_envs = num_envs, .seed = 9, .num_threads = 1});
+  VecEnv next(Factory(), {.num_envs = num_envs, .seed = 9, .num_threads = 2, .autoreset = Autoreset::kNextStep});
+  same.Reset();
+  next.Reset(9);
+  struct Row {
+    float obs, reward;
+    int flags;
+    bool operator==(const Row&) const = default;
+  };
+  std::vector<std::vector<Row>> expected(num_envs), got(num_envs);
+  std::vector<int> t_same(num_envs, 0);  // per env: the same-step actions consumed so far
+  // the next-step env consumes one same-step action per real step; its extra reset rows take a dummy action
+  std::vector<std::vector<float>> same_actions;
+  for (int t = 0; t < steps; ++t) {
+    same_actions.push_back(Actions(num_envs, t));
+    same.Step(same_actions.back().data());
+    const Batch& b = same.batch();
+    for (int k = 0; k < num_envs; ++k) {
+      const bool ended = b.terminated[k] || b.truncated[k];
+      expected[k].push_back({ended ? b.final_local_obs(2 * k, 0) : b.local_obs(2 * k, 0), b.reward[k],
+                             b.terminated[k] + 2 * b.truncated[k]});
+      if (ended) expected[k].push_back({b.local_obs(2 * k, 0), 0.0f, 0});
+    }
+  }
+  std::vector<float> actions(num_envs * 2);
+  bool done = false;
+  std::vector<std::uint8_t> resetting(num_envs, 0);
+  while (!done) {
+    done = true;
+    for (int k = 0; k < num_envs; ++k) {
+      const int t = std::min(t_same[k], steps - 1);
+      for (int a = 0; a < 2; ++a) actions[2 * k + a] = resetting[k] ? 99.0f : same_actions[t][2 * k + a];
+    }
+    next.Step(actions.data());
+    const Batch& b = next.batch();
+    for (int k = 0; k < num_envs; ++k) {
+      if (!resetting[k]) ++t_same[k];
+      got[k].push_back({b.local_obs(2 * k, 0), b.reward[k], b.terminated[k] + 2 * b.truncated[k]});
+      resetting[k] = b.terminated[k] || b.truncated[k];
+      if (t_same[k] < steps || resetting[k]) done = false;
+    }
+  }
+  for (int k = 0; k < num_envs; ++k) {
+    ASSERT_GE(got[k].size(), expected[k].size()) << "env " << k;
+    got[k].resize(expected[k].size());
+    EXPECT_TRUE(got[k] == expected[k]) << "env " << k;
+    EXPECT_GT(expected[k].size(), static_cast<size_t>(steps)) << "env " << k << " never ended an episode";
+  }
+}
+
 TEST(VecEnvTest, TruncationAtTheHorizon) {
   VecEnv env(Factory(), {.num_envs = 2, .seed = 1, .num_threads = 2});
   env.Reset();

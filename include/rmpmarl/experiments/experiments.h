@@ -17,13 +17,16 @@ namespace rmpmarl::experiments {
 struct ExperimentOptions {
   std::string name;                    ///< one of ExperimentNames()
   bool quick = false;                  ///< tiny budgets (a smoke run of the whole pipeline, < 2 min)
+  /// training budgets: "short" (the default: 600 two-link / 300 Panda updates, table4 from scratch in under an
+  /// hour on 2 cores) or "full" (1200 / 600, the budgets the shipped policies were trained with)
+  std::string budget = "short";
   int seeds = 3;                       ///< training seeds 1..seeds of every learned method
   int episodes = 0;                    ///< per method × condition × training seed (0: the experiment's default)
   std::uint64_t eval_seed = 20231001;  ///< evaluation seed (never a training seed: see EpisodeSeed)
   std::vector<std::string> methods;    ///< method keys to run (empty: the experiment's defaults)
   int jobs = 2;                        ///< training processes / evaluation threads at once
   std::filesystem::path out;           ///< empty: results/<name>
-  std::filesystem::path runs;          ///< empty: <out>/../runs (quick: <out>/../runs-quick), shared by experiments
+  std::filesystem::path runs;          ///< empty: <out>/../runs (runs-full, runs-quick), shared by experiments
   std::string command_line;            ///< how it was invoked (written into the report)
   std::filesystem::path cli;           ///< the rmpmarl executable for training (empty: this process)
   bool plots = true;                   ///< run scripts/plot_experiment.py (needs python3-matplotlib)
@@ -41,6 +44,9 @@ std::vector<std::string> ExperimentNames();
 /// MethodKeys() (methods.h) runs with `methods`. Throws InputError for an unknown experiment.
 std::vector<std::string> ExperimentMethods(const std::string& name);
 
+
+/// "short", "full" (ExperimentOptions::budget).
+std::vector<std::string> BudgetNames();
 
 /// runs the experiment; returns the report's path. Throws InputError for unknown names/methods or failed runs.
 std::filesystem::path RunExperiment(const ExperimentOptions& options);

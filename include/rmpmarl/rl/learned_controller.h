@@ -53,7 +53,9 @@ class LearnedController final : public sim::AccelerationPolicy {
   ~LearnedController() override;
 
   void Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) override;
-  /// senses (q, q̇, scene), ends the last step's options, observes, acts and sets the basic layer's weights.
+  /// senses (q, q̇, scene), ends the last step's options, observes, acts and sets the basic layer's weights. A scene
+  /// without a target holds the end effector where it was at the first step without one (for the agents and the
+  /// layer) until a target is given again.
   void BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                         const rmp::Scene& scene) override;
   /// the basic layer's q̈ with the weights of the current control step. \pre BeginControlStep.
@@ -92,6 +94,10 @@ class LearnedController final : public sim::AccelerationPolicy {
   std::vector<sim::WarningContact> contacts_;
   std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
   std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)
+  // a scene without a target: the end effector is held where it was at the first such step
+  bool holding_ = false;
+  Eigen::Vector3d p_hold_ = Eigen::Vector3d::Zero();
+  rmp::Scene hold_scene_;  // the scene with the held target, for the layer (obstacles reserved at construction)
 };
 
 /// the controller of a controller file on `robot`: its task's layer and observation, its actor. Throws InputError

@@ -13,10 +13,20 @@
 namespace rmpmarl::rl {
 
 
+/// What Step does with an env whose episode ended (Gymnasium's autoreset modes).
+enum class Autoreset {
+  /// reset in the same Step: the batch row holds the new episode's first observation, final_* the last one's.
+  kSameStep,
+  /// the batch row holds the ended episode's last observation; the next Step ignores that env's action, resets it
+  /// and writes the new episode's first observation with reward 0 and both flags clear (Gymnasium 1.x's default).
+  kNextStep,
+};
+
 struct VecEnvOptions {
   int num_envs = 1;
   std::uint64_t seed = 0;
   int num_threads = 1;  ///< worker threads (1: step on the calling thread)
+  Autoreset autoreset = Autoreset::kSameStep;
 };
 
 /// Batch buffers; rows are envs (for per-agent arrays, env-major: row = env * num_agents + agent).
@@ -48,10 +58,16 @@ class VecEnv {
 
   const tasks::EnvSpec& spec() const;
   int num_envs() const;
+  const VecEnvOptions& options() const;
   /// resets every env (RNGs re-seeded with seed + k) and fills the batch with first observations.
   void Reset();
-  /// steps every env with `actions` ((N·A) × action_size, row-major); envs whose episode ends are auto-reset:
-  /// their batch rows then hold the new episode's first observation, and final_* hold the last one.
+  /// the same with a new seed (kept for later Reset() calls).
+  void Reset(std::uint64_t seed);
+  /// resets every env drawing from its RNG where it left off (no re-seeding): the next episodes, not the first again.
+  void ResetContinuing();
+  /// steps every env with `actions` ((N·A) × action_size, row-major); envs whose episode ends are auto-reset as
+  /// options().autoreset says. With kSameStep their batch rows then hold the new episode's first observation, and
+  /// final_* hold the last one; with kNextStep final_* are not written.
   void Step(const float* actions);
   const Batch& batch() const;
 

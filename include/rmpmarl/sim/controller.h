@@ -136,6 +136,9 @@ class ReactiveController {
   /// starts an episode: the commanded state becomes the world's measured state (clamped to the limits), the
   /// counters are zeroed and the policy is reset.
   void Reset(const World& world);
+  /// the same from a measured state (q, q̇) without a World (a user's own loop). Throws InputError unless both have
+  /// nq finite entries.
+  void Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd);
 
   /// one control step: Update(world.q(), world.qd(), scene), then world.SetJointTargets(servo_target()). Does not
   /// step the physics (the caller steps physics_steps_per_control() times).  \pre Reset.

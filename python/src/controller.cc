@@ -1,0 +1,268 @@
+// rmpmarl.Controller: the learned agents of a controller file or RMPflow behind C++'s one controller interface
+// (sim::AccelerationPolicy driven by sim::ReactiveController): joint state, target and obstacles in, joint
+// accelerations (or the integrated joint commands) out.
+#include <fmt/format.h>
+#include <pybind11/stl.h>
+
+#include <filesystem>
+#include <limits>
+#include <optional>
+
+#include "bindings.h"
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/rmp/rmpflow.h"
+#include "rmpmarl/rmp/scene.h"
+#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/sim/world.h"
+
+namespace rmpmarl::python {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ControllerHandle {
+  std::shared_ptr<RobotHandle> robot;
+  std::shared_ptr<const sim::WorldModel> world;  // the robot the policy references, and the servo model
+  std::unique_ptr<sim::ReactiveController> controller;
+  rl::LearnedController* learned = nullptr;  // owned by controller; null for RMPflow
+  rmp::Scene scene;
+  int max_obstacles = 0;
+  Eigen::VectorXd qdd;
+  std::string file;
+};
+
+std::shared_ptr<RobotHandle> RobotOf(const py::handle& robot, const std::string& fallback) {
+  if (robot.is_none()) return LoadRobotArgument(fallback);
+  if (py::isinstance<RobotHandle>(robot)) return robot.cast<std::shared_ptr<RobotHandle>>();
+  if (py::isinstance<py::str>(robot)) return LoadRobotArgument(robot.cast<std::string>());
+  BadArgument(fmt::format("robot: expected an rmpmarl.Robot, a robot name or a .urdf path, got {}",
+                          std::string(py::str(py::type::of(robot).attr("__name__")))));
+}
+
+void CheckMaxObstacles(int max_obstacles) {
+  if (max_obstacles < 0 || max_obstacles > 4096) {
+    BadArgument(fmt::format("max_obstacles: expected 0 ... 4096, got {}", max_obstacles));
+  }
+}
+
+std::shared_ptr<ControllerHandle> Finish(std::shared_ptr<ControllerHandle> h,
+                                         std::unique_ptr<sim::AccelerationPolicy> policy,
+                                         const sim::ControllerOptions& options) {
+  h->controller = std::make_unique<sim::ReactiveController>(*h->world, std::move(policy), options);
+  h->scene.obstacles.reserve(h->max_obstacles);
+  h->qdd.setZero(h->world->nq());
+  return h;
+}
+
+std::shared_ptr<ControllerHandle> LoadController(const std::string& path, const py::handle& robot, int max_obstacles,
+                                                 std::optional<double> floor_height) {
+  if (!fs::is_regular_file(path)) FileNotFound(path, "policy_file", "a controller file (.rmpp)");
+  CheckMaxObstacles(max_obstacles);
+  const rl::PolicyFile file = rl::LoadPolicyFile(path);
+  auto h = std::make_shared<ControllerHandle>();
+  h->robot = RobotOf(robot, rl::PolicyTaskConfig(file, path).robot);
+  h->world = std::make_shared<const sim::WorldModel>(*h->robot->robot);
+  h->max_obstacles = max_obstacles;
+  h->file = path;
+  rl::LearnedControllerOptions options;
+  options.max_obstacles = max_obstacles;
+  options.name = fs::path(path).stem().string();
+  if (floor_height) options.floor_height = *floor_height;
+  std::unique_ptr<rl::LearnedController> learned = rl::MakeLearnedController(h->world->robot(), file, path, options);
+  h->learned = learned.get();
+  const sim::ControllerOptions controller_options = learned->controller_options();
+  return Finish(h, std::move(learned), controller_options);
+}
+
+std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_obstacles,
+                                              const std::optional<std::string>& config) {
+  CheckMaxObstacles(max_obstacles);
+  if (robot.is_none()) BadArgument("robot: expected an rmpmarl.Robot, a robot name or a .urdf path, got None");
+  if (config && !fs::is_regular_file(*config)) FileNotFound(*config, "config", "an RMPflow YAML file");
+  auto h = std::make_shared<ControllerHandle>();
+  h->robot = RobotOf(robot, "");
+  h->world = std::make_shared<const sim::WorldModel>(*h->robot->robot);
+  h->max_obstacles = max_obstacles;
+  const kinematics::Robot& r = h->world->robot();
+  const rmp::RmpflowOptions options = config ? rmp::LoadRmpflowOptions(*config) : rmp::LoadRmpflowOptions(r);
+  h->file = config ? *config : rmp::RmpflowConfigPath(r).string();
+  return Finish(h, std::make_unique<sim::RmpflowAccelerationPolicy>(r, options, max_obstacles), {});
+}
+
+/// fills h.scene from the keyword arguments; nothing of the controller changes when it raises.
+void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& target_velocity,
+               const py::handle& spheres, const py::handle& sphere_velocities, const py::handle& boxes,
+               const py::handle& box_velocities, const py::handle& box_rotations) {
+  rmp::Scene& s = h.scene;
+  const py::array sph = spheres.is_none() ? py::array() : CheckedArray(spheres, {.name = "spheres", .shape = {-1, 4}});
+  const py::array box = boxes.is_none() ? py::array() : CheckedArray(boxes, {.name = "boxes", .shape = {-1, 6}});
+  // an absent argument is an empty array (py::array() holds a 0-size array, not a null handle)
+  const py::ssize_t ns = sph.ndim() == 2 ? sph.shape(0) : 0, nb = box.ndim() == 2 ? box.shape(0) : 0;
+  if (ns + nb > h.max_obstacles) {
+    BadArgument(fmt::format("spheres, boxes: expected at most max_obstacles = {} obstacles in all, got {} + {} (make "
+                            "the controller with a larger max_obstacles)", h.max_obstacles, ns, nb));
+  }
+  auto optional = [](const py::handle& obj, const char* name, std::vector<py::ssize_t> shape, const char* needs,
+                     py::ssize_t count) {
+    if (obj.is_none()) return py::array();
+    if (count == 0) BadArgument(fmt::format("{}: given without {}", name, needs));
+    return CheckedArray(obj, {.name = name, .shape = std::move(shape)});
+  };
+  const py::array sv = optional(sphere_velocities, "sphere_velocities", {ns, 3}, "spheres", ns);
+  const py::array bv = optional(box_velocities, "box_velocities", {nb, 3}, "boxes", nb);
+  const py::array br = optional(box_rotations, "box_rotations", {nb, 3, 3}, "boxes", nb);
+  const py::array t = target.is_none() ? py::array() : CheckedArray(target, {.name = "target", .shape = {3}});
+  const py::array tv = target_velocity.is_none() ? py::array()
+                                                 : CheckedArray(target_velocity, {.name = "target_velocity", .shape = {3}});
+  if (tv.size() > 0 && t.size() == 0) BadArgument("target_velocity: given without target");
+
+  rmp::Scene next;  // built in the controller's obstacle buffer (swapped in and out: no allocation), then checked
+  std::swap(next.obstacles, s.obstacles);
+  next.obstacles.clear();
+  const double* ps = static_cast<const double*>(sph.data());
+  const double* pb = static_cast<const double*>(box.data());
+  auto vec3 = [](const py::array& a, py::ssize_t i) {
+    return a.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(a.data()) + 3 * i) : Eigen::Vector3d::Zero();
+  };
+  for (py::ssize_t i = 0; i < ns; ++i) {
+    next.obstacles.push_back(rmp::Obstacle::MakeSphere(Eigen::Vector3d(ps + 4 * i), ps[4 * i + 3], vec3(sv, i)));
+  }
+  for (py::ssize_t i = 0; i < nb; ++i) {
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.translation() = Eigen::Vector3d(pb + 6 * i);
+    if (br.size() > 0) {
+      X.linear() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+          static_cast<const double*>(br.data()) + 9 * i);
+    }
+    next.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d(pb + 6 * i + 3), vec3(bv, i)));
+  }
+  next.has_target = t.size() > 0;
+  next.p_WT = next.has_target ? Eigen::Vector3d(static_cast<const double*>(t.data())) : Eigen::Vector3d::Zero();
+  next.v_WT = tv.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(tv.data())) : Eigen::Vector3d::Zero();
+  try {
+    rmp::ValidateScene(next, "scene");
+  } catch (const InputError& e) {
+    std::swap(next.obstacles, s.obstacles);
+    BadArgument(e.what());
+  }
+  std::swap(next.obstacles, s.obstacles);
+  s.has_target = next.has_target;
+  s.p_WT = next.p_WT;
+  s.v_WT = next.v_WT;
+}
+
+#define RMPMARL_SCENE_ARGS                                                                                  \
+  py::kw_only(), py::arg("target") = py::none(), py::arg("target_velocity") = py::none(),                 \
+      py::arg("spheres") = py::none(), py::arg("sphere_velocities") = py::none(), py::arg("boxes") = py::none(), \
+      py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none()
+
+constexpr const char* kSceneDoc = R"doc(
+The scene (keyword-only, float64): target [3] (None: no target this step, the controller holds the end effector),
+target_velocity [3]; spheres [K, 4] rows (x, y, z, radius) with sphere_velocities [K, 3]; boxes [K, 6] rows
+(centre x, y, z, half sizes x, y, z) with box_velocities [K, 3] and box_rotations [K, 3, 3] (default identity). All in
+the robot's base frame, metres and m/s; at most max_obstacles obstacles in all.)doc";
+
+}  // namespace
+
+void BindControllers(py::module_& m) {
+  py::class_<ControllerHandle, std::shared_ptr<ControllerHandle>>(m, "Controller", R"doc(
+A reactive controller: the learned per-joint agents of a controller file (rmpmarl.load_controller) or RMPflow
+(rmpmarl.rmpflow), the same interface as C++'s sim::AccelerationPolicy inside a sim::ReactiveController.
+
+accelerations(q, qd, ...) returns the policy's joint accelerations q̈ at (q, q̇); update(q, qd, ...) runs one whole
+control step at control_rate (the decision on the measured state, `substeps` integration substeps of the commanded
+state) and returns the commanded joint positions and velocities for a position/velocity interface. Call reset(q, qd)
+at the start of every run. Not thread-safe: one controller per thread.)doc")
+      .def_property_readonly("name", [](const ControllerHandle& h) { return h.controller->policy().name(); })
+      .def_property_readonly("nq", [](const ControllerHandle& h) { return h.controller->nq(); })
+      .def_property_readonly("robot", [](const ControllerHandle& h) { return h.robot; })
+      .def_property_readonly("file", [](const ControllerHandle& h) { return h.file; },
+                             "the controller file (learned) or the RMPflow YAML it was made from")
+      .def_property_readonly("learned", [](const ControllerHandle& h) { return h.learned != nullptr; })
+      .def_property_readonly("max_obstacles", [](const ControllerHandle& h) { return h.max_obstacles; })
+      .def_property_readonly("control_rate", [](const ControllerHandle& h) { return 1.0 / h.controller->control_period(); },
+                             "[Hz] the rate update() is meant to be called at (the learned agents' training rate)")
+      .def_property_readonly("substeps", [](const ControllerHandle& h) { return h.controller->substeps(); })
+      .def("reset", [](ControllerHandle& h, const py::handle& q, const py::handle& qd) {
+        const int n = h.controller->nq();
+        const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
+        py::array qda = qd.is_none() ? py::array(py::array_t<double>(n)) : CheckedArray(qd, {.name = "qd", .shape = {n}});
+        if (qd.is_none()) std::fill_n(static_cast<double*>(qda.mutable_data()), n, 0.0);
+        h.controller->Reset(AsVector(qa), AsVector(qda));
+      }, py::arg("q"), py::arg("qd") = py::none(), "starts a run at the measured state (q̇ default 0)")
+      .def("accelerations", [](ControllerHandle& h, const py::handle& q, const py::handle& qd, const py::handle& target,
+                               const py::handle& target_velocity, const py::handle& spheres,
+                               const py::handle& sphere_velocities, const py::handle& boxes,
+                               const py::handle& box_velocities, const py::handle& box_rotations, bool decide) {
+        const int n = h.controller->nq();
+        const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
+        const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
+        FillScene(h, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations);
+        {
+          py::gil_scoped_release release;
+          sim::AccelerationPolicy& policy = h.controller->policy();
+          if (decide) policy.BeginControlStep(AsVector(qa), AsVector(qda), h.scene);
+          policy.Evaluate(AsVector(qa), AsVector(qda), h.scene, h.qdd);
+        }
+        return VectorToNumpy(h.qdd);
+      }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS, py::arg("decide") = true,
+           (std::string("q̈ [nq] at (q, q̇). decide=True: the learned agents first decide on this state (once per control "
+                        "period); False: the basic layer with the last decision (integration substeps). RMPflow "
+                        "ignores it. A non-finite q̈ is returned as it is (the C++ controller catches it).") +
+            kSceneDoc).c_str())
+      .def("update", [](ControllerHandle& h, const py::handle& q, const py::handle& qd, const py::handle& target,
+                        const py::handle& target_velocity, const py::handle& spheres,
+                        const py::handle& sphere_velocities, const py::handle& boxes, const py::handle& box_velocities,
+                        const py::handle& box_rotations) {
+        const int n = h.controller->nq();
+        const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
+        const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
+        FillScene(h, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations);
+        sim::ControlStepResult r;
+        {
+          py::gil_scoped_release release;
+          r = h.controller->Update(AsVector(qa), AsVector(qda), h.scene);
+        }
+        py::dict info;
+        info["finite"] = r.finite;
+        info["resynced"] = r.resynced;
+        info["position_clamps"] = r.position_clamps;
+        info["velocity_clamps"] = r.velocity_clamps;
+        info["compute_us"] = r.compute_us;
+        return py::make_tuple(VectorToNumpy(h.controller->q_cmd()), VectorToNumpy(h.controller->qd_cmd()), info);
+      }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS,
+           (std::string("one control step: returns (q_cmd [nq], qd_cmd [nq], info). A non-finite q̈ holds position "
+                        "(info['finite'] False).") + kSceneDoc).c_str())
+      .def_property_readonly("observations", [](const ControllerHandle& h) -> py::object {
+        if (!h.learned) return py::none();
+        const auto& obs = h.learned->observations();
+        const py::ssize_t n = h.controller->nq();
+        py::array_t<float> a({n, static_cast<py::ssize_t>(obs.size()) / n});
+        std::copy(obs.begin(), obs.end(), a.mutable_data());
+        return py::object(a);
+      }, "learned: the agents' local observations of the last decision [nq, obs_dim] (a copy); None for RMPflow")
+      .def_property_readonly("actions", [](const ControllerHandle& h) -> py::object {
+        if (!h.learned) return py::none();
+        const auto& act = h.learned->actions();
+        const py::ssize_t n = h.controller->nq();
+        py::array_t<float> a({n, static_cast<py::ssize_t>(act.size()) / n});
+        std::copy(act.begin(), act.end(), a.mutable_data());
+        return py::object(a);
+      }, "learned: the agents' actions of the last decision [nq, action_size] (a copy); None for RMPflow")
+      .def("__repr__", [](const ControllerHandle& h) {
+        return fmt::format("Controller('{}' on {}, {} Hz)", h.controller->policy().name(), h.robot->robot->name,
+                           1.0 / h.controller->control_period());
+      });
+
+  m.def("load_controller", &LoadController, py::arg("policy_file"), py::arg("robot") = py::none(),
+        py::arg("max_obstacles") = 16, py::arg("floor_height") = py::none(),
+        "the learned controller of a controller file (.rmpp) on `robot` (an rmpmarl.Robot, a name or a .urdf path; "
+        "default: the robot the file was trained on). floor_height: a floor plane z = h the agents see (default none, "
+        "as in training).");
+  m.def("rmpflow", &MakeRmpflow, py::arg("robot"), py::arg("max_obstacles") = 16, py::arg("config") = py::none(),
+        "RMPflow on `robot` with its configs/rmpflow settings (or `config`, an RMPflow YAML)");
+}
+
+}  // namespace rmpmarl::python
