@@ -100,6 +100,23 @@ void BM_VecEnvStep(benchmark::State& state) {
 }
 BENCHMARK(BM_VecEnvStep)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
+// the shipped reach-avoid task (configs/tasks/reach-avoid.yaml, per-joint RMP agents) at 64 envs on 1 or 2 threads:
+// the C++ side of bench/python_bench.py's comparison (Python batched stepping of the same envs and actions).
+void BM_VecEnvReachAvoid64(benchmark::State& state) {
+  const int threads = static_cast<int>(state.range(0));
+  auto context = tasks::MakeTaskContext(tasks::LoadShippedTaskConfig("reach-avoid"));
+  const int num_envs = 64;
+  VecEnv envs(tasks::MakeManipulatorEnvFactory(context), {.num_envs = num_envs, .seed = 3, .num_threads = threads});
+  const tasks::EnvSpec& spec = envs.spec();
+  // option 0 (target), unit scales, no termination: the same actions the Python benchmark sends
+  std::vector<float> actions(static_cast<size_t>(num_envs) * spec.num_agents * spec.action.size(), 0.0f);
+  envs.Reset();
+  for (auto _ : state) envs.Step(actions.data());
+  state.counters["env_steps/s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * num_envs, benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_VecEnvReachAvoid64)->ArgName("threads")->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
 // bare mj_step (physics only: no servo targets change, no scenario, no observation) on the env's compiled model,
 // from a state of a reset episode (obstacles placed, arm at its start posture).
 void BM_BareMjStep(benchmark::State& state) {

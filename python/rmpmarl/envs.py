@@ -65,7 +65,8 @@ class VectorEnv:
     obs float32 [num_envs, num_agents, obs_dim], actions float32 [num_envs, num_agents, action_size],
     rewards float32 [num_envs] (the team reward), terminated and truncated bool [num_envs].
     info: 'state' float32 [num_envs, state_dim] (the centralised critic's input), 'reward_terms'
-    [num_envs, terms], and 'episode' with the metrics of the episodes that ended in this step (arrays [num_envs]
+    [num_envs, terms], 'option_started' [num_envs, num_agents] (1 where the action started a new option: the only
+    steps whose option index took effect), and 'episode' with the metrics of the episodes that ended in this step (arrays [num_envs]
     and the mask '_episode', as Gymnasium's RecordEpisodeStatistics does).
 
     The flat action of one agent is [option index (as a float)?, continuous values..., terminate flag?] as
@@ -100,7 +101,8 @@ class VectorEnv:
         return array.copy() if self.copy else array
 
     def _info(self):
-        info = {"state": self._out(self._env.state), "reward_terms": self._out(self._env.reward_terms)}
+        info = {"state": self._out(self._env.state), "reward_terms": self._out(self._env.reward_terms),
+                "option_started": self._out(self._env.option_started)}
         metrics = self._env.episode_metrics()
         ended = metrics.pop("ended")
         if ended.any():

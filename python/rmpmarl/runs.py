@@ -9,7 +9,7 @@ import numpy as np
 
 def read_run(directory):
     """A training run directory as a dict: 'metrics' (column -> float64 array, one row per update, from
-    metrics.csv), 'config' (train.yaml's text), 'policy' (the final controller file, or None), 'snapshots'
+    metrics.csv), 'config' (the training config as run: config.yaml, or train.yaml in an experiment's runs), 'policy' (the final controller file, or None), 'snapshots'
     (update -> controller file) and 'checkpoints' (the .ckpt files; `rmpmarl export` turns one into a .rmpp)."""
     if not os.path.isdir(directory):
         raise FileNotFoundError(f"directory: expected a training run directory, got {directory!r} (no such directory)")
@@ -26,7 +26,9 @@ def read_run(directory):
                 except (TypeError, ValueError):
                     values.append(float("nan"))
             metrics[key] = np.asarray(values)
-    config_path = os.path.join(directory, "train.yaml")
+    config_path = os.path.join(directory, "config.yaml")
+    if not os.path.isfile(config_path):
+        config_path = os.path.join(directory, "train.yaml")
     policy = os.path.join(directory, "policy.rmpp")
     snapshots = {}
     for path in glob.glob(os.path.join(directory, "policy-u*.rmpp")):

@@ -13,3 +13,17 @@ cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G Ninja
   -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
 cmake --build "$prefix/example-build" >/dev/null
 RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/example-build/control_loop"
+# the Python package as `make install` puts it (<prefix>/lib/python3/dist-packages), away from the source tree:
+# a shipped controller on a shipped robot
+if [[ -d "$prefix/lib/python3/dist-packages/rmpmarl" ]]; then
+  (cd "$prefix" && RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" PYTHONPATH="$prefix/lib/python3/dist-packages" \
+    /usr/bin/python3 -c "
+import numpy as np, rmpmarl
+assert rmpmarl.__file__.startswith('$prefix'), rmpmarl.__file__
+c = rmpmarl.load_controller(rmpmarl.shipped_policy(), robot='panda')
+q = np.array([0.0, -0.5, 0.0, -2.0, 0.0, 1.6, 0.8]); c.reset(q)
+qdd = c.accelerations(q, np.zeros(7), target=c.robot.end_effector_position(q) + [0.1, 0, 0])
+assert np.all(np.isfinite(qdd)) and np.linalg.norm(qdd) > 0, qdd
+print('installed python package: ok')
+")
+fi

@@ -1,6 +1,6 @@
 // The C++ side of the Python tests' comparisons: the engine and the controllers driven from C++ alone, on inputs the
 // test writes, with outputs the test compares with what the Python package returns for the same inputs.
-//   reference rollout TASK ROBOT INTERFACE NUM_ENVS SEED STEPS ACTIONS.f32 OUT.f32
+//   reference rollout TASK ROBOT INTERFACE NUM_ENVS SEED STEPS ACTIONS.f32 OUT.f32 OVERRIDES
 //     VecEnv (next-step autoreset) reset with SEED, then STEPS steps with the actions (float32 [STEPS, N, A, act]);
 //     writes per reset/step: obs [N, A, D], state [N, S], rewards [N], terminated [N], truncated [N] as float32.
 //   reference controller POLICY|rmpflow ROBOT STEPS INPUT.f64 OUT.f64
@@ -42,7 +42,7 @@ void Write(std::ofstream& out, const T* data, size_t count) {
 }
 
 int Rollout(char** argv) {
-  tasks::TaskConfig config = tasks::LoadShippedTaskConfig(argv[2]);
+  tasks::TaskConfig config = tasks::LoadTaskConfig(tasks::TaskConfigPath(argv[2]), argv[10]);
   config.robot = argv[3];
   for (tasks::InterfaceMode mode :
        {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect}) {
@@ -137,9 +137,9 @@ int Controller(char** argv) {
 int main(int argc, char** argv) {
   try {
     const std::string mode = argc > 1 ? argv[1] : "";
-    if (mode == "rollout" && argc == 10) return Rollout(argv);
+    if (mode == "rollout" && argc == 11) return Rollout(argv);
     if (mode == "controller" && argc == 7) return Controller(argv);
-    std::fprintf(stderr, "usage: reference rollout TASK ROBOT INTERFACE N SEED STEPS ACTIONS OUT | controller "
+    std::fprintf(stderr, "usage: reference rollout TASK ROBOT INTERFACE N SEED STEPS ACTIONS OUT OVERRIDES | controller "
                          "POLICY|rmpflow ROBOT STEPS INPUT OUT\n");
     return 2;
   } catch (const std::exception& e) {

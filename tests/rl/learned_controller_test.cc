@@ -152,8 +152,9 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
   EXPECT_LE(max_action_diff, 0.05);  // as on a single state (witness points of near-parallel capsules)
 }
 
-// without a target in the scene the agents hold the end effector where it is: the target features are zero at once
-// (not those of a target left over from the last step)
+// without a target in the scene the agents hold the end effector where it was at the first step without one: the
+// target features are zero at once (not those of a target left over from the last step), and when the arm moves on
+// they point back to the held position
 TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
   const PolicyFile file = LoadPolicyFile(ShippedDefault());
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
@@ -178,6 +179,18 @@ TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
   Eigen::VectorXd qdd(nq);
   controller.Evaluate(q, qd, scene, qdd);
   EXPECT_TRUE(qdd.allFinite());
+  q[1] += 0.3;  // moved again: the held position stays where it was
+  controller.BeginControlStep(q, qd, scene);
+  double feature = 0.0;
+  for (int k = tasks::LocalObs::kEeToTarget; k < tasks::LocalObs::kEeToTarget + 3; ++k) {
+    feature = std::max(feature, std::abs(static_cast<double>(controller.observations()[k])));
+  }
+  EXPECT_GT(feature, 0.01);
+  // the layer pulls towards it as with that target given: q̈ equals the layer's with the held point as the target
+  Eigen::VectorXd held(nq);
+  controller.Evaluate(q, qd, scene, held);
+  EXPECT_TRUE(held.allFinite());
+  EXPECT_GT((held - qdd).norm(), 1e-3);
 }
 
 // a user's loop: World + scenario + ReactiveController, no env. On the sim's own crossing scene (four cubes) the

@@ -81,6 +81,16 @@ TEST(SceneTest, ValidateSceneRejectsBadObstacles) {
   bad = scene;
   bad.p_WT.z() = INFINITY;
   ExpectInputError([&] { ValidateScene(bad, "scene"); }, "target");
+  // finite but absurd: a unit or sign error, refused with the values
+  bad = scene;
+  bad.p_WT.x() = 1e301;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "target: expected a position and velocity within ±1000 m");
+  bad = scene;
+  bad.obstacles[0].sphere.p_WC.y() = -2e3;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "obstacles[0]: expected a position");
+  bad = scene;
+  bad.obstacles[1].box.half_size.z() = 5e3;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "size [0.1, 0.2, 5000]");
 }
 
 TEST(TreeBuildTest, OrdersParentsBeforeChildren) {

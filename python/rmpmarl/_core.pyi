@@ -1,0 +1,159 @@
+"""Type stubs of rmpmarl._core, the compiled half of the package (python/src/*.cc)."""
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+Float32Array = npt.NDArray[np.float32]
+ArrayLike = Union[npt.NDArray[Any], Sequence[float]]
+
+class Robot:
+    """A manipulator: kinematic model (URDF), collision capsules, end effector. One Robot per thread."""
+    def __init__(self, name: str) -> None:
+        """a shipped robot by name, 'planar2' (the two-link pre-training arm) or a path to a .urdf"""
+    @staticmethod
+    def from_urdf(urdf: str, collision: Optional[str] = None) -> Robot:
+        """a user's URDF; collision: its collision YAML (default: beside the URDF, else capsules fitted in memory)"""
+    @property
+    def name(self) -> str: ...
+    @property
+    def nq(self) -> int:
+        """joint coordinates"""
+    @property
+    def joint_names(self) -> list[str]: ...
+    @property
+    def link_names(self) -> list[str]: ...
+    @property
+    def lower_limits(self) -> FloatArray:
+        """[nq] joint position lower limits [rad or m] (-inf for continuous joints)"""
+    @property
+    def upper_limits(self) -> FloatArray: ...
+    @property
+    def velocity_limits(self) -> FloatArray:
+        """[nq] |q̇| bounds from the URDF"""
+    @property
+    def end_effector_link(self) -> str: ...
+    @property
+    def urdf_path(self) -> str: ...
+    @property
+    def num_capsules(self) -> int: ...
+    def link_index(self, name: str) -> int: ...
+    def forward_kinematics(self, q: ArrayLike) -> FloatArray:
+        """poses X_WL of every link frame, [num_links, 4, 4]"""
+    def end_effector_pose(self, q: ArrayLike) -> FloatArray:
+        """X_WE, [4, 4]"""
+    def end_effector_position(self, q: ArrayLike) -> FloatArray:
+        """p_WE, [3]"""
+    def end_effector_jacobian(self, q: ArrayLike) -> FloatArray:
+        """position Jacobian J_WE, [3, nq]"""
+    def point_jacobian(self, q: ArrayLike, link: Union[str, int], p_LP: ArrayLike) -> FloatArray:
+        """position Jacobian of point p_LP fixed on `link`, [3, nq]"""
+    def capsules(self, q: ArrayLike) -> FloatArray:
+        """collision capsules in the world, rows [a_x, a_y, a_z, b_x, b_y, b_z, radius]"""
+
+class Controller:
+    """The learned agents of a controller file or RMPflow: joint state, target, obstacles in; q̈ or joint commands
+    out. One controller per thread."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def nq(self) -> int: ...
+    @property
+    def robot(self) -> Robot: ...
+    @property
+    def file(self) -> str: ...
+    @property
+    def learned(self) -> bool: ...
+    @property
+    def max_obstacles(self) -> int: ...
+    @property
+    def control_rate(self) -> float:
+        """[Hz] the rate update() is meant to be called at"""
+    @property
+    def substeps(self) -> int: ...
+    @property
+    def observations(self) -> Optional[Float32Array]:
+        """learned: the agents' observations of the last decision [nq, obs_dim]"""
+    @property
+    def actions(self) -> Optional[Float32Array]:
+        """learned: the agents' actions of the last decision [nq, action_size]"""
+    def reset(self, q: ArrayLike, qd: Optional[ArrayLike] = None) -> None: ...
+    def accelerations(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
+                      target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
+                      sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
+                      box_velocities: Optional[ArrayLike] = None, box_rotations: Optional[ArrayLike] = None,
+                      decide: bool = True) -> FloatArray:
+        """q̈ [nq] at (q, q̇); spheres [K, 4] (x, y, z, r), boxes [K, 6] (centre, half sizes), velocities [K, 3],
+        box_rotations [K, 3, 3]; target None holds the end effector"""
+    def update(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
+               target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
+               sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
+               box_velocities: Optional[ArrayLike] = None,
+               box_rotations: Optional[ArrayLike] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
+        """one control step: (q_cmd [nq], qd_cmd [nq], info)"""
+
+def load_controller(policy_file: str, robot: Union[Robot, str, None] = None, max_obstacles: int = 16,
+                    floor_height: Optional[float] = None) -> Controller:
+    """the learned controller of a controller file (.rmpp) on `robot` (default: the file's robot)"""
+def rmpflow(robot: Union[Robot, str], max_obstacles: int = 16, config: Optional[str] = None) -> Controller:
+    """RMPflow on `robot` with its configs/rmpflow settings (or an RMPflow YAML)"""
+
+class VecEnv:
+    """The batched C++ engine (use rmpmarl.make_vec_env). Arrays are read-only views, overwritten by step/reset."""
+    def __init__(self, task: str, num_envs: int, robot: Optional[str] = None, collision: Optional[str] = None,
+                 interface: Optional[str] = None, overrides: str = "", num_threads: int = 1, seed: int = 0,
+                 autoreset: str = "next-step") -> None: ...
+    @property
+    def spec(self) -> dict[str, Any]: ...
+    @property
+    def task_yaml(self) -> str: ...
+    def reset(self, seed: Optional[int] = None) -> None: ...
+    def step(self, actions: Float32Array) -> None: ...
+    @property
+    def obs(self) -> Float32Array: ...
+    @property
+    def state(self) -> Float32Array: ...
+    @property
+    def rewards(self) -> Float32Array: ...
+    @property
+    def reward_terms(self) -> Float32Array: ...
+    @property
+    def terminated(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def truncated(self) -> npt.NDArray[np.bool_]: ...
+    @property
+    def option_started(self) -> Float32Array: ...
+    @property
+    def final_obs(self) -> Float32Array: ...
+    @property
+    def final_state(self) -> Float32Array: ...
+    def episode_metrics(self) -> dict[str, npt.NDArray[Any]]: ...
+
+class Policy:
+    """A controller file's actor through the torch-free runtime. One Policy per thread."""
+    def __init__(self, policy_file: str) -> None: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def obs_dim(self) -> int: ...
+    @property
+    def action_size(self) -> int: ...
+    @property
+    def head_size(self) -> int: ...
+    @property
+    def num_options(self) -> int: ...
+    @property
+    def task_yaml(self) -> str: ...
+    @property
+    def provenance_yaml(self) -> str: ...
+    @property
+    def card(self) -> str: ...
+    def act(self, obs: Float32Array) -> Float32Array:
+        """deterministic actions [B, action_size] for observations [B, obs_dim]"""
+    def head(self, obs: Float32Array) -> Float32Array:
+        """raw network outputs [B, head_size]"""
+
+def shipped_robots() -> list[str]: ...
+def task_names() -> list[str]: ...
+def models_directory() -> str: ...
