@@ -24,7 +24,8 @@ import numpy as np
 import torch
 from torch import nn
 
-sys.path.insert(0, os.environ.get("RMPMARL_PYTHONPATH", ""))
+if os.environ.get("RMPMARL_PYTHONPATH"):  # the build tree, when not installed or on PYTHONPATH
+    sys.path.insert(0, os.environ["RMPMARL_PYTHONPATH"])
 import rmpmarl  # noqa: E402
 
 
@@ -96,15 +97,14 @@ class Actor(nn.Module):
         return torch.cat(parts, -1)
 
 
-def evaluate(actor, obs_norm, args, seed):
-    """success rate and mean tracking error [mm] of the deterministic actor on held-out episodes."""
-    envs = rmpmarl.make_vec_env(args.task, args.eval_envs, interface=args.interface, seed=seed)
+def evaluate(act, args, seed):
+    """success rate and mean tracking error [mm] of deterministic actions act(obs) on held-out episodes."""
+    envs = rmpmarl.make_vec_env(args.task, args.eval_envs, interface=args.interface, overrides=args.overrides,
+                                seed=seed)
     obs, _ = envs.reset(seed=seed)
     done, success, tracking = 0, [], []
     while done < args.eval_episodes:
-        with torch.no_grad():
-            a = actor.act(obs_norm.normalize(torch.from_numpy(obs)), deterministic=True)
-        obs, _, _, _, info = envs.step(a.numpy().astype(np.float32))
+        obs, _, _, _, info = envs.step(act(obs))
         if "episode" in info:
             ended = info["_episode"]
             success += list(info["episode"]["success"][ended])
@@ -126,11 +126,15 @@ def main():
     p.add_argument("--eval-episodes", type=int, default=0, help="held-out episodes before and after training")
     p.add_argument("--eval-envs", type=int, default=8)
     p.add_argument("--eval-seed", type=int, default=20231001)
+    p.add_argument("--overrides", default=None, help="task overrides (YAML/JSON text), e.g. observation slots")
+    p.add_argument("--compare", nargs="*", default=[], help="controller files (.rmpp, e.g. the C++ trainer's) "
+                   "evaluated on the same held-out episodes")
     args = p.parse_args()
     torch.manual_seed(args.seed)
     torch.set_num_threads(1)
 
-    envs = rmpmarl.make_vec_env(args.task, args.envs, interface=args.interface, seed=1000 * args.seed)
+    envs = rmpmarl.make_vec_env(args.task, args.envs, interface=args.interface, overrides=args.overrides,
+                                seed=1000 * args.seed)
     N, A, D = envs.num_envs, envs.num_agents, envs.spec["local_obs_dim"]
     S, T = envs.spec["global_state_dim"], args.steps
     actor = Actor(D, envs.action_layout)
@@ -140,7 +144,11 @@ def main():
     obs_norm, state_norm, ret_norm = RunningMeanStd(D), RunningMeanStd(S), RunningMeanStd(1)
     gamma, lam, clip = 0.99, 0.95, 0.2
 
-    before = evaluate(actor, obs_norm, args, args.eval_seed) if args.eval_episodes else None
+    def act(obs):
+        with torch.no_grad():
+            return actor.act(obs_norm.normalize(torch.from_numpy(obs)), deterministic=True).numpy().astype(np.float32)
+
+    before = evaluate(act, args, args.eval_seed) if args.eval_episodes else None
     writer = None
     if args.out:
         os.makedirs(args.out, exist_ok=True)
@@ -231,13 +239,19 @@ def main():
             print(f"update {update}/{args.updates}: success {stats[0]:.2f}, tracking {stats[1]:.1f} mm, "
                   f"return {stats[2]:.0f}, {seconds:.0f} s", flush=True)
     if args.eval_episodes:
-        after = evaluate(actor, obs_norm, args, args.eval_seed)
-        print(f"held-out ({args.eval_episodes} episodes, seed {args.eval_seed}): untrained success {before[0]:.3f}, "
-              f"tracking {before[1]:.1f} mm; trained success {after[0]:.3f}, tracking {after[1]:.1f} mm")
+        rows = [("untrained", *before), ("trained", *evaluate(act, args, args.eval_seed))]
+        for path in args.compare:
+            policy = rmpmarl.Policy(path)
+            rows.append((path, *evaluate(lambda o: policy.act(o.reshape(-1, policy.obs_dim)).reshape(
+                o.shape[0], o.shape[1], -1), args, args.eval_seed)))
+        print(f"held-out: {args.eval_episodes} episodes, evaluation seed {args.eval_seed}, deterministic actions")
+        for name, success, tracking in rows:
+            print(f"  {name}: success {success:.3f}, tracking {tracking:.1f} mm")
         if args.out:
             with open(os.path.join(args.out, "evaluation.csv"), "w") as f:
                 f.write("policy,success_rate,tracking_error_mm\n")
-                f.write(f"untrained,{before[0]},{before[1]}\ntrained,{after[0]},{after[1]}\n")
+                for name, success, tracking in rows:
+                    f.write(f"{name},{success},{tracking}\n")
 
 
 if __name__ == "__main__":

@@ -153,6 +153,15 @@ void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& 
   s.v_WT = next.v_WT;
 }
 
+/// a copy of the learned agents' per-joint rows [nq, size / nq]; None for RMPflow (values == nullptr).
+py::object PerJoint(const ControllerHandle& h, const std::vector<float>* values) {
+  if (values == nullptr) return py::none();
+  const py::ssize_t n = h.controller->nq();
+  py::array_t<float> a({n, static_cast<py::ssize_t>(values->size()) / n});
+  std::copy(values->begin(), values->end(), a.mutable_data());
+  return py::object(a);
+}
+
 #define RMPMARL_SCENE_ARGS                                                                                  \
   py::kw_only(), py::arg("target") = py::none(), py::arg("target_velocity") = py::none(),                 \
       py::arg("spheres") = py::none(), py::arg("sphere_velocities") = py::none(), py::arg("boxes") = py::none(), \
@@ -235,21 +244,11 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS,
            (std::string("one control step: returns (q_cmd [nq], qd_cmd [nq], info). A non-finite q̈ holds position "
                         "(info['finite'] False).") + kSceneDoc).c_str())
-      .def_property_readonly("observations", [](const ControllerHandle& h) -> py::object {
-        if (!h.learned) return py::none();
-        const auto& obs = h.learned->observations();
-        const py::ssize_t n = h.controller->nq();
-        py::array_t<float> a({n, static_cast<py::ssize_t>(obs.size()) / n});
-        std::copy(obs.begin(), obs.end(), a.mutable_data());
-        return py::object(a);
+      .def_property_readonly("observations", [](const ControllerHandle& h) {
+        return PerJoint(h, h.learned ? &h.learned->observations() : nullptr);
       }, "learned: the agents' local observations of the last decision [nq, obs_dim] (a copy); None for RMPflow")
-      .def_property_readonly("actions", [](const ControllerHandle& h) -> py::object {
-        if (!h.learned) return py::none();
-        const auto& act = h.learned->actions();
-        const py::ssize_t n = h.controller->nq();
-        py::array_t<float> a({n, static_cast<py::ssize_t>(act.size()) / n});
-        std::copy(act.begin(), act.end(), a.mutable_data());
-        return py::object(a);
+      .def_property_readonly("actions", [](const ControllerHandle& h) {
+        return PerJoint(h, h.learned ? &h.learned->actions() : nullptr);
       }, "learned: the agents' actions of the last decision [nq, action_size] (a copy); None for RMPflow")
       .def("__repr__", [](const ControllerHandle& h) {
         return fmt::format("Controller('{}' on {}, {} Hz)", h.controller->policy().name(), h.robot->robot->name,
