@@ -203,6 +203,11 @@ TEST(CheckpointTest, CorruptOrMismatchedCheckpointsRefused) {
   TrainConfig direct = ToyConfig(2, "direct");
   direct.init_actor_from = good;
   ExpectRefused([&] { Trainer t(direct, MakeTaskFactory(direct.task)); }, {"init_actor_from", "does not fit"});
+  // a pre-training run that was never trained: named, with what to do
+  TrainConfig missing = ToyConfig(2, "options");
+  missing.init_actor_from = good + ".missing";
+  ExpectRefused([&] { Trainer t(missing, MakeTaskFactory(missing.task)); },
+                {"init_actor_from: expected the checkpoint of a finished pre-training run", ".missing", "no such file"});
 }
 
 // ---------------------------------------------------------------------------------------------------- resume

@@ -242,6 +242,12 @@ Trainer::Trainer(const TrainConfig& config, tasks::EnvFactory factory) : impl_(s
   }
   m.ppo = std::make_unique<Ppo>(m.spec, config.network, config.ppo, config.seed);
   if (!config.init_actor_from.empty()) {
+    if (!std::filesystem::is_regular_file(config.init_actor_from)) {
+      throw InputError(fmt::format("init_actor_from: expected the checkpoint of a finished pre-training run, got '{}' "
+                                   "(no such file: train that run first, e.g. `rmpmarl train "
+                                   "configs/train/pretrain-2link.yaml`, or set init_actor_from)",
+                                   config.init_actor_from));
+    }
     LoadedCheckpoint pre = LoadLearner(config.init_actor_from);
     try {
       m.ppo->InitActorFrom(*pre.ppo);

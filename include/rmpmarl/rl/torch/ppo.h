@@ -55,6 +55,9 @@ torch::Tensor ClippedSurrogateLoss(const torch::Tensor& log_prob, const torch::T
 torch::Tensor ClippedValueLoss(const torch::Tensor& values, const torch::Tensor& old_values,
                                const torch::Tensor& returns, double clip);
 
+/// ε in a normaliser's σ = sqrt(var + ε), shared by Normalize and the exported policy's obs_inv_std.
+inline constexpr double kNormalizerEps = 1e-8;
+
 /// Running mean and variance of vectors (parallel Welford update, in double precision).
 class RunningMeanStd {
  public:
