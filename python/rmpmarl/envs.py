@@ -103,11 +103,10 @@ class VectorEnv:
     def _info(self):
         info = {"state": self._out(self._env.state), "reward_terms": self._out(self._env.reward_terms),
                 "option_started": self._out(self._env.option_started)}
-        metrics = self._env.episode_metrics()
-        ended = metrics.pop("ended")
-        if ended.any():
+        if self._env.terminated.any() or self._env.truncated.any():  # the metrics only when an episode ended
+            metrics = self._env.episode_metrics()
+            info["_episode"] = metrics.pop("ended")
             info["episode"] = metrics
-            info["_episode"] = ended
         return info
 
     def reset(self, *, seed=None, options=None):

@@ -91,7 +91,7 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
   return Finish(h, std::make_unique<sim::RmpflowAccelerationPolicy>(r, options, max_obstacles), {});
 }
 
-/// fills h.scene from the keyword arguments; nothing of the controller changes when it raises.
+/// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
 void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& target_velocity,
                const py::handle& spheres, const py::handle& sphere_velocities, const py::handle& boxes,
                const py::handle& box_velocities, const py::handle& box_rotations) {
@@ -118,16 +118,16 @@ void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& 
                                                  : CheckedArray(target_velocity, {.name = "target_velocity", .shape = {3}});
   if (tv.size() > 0 && t.size() == 0) BadArgument("target_velocity: given without target");
 
-  rmp::Scene next;  // built in the controller's obstacle buffer (swapped in and out: no allocation), then checked
-  std::swap(next.obstacles, s.obstacles);
-  next.obstacles.clear();
+  // rebuilt at every call in the controller's own buffer (reserved for max_obstacles: no allocation); a call that
+  // raises leaves it for the next call to overwrite and steps nothing
+  s.obstacles.clear();
   const double* ps = static_cast<const double*>(sph.data());
   const double* pb = static_cast<const double*>(box.data());
   auto vec3 = [](const py::array& a, py::ssize_t i) {
     return a.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(a.data()) + 3 * i) : Eigen::Vector3d::Zero();
   };
   for (py::ssize_t i = 0; i < ns; ++i) {
-    next.obstacles.push_back(rmp::Obstacle::MakeSphere(Eigen::Vector3d(ps + 4 * i), ps[4 * i + 3], vec3(sv, i)));
+    s.obstacles.push_back(rmp::Obstacle::MakeSphere(Eigen::Vector3d(ps + 4 * i), ps[4 * i + 3], vec3(sv, i)));
   }
   for (py::ssize_t i = 0; i < nb; ++i) {
     Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
@@ -136,21 +136,12 @@ void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& 
       X.linear() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
           static_cast<const double*>(br.data()) + 9 * i);
     }
-    next.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d(pb + 6 * i + 3), vec3(bv, i)));
+    s.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d(pb + 6 * i + 3), vec3(bv, i)));
   }
-  next.has_target = t.size() > 0;
-  next.p_WT = next.has_target ? Eigen::Vector3d(static_cast<const double*>(t.data())) : Eigen::Vector3d::Zero();
-  next.v_WT = tv.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(tv.data())) : Eigen::Vector3d::Zero();
-  try {
-    rmp::ValidateScene(next, "scene");
-  } catch (const InputError& e) {
-    std::swap(next.obstacles, s.obstacles);
-    BadArgument(e.what());
-  }
-  std::swap(next.obstacles, s.obstacles);
-  s.has_target = next.has_target;
-  s.p_WT = next.p_WT;
-  s.v_WT = next.v_WT;
+  s.has_target = t.size() > 0;
+  s.p_WT = s.has_target ? Eigen::Vector3d(static_cast<const double*>(t.data())) : Eigen::Vector3d::Zero();
+  s.v_WT = tv.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(tv.data())) : Eigen::Vector3d::Zero();
+  rmp::ValidateScene(s, "scene");  // InputError reaches Python as ValueError
 }
 
 /// a copy of the learned agents' per-joint rows [nq, size / nq]; None for RMPflow (values == nullptr).

@@ -26,14 +26,6 @@ struct EnvHandle {
   bool seeded = false;
 };
 
-tasks::InterfaceMode ParseInterface(const std::string& name) {
-  for (tasks::InterfaceMode mode :
-       {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect}) {
-    if (tasks::InterfaceModeName(mode) == name) return mode;
-  }
-  BadArgument(fmt::format("interface: expected per-joint-rmp, direct or per-joint-direct, got '{}'", name));
-}
-
 std::unique_ptr<EnvHandle> MakeEnv(const std::string& task, int num_envs, const std::optional<std::string>& robot,
                                    const std::optional<std::string>& collision,
                                    const std::optional<std::string>& interface, const std::string& overrides,
@@ -59,14 +51,14 @@ std::unique_ptr<EnvHandle> MakeEnv(const std::string& task, int num_envs, const 
   auto h = std::make_unique<EnvHandle>();
   h->config = overrides.empty() ? tasks::LoadTaskConfig(path) : tasks::LoadTaskConfig(path, overrides);
   if (robot) {
-    if (robot->ends_with(".urdf") && !fs::is_regular_file(*robot)) FileNotFound(*robot, "robot", "a .urdf file");
+    if (tasks::IsUrdfPath(*robot) && !fs::is_regular_file(*robot)) FileNotFound(*robot, "robot", "a .urdf file");
     h->config.robot = *robot;
     h->config.collision = collision.value_or("");
   } else if (collision) {
     BadArgument("collision: given without robot (a .urdf path)");
   }
   if (collision && !fs::is_regular_file(*collision)) FileNotFound(*collision, "collision", "a collision YAML file");
-  if (interface) h->config.interface = ParseInterface(*interface);
+  if (interface) h->config.interface = tasks::ParseInterfaceMode(*interface);
   tasks::ValidateTaskConfig(h->config, "make_vec_env");
   py::gil_scoped_release release;  // building the robot variants compiles MuJoCo models
   auto context = tasks::MakeTaskContext(h->config);

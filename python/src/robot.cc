@@ -8,6 +8,7 @@
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::python {
 
@@ -53,7 +54,7 @@ py::array_t<double> Pose(const Eigen::Isometry3d& X) { return MatrixToNumpy(Eige
 }  // namespace
 
 std::shared_ptr<RobotHandle> LoadRobotArgument(const std::string& robot) {
-  if (robot.ends_with(".urdf")) return FromUrdf(robot, std::nullopt);
+  if (tasks::IsUrdfPath(robot)) return FromUrdf(robot, std::nullopt);
   if (robot == "planar2") return std::make_shared<RobotHandle>(kinematics::MakePlanar2());
   return std::make_shared<RobotHandle>(kinematics::LoadShippedRobot(robot));
 }

@@ -101,15 +101,19 @@ ReactiveController::ReactiveController(const WorldModel& model, std::unique_ptr<
   q_target_ = q_cmd_;
 }
 
+void ReactiveController::CheckMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                            const Eigen::Ref<const Eigen::VectorXd>& qd, const char* where) const {
+  if (q.size() != nq() || qd.size() != nq() || !q.allFinite() || !qd.allFinite()) {
+    throw InputError(fmt::format("ReactiveController::{}: expected q and qd with {} finite entries, got sizes {} and "
+                                 "{}{}", where, nq(), q.size(), qd.size(),
+                                 q.allFinite() && qd.allFinite() ? "" : " with non-finite entries"));
+  }
+}
+
 void ReactiveController::Reset(const World& world) { Reset(world.q(), world.qd()); }
 
 void ReactiveController::Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd) {
-  for (const auto& [v, what] : {std::pair{&q, "q"}, std::pair{&qd, "qd"}}) {
-    if (v->size() != nq() || !v->allFinite()) {
-      throw InputError(fmt::format("ReactiveController::Reset: {}: expected {} finite values, got {}{}", what, nq(),
-                                   v->size(), v->allFinite() ? "" : " (non-finite)"));
-    }
-  }
+  CheckMeasuredState(q, qd, "Reset");
   q_cmd_ = q.cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_ = qd.cwiseMax(-v_max_).cwiseMin(v_max_);
   qdd_.setZero();
@@ -145,11 +149,7 @@ void ReactiveController::Integrate(double h, ControlStepResult* result) {
 
 ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::VectorXd>& q,
                                              const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene) {
-  if (q.size() != nq() || qd.size() != nq() || !q.allFinite() || !qd.allFinite()) {
-    throw InputError(fmt::format("ReactiveController::Update: expected q and qd with {} finite entries, got sizes "
-                                 "{} and {}{}", nq(), q.size(), qd.size(),
-                                 q.allFinite() && qd.allFinite() ? "" : " with non-finite entries"));
-  }
+  CheckMeasuredState(q, qd, "Update");
   const auto start = std::chrono::steady_clock::now();
   ControlStepResult result;
   if ((q_cmd_ - q).cwiseAbs().maxCoeff() > options_.resync_threshold) {

@@ -190,6 +190,13 @@ std::string_view InterfaceModeName(InterfaceMode mode) {
   return "?";
 }
 
+InterfaceMode ParseInterfaceMode(std::string_view name) {
+  for (InterfaceMode mode : {InterfaceMode::kPerJointRmp, InterfaceMode::kDirect, InterfaceMode::kPerJointDirect}) {
+    if (InterfaceModeName(mode) == name) return mode;
+  }
+  throw InputError(fmt::format("interface: expected per-joint-rmp, direct or per-joint-direct, got '{}'", name));
+}
+
 std::string_view OptionTerminationName(OptionTermination termination) {
   return termination == OptionTermination::kLearned ? "learned" : "fixed";
 }

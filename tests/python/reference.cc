@@ -44,10 +44,7 @@ void Write(std::ofstream& out, const T* data, size_t count) {
 int Rollout(char** argv) {
   tasks::TaskConfig config = tasks::LoadTaskConfig(tasks::TaskConfigPath(argv[2]), argv[10]);
   config.robot = argv[3];
-  for (tasks::InterfaceMode mode :
-       {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect}) {
-    if (tasks::InterfaceModeName(mode) == argv[4]) config.interface = mode;
-  }
+  config.interface = tasks::ParseInterfaceMode(argv[4]);
   const int n = std::stoi(argv[5]);
   const std::uint64_t seed = std::stoull(argv[6]);
   const int steps = std::stoi(argv[7]);

@@ -174,6 +174,9 @@ class ReactiveController {
   const Eigen::VectorXd& upper_limits() const { return upper_; }
 
  private:
+  // throws InputError unless q and q̇ have nq finite entries; `where` names the caller ("Update").
+  void CheckMeasuredState(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                          const char* where) const;
   // one semi-implicit Euler substep of length h with acceleration qdd_; counts clamps into `result`.
   void Integrate(double h, ControlStepResult* result);
 

@@ -47,6 +47,9 @@ enum class ScenarioUpdate {
 
 /// "per-joint-rmp", "direct", "per-joint-direct".
 std::string_view InterfaceModeName(InterfaceMode mode);
+/// the interface called `name`; throws InputError "interface: expected per-joint-rmp, direct or per-joint-direct,
+/// got '<name>'".
+InterfaceMode ParseInterfaceMode(std::string_view name);
 /// "learned", "fixed".
 std::string_view OptionTerminationName(OptionTermination termination);
 /// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".

@@ -197,16 +197,10 @@ tasks::TaskConfig ManipulatorTaskConfig(const TaskSelection& task) {
                                  task.name));
   }
   if (!task.interface.empty()) {
-    bool found = false;
-    for (tasks::InterfaceMode mode : {tasks::InterfaceMode::kPerJointRmp, tasks::InterfaceMode::kDirect, tasks::InterfaceMode::kPerJointDirect}) {
-      if (tasks::InterfaceModeName(mode) == task.interface) {
-        config.interface = mode;
-        found = true;
-      }
-    }
-    if (!found) {
-      throw InputError(fmt::format("task {}: interface: expected per-joint-rmp, direct or per-joint-direct, got "
-                                   "\"{}\"", task.name, task.interface));
+    try {
+      config.interface = tasks::ParseInterfaceMode(task.interface);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("task {}: {}", task.name, e.what()));
     }
   }
   return config;
