@@ -33,6 +33,8 @@ void RunRobotsTable(double duration);
 
 /// `rmpmarl demo`: the README's main job.
 void RegisterDemo(CLI::App& app);
+/// `rmpmarl view`: the live viewer in the browser (docs/viewer.md).
+void RegisterView(CLI::App& app);
 /// `rmpmarl policy show|upgrade`: a controller file's card; format-1 files rewritten as format 2.
 void RegisterPolicy(CLI::App& app);
 

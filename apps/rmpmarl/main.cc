@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterSetupRobot(app);
   rmpmarl::apps::RegisterRobots(app);
   rmpmarl::apps::RegisterDemo(app);
+  rmpmarl::apps::RegisterView(app);
   rmpmarl::apps::RegisterPolicy(app);
 #ifdef RMPMARL_HAS_TORCH
   rmpmarl::apps::RegisterTrain(app);

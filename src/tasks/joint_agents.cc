@@ -369,6 +369,11 @@ void JointAgents::Apply(const float* actions, float* option_started, float* para
   }
 }
 
+const rmp::JointLayerWeights& JointAgents::layer_weights(int i) const {
+  RMPMARL_ASSERT(layer_ != nullptr, "JointAgents::layer_weights: the per-joint-rmp interface only");
+  return layer_->weights[i];
+}
+
 void JointAgents::End() {
   for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, option_warning_[i] != 0);
 }

@@ -14,6 +14,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/tasks/agent_interface.h"
 #include "rmpmarl/tasks/task_config.h"
+#include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/world.h"
@@ -100,6 +101,9 @@ class JointAgents {
   const JointWarning& warning(int i) const { return warnings_[i]; }
   const JointLookahead& lookahead(int i) const { return lookahead_[i]; }
   const OptionMachine& option_machine(int i) const { return options_[i]; }
+  /// per-joint-rmp: the basic-layer weights joint i's action set at the last Apply (gain scales s_a, s_m of the
+  /// target and collision RMPs, after the hand gate). \pre per-joint-rmp.
+  const rmp::JointLayerWeights& layer_weights(int i) const;
   /// v_max,i: the URDF velocity limit (1 where none) × controller.velocity_limit_scale.
   const Eigen::VectorXd& velocity_limits() const { return v_max_; }
 

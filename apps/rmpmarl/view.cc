@@ -1,0 +1,167 @@
+// `rmpmarl view`: the live viewer (docs/viewer.md) — a simulation in real time, served to browsers that watch and
+// steer it; or a recorded episode played back.
+#include <fmt/core.h>
+
+#include <atomic>
+#include <csignal>
+#include <filesystem>
+#include <thread>
+
+#include "commands.h"
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/viewer/live_sim.h"
+#include "rmpmarl/viewer/realtime.h"
+#include "rmpmarl/viewer/recording.h"
+#include "rmpmarl/viewer/server.h"
+
+namespace rmpmarl::apps {
+namespace {
+
+struct ViewArgs {
+  std::string robot = "panda";
+  std::string urdf, collision;
+  std::string policy;  // "" the shipped default, "rmpflow" RMPflow alone, else a controller file
+  std::string scenario = std::string(sim::kDefaultScenario);
+  std::uint64_t seed = 0;
+  bool side_by_side = false;
+  std::optional<double> obstacle_speed, target_speed;
+  std::optional<int> num_obstacles;
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  double fps = 30.0;
+  std::string replay;
+  std::string web_root;
+  double duration = 0.0;  // wall seconds to serve; 0: until interrupted
+  bool paused = false;
+};
+
+std::atomic<bool> g_interrupted{false};
+void OnSignal(int) { g_interrupted = true; }
+
+void RunView(const ViewArgs& args) {
+  std::unique_ptr<viewer::FrameSource> source;
+  std::string what;
+  if (!args.replay.empty()) {
+    auto replay = std::make_unique<viewer::ReplaySource>(args.replay);
+    what = fmt::format("replay of '{}' ({} frames)", args.replay, replay->num_frames());
+    source = std::move(replay);
+  } else {
+    const kinematics::Robot robot = !args.urdf.empty() ? LoadUserRobot(args.urdf, args.collision).robot
+                                                       : kinematics::LoadShippedRobot(args.robot);
+    std::shared_ptr<const rl::PolicyFile> file;
+    std::string policy_path;
+    if (args.policy != "rmpflow") {
+      policy_path = !args.policy.empty()
+                        ? args.policy
+                        : (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+      file = std::make_shared<const rl::PolicyFile>(rl::LoadPolicyFile(policy_path));
+    }
+    viewer::LiveSimOptions options;
+    options.scenario = args.scenario;
+    options.seed = args.seed;
+    options.overrides.obstacle_speed = args.obstacle_speed;
+    options.overrides.target_speed = args.target_speed;
+    options.overrides.num_obstacles = args.num_obstacles;
+    options.controller = file ? "learned" : "rmpflow";
+    options.side_by_side = args.side_by_side;
+    auto live = std::make_unique<viewer::LiveSim>(robot, file, policy_path, options);
+    what = fmt::format("{} ({} dof), scenario '{}', {}{}", robot.name, robot.model.nq(), args.scenario,
+                       file ? policy_path : std::string("RMPflow"), args.side_by_side ? " beside RMPflow" : "");
+    source = std::move(live);
+  }
+
+  viewer::RealtimeOptions loop_options;
+  loop_options.fps = args.fps;
+  loop_options.start_paused = args.paused;
+  viewer::Server* server_ptr = nullptr;
+  viewer::Realtime loop(
+      *source, loop_options,
+      [&](std::shared_ptr<const std::string> frame) {
+        if (server_ptr != nullptr) server_ptr->Broadcast(std::move(frame), /*droppable=*/true);
+      },
+      [&](std::shared_ptr<const std::string> hello) {
+        if (server_ptr != nullptr) server_ptr->Broadcast(std::move(hello), /*droppable=*/false);
+      });
+  viewer::ServerOptions server_options;
+  server_options.host = args.host;
+  server_options.port = args.port;
+  server_options.web_root = viewer::DefaultWebRoot(args.web_root);
+  viewer::Server server(server_options, loop);
+  server_ptr = &server;
+  server.Start();
+  fmt::print("rmpmarl view: {}\n", what);
+  fmt::print("rmpmarl view: serving {} (open it in a browser; Ctrl-C stops)\n", server.url());
+  if (args.host != "127.0.0.1" && args.host != "::1" && args.host != "localhost") {
+    fmt::print("rmpmarl view: listening on {} — other machines can reach this viewer and steer the simulation\n",
+               args.host);
+  }
+  std::fflush(stdout);
+
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  std::thread sim([&] { loop.Run(); });
+  const auto start = std::chrono::steady_clock::now();
+  while (!g_interrupted) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (args.duration > 0.0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= args.duration) {
+      break;
+    }
+  }
+  loop.Stop();
+  sim.join();
+  server.Stop();
+  const viewer::ServerCounters s = server.counters();
+  const viewer::RealtimeCounters& c = loop.counters();
+  fmt::print("rmpmarl view: stopped at t = {:.2f} s simulated; {} frames, {} messages applied, {} refused, {} "
+             "overruns; {} pages connected, {} frames dropped for slow pages, {} bad HTTP requests\n",
+             source->time(), c.frames.load(), c.accepted.load(), c.refused.load(), c.overruns.load(), s.connections,
+             s.dropped_frames, s.bad_requests);
+}
+
+}  // namespace
+
+void RegisterView(CLI::App& app) {
+  auto* cmd = app.add_subcommand("view", "Watch and steer a controller live in the browser (docs/viewer.md)");
+  static ViewArgs args;
+  std::string robots, scenarios;
+  for (const auto& n : kinematics::ShippedRobotNames()) robots += (robots.empty() ? "" : ", ") + n;
+  for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
+  cmd->add_option("--robot", args.robot, "shipped robot: " + robots)->capture_default_str();
+  cmd->add_option("--urdf", args.urdf, "your robot's URDF instead of --robot (collision YAML: --collision, else "
+                                      "beside it, else capsules fitted in memory)");
+  cmd->add_option("--collision", args.collision, "collision YAML of --urdf");
+  cmd->add_option("--policy", args.policy,
+                  "a controller file (.rmpp) (default: the shipped models/policies/marl-rmp-residual.rmpp); rmpflow: "
+                  "RMPflow alone");
+  cmd->add_option("--scenario", args.scenario, "scenario that moves the target and obstacles: " + scenarios)
+      ->capture_default_str();
+  cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();
+  cmd->add_flag("--side-by-side", args.side_by_side, "the learned controller and RMPflow on two arms, same scene");
+  cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
+  cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
+  cmd->add_option("--obstacles", args.num_obstacles, "number of scenario obstacles")->check(CLI::Range(0, 16));
+  cmd->add_option("--host", args.host, "address to listen on (0.0.0.0: every interface)")->capture_default_str();
+  cmd->add_option("--port", args.port, "port (0: any free one)")->check(CLI::Range(0, 65535))->capture_default_str();
+  cmd->add_option("--fps", args.fps, "frames sent per second")->check(CLI::Range(1.0, 120.0))->capture_default_str();
+  cmd->add_option("--replay", args.replay, "play back a replay file (rmpmarl demo --record, or the page's record)");
+  cmd->add_option("--web-root", args.web_root, "directory of the built page (default: the build's or installed one)");
+  cmd->add_option("--duration", args.duration, "stop after this many wall seconds (0: at Ctrl-C)")
+      ->check(CLI::Range(0.0, 1e7));
+  cmd->add_flag("--paused", args.paused, "start paused");
+  cmd->callback([] {
+    if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
+    if (!args.replay.empty() && (args.side_by_side || !args.policy.empty() || !args.urdf.empty())) {
+      throw InputError("--replay plays a recorded episode: --policy, --urdf and --side-by-side do not apply");
+    }
+    if (args.side_by_side && args.policy == "rmpflow") {
+      throw InputError("--side-by-side shows the learned controller beside RMPflow: give it a controller file, not "
+                       "--policy rmpflow");
+    }
+    RunView(args);
+  });
+}
+
+}  // namespace rmpmarl::apps

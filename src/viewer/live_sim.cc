@@ -1,0 +1,453 @@
+#include "rmpmarl/viewer/live_sim.h"
+
+#include <fmt/format.h>
+#include <mujoco/mjdata.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/sim/world.h"
+
+namespace rmpmarl::viewer {
+
+FrameSource::~FrameSource() = default;
+
+namespace {
+
+constexpr double kAddedCubeSide = 0.1;      // [m]
+constexpr double kAddedSphereRadius = 0.05; // [m]
+// a dragged obstacle's velocity estimate decays to zero when no drag update came for this long [s]
+constexpr double kDragHold = 0.1;
+
+}  // namespace
+
+/// One obstacle of the arms' worlds: a scenario obstacle (scripted ≥ 0) or room for one the page adds.
+struct LiveSim::Slot {
+  sim::ObstacleSpec spec;  // shape and size (compiled into the world)
+  int scripted = -1;       // scenario obstacle index it follows unless held; −1: added by the page
+  bool active = false;
+  bool held = false;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  double drag_time = -1.0;  // simulated time of the last drag update
+
+  rmp::Obstacle AsRmp() const {
+    if (spec.shape == sim::ObstacleShape::kSphere) return rmp::Obstacle::MakeSphere(p, spec.radius, v);
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.linear() = R;
+    X.translation() = p;
+    return rmp::Obstacle::MakeBox(X, spec.half_size, v);
+  }
+};
+
+/// One arm: its world and controller.
+struct LiveSim::Arm {
+  std::string controller;  // "learned" or "rmpflow"
+  std::string label;
+  std::unique_ptr<sim::World> world;
+  std::unique_ptr<sim::ReactiveController> control;
+  rl::LearnedController* learned = nullptr;  // the controller's policy when learned
+  const sim::ContactReport* contacts = nullptr;
+  double clearance = std::numeric_limits<double>::infinity();
+  long collisions = 0;
+  bool in_collision = false;
+  double step_us = 0.0;
+};
+
+LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const rl::PolicyFile> policy, std::string policy_path,
+                 LiveSimOptions options)
+    : robot_(std::move(robot)), policy_(std::move(policy)), policy_path_(std::move(policy_path)),
+      options_(std::move(options)) {
+  if (options_.controller != "learned" && options_.controller != "rmpflow") {
+    throw InputError(fmt::format("viewer: controller must be 'learned' or 'rmpflow', got '{}'", options_.controller));
+  }
+  if (policy_ == nullptr && (options_.controller == "learned" || options_.side_by_side)) {
+    throw InputError("viewer: the learned controller needs a controller file (--policy FILE); without one only "
+                     "--policy rmpflow runs");
+  }
+  if (options_.extra_boxes < 0 || options_.extra_spheres < 0 || options_.max_obstacles < 1 ||
+      !(options_.arena > 0.0)) {
+    throw InputError(fmt::format("viewer: extra_boxes and extra_spheres must be >= 0, max_obstacles >= 1 and arena "
+                                 "> 0, got {}, {}, {}, {}", options_.extra_boxes, options_.extra_spheres,
+                                 options_.max_obstacles, options_.arena));
+  }
+  policy_label_ = policy_ != nullptr ? std::filesystem::path(policy_path_).stem().string() : "";
+  scenario_ = sim::MakeScenario(options_.scenario, robot_, options_.overrides);
+  sim::SceneSpec spec = scenario_->scene_spec();
+  shadow_model_ = std::make_shared<const sim::WorldModel>(robot_, spec);
+  shadow_ = std::make_unique<sim::World>(shadow_model_);
+  for (int j = 0; j < scenario_->num_obstacles(); ++j) {
+    Slot s;
+    s.spec = spec.obstacles[j];
+    s.scripted = j;
+    slots_.push_back(s);
+  }
+  for (int k = 0; k < options_.extra_boxes + options_.extra_spheres; ++k) {
+    Slot s;
+    s.spec = k < options_.extra_boxes ? sim::ObstacleSpec::Cube(kAddedCubeSide)
+                                      : sim::ObstacleSpec::Sphere(kAddedSphereRadius);
+    spec.obstacles.push_back(s.spec);
+    slots_.push_back(s);
+  }
+  model_ = std::make_shared<const sim::WorldModel>(robot_, spec);
+  scene_.obstacles.reserve(slots_.size());
+  obstacle_views_.reserve(slots_.size());
+
+  limits_.arena = options_.arena;
+  limits_.num_obstacle_ids = static_cast<int>(slots_.size());
+  limits_.controllers = policy_ != nullptr ? std::vector<std::string>{"learned", "rmpflow"}
+                                           : std::vector<std::string>{"rmpflow"};
+  controller_ = options_.controller;
+  side_by_side_ = options_.side_by_side;
+  seed_ = options_.seed;
+  Reset(seed_);
+}
+
+LiveSim::~LiveSim() = default;
+
+std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, const Eigen::VectorXd& q,
+                                               const Eigen::VectorXd& qd) const {
+  auto arm = std::make_unique<Arm>();
+  arm->controller = controller;
+  arm->world = std::make_unique<sim::World>(model_);
+  arm->world->Reset(q, qd);
+  const int max_obstacles = static_cast<int>(slots_.size());
+  if (controller == "learned") {
+    std::unique_ptr<rl::LearnedController> learned =
+        rl::MakeLearnedController(robot_, *policy_, policy_path_, max_obstacles);
+    const sim::ControllerOptions options = learned->controller_options();
+    arm->learned = learned.get();
+    arm->label = policy_label_;
+    arm->control = std::make_unique<sim::ReactiveController>(*model_, std::move(learned), options);
+  } else {
+    arm->label = "RMPflow";
+    arm->control = std::make_unique<sim::ReactiveController>(
+        *model_, std::make_unique<sim::RmpflowAccelerationPolicy>(robot_, max_obstacles));
+  }
+  const double period = arm->control->control_period();
+  if (!arms_.empty() && std::abs(period - period_) > 1e-12) {
+    throw InputError(fmt::format("viewer: the {} controller runs at {:g} Hz, the other arm's at {:g} Hz; side by side "
+                                 "needs one control rate", controller, 1.0 / period, 1.0 / period_));
+  }
+  arm->control->Reset(*arm->world);
+  return arm;
+}
+
+void LiveSim::BuildArms() {
+  // the new arms start from the first arm's state (or the scenario's start posture)
+  Eigen::VectorXd q = scenario_->q_start(), qd = Eigen::VectorXd::Zero(robot_.model.nq());
+  if (!arms_.empty()) {
+    q = arms_[0]->world->q();
+    qd = arms_[0]->world->qd();
+  }
+  std::vector<std::string> wanted = side_by_side_ ? std::vector<std::string>{"learned", "rmpflow"}
+                                                  : std::vector<std::string>{controller_};
+  arms_.clear();
+  for (const std::string& c : wanted) {
+    arms_.push_back(MakeArm(c, q, qd));
+    if (arms_.size() == 1) {
+      period_ = arms_[0]->control->control_period();
+      physics_steps_ = arms_[0]->control->physics_steps_per_control();
+      dt_ = period_ / physics_steps_;
+    }
+  }
+  PlaceObstacles();
+  UpdateHello();
+}
+
+void LiveSim::Reset(std::uint64_t seed) {
+  seed_ = seed;
+  scenario_->Reset(seed, *shadow_);
+  for (Slot& s : slots_) {
+    s.held = false;
+    s.v.setZero();
+    s.drag_time = -1.0;
+    s.active = s.scripted >= 0;
+    if (s.scripted >= 0) {
+      const sim::ObstacleState& o = scenario_->obstacles()[s.scripted];
+      s.p = o.p_WO();
+      s.v = o.v_WO();
+      s.R = o.R_WO;
+    }
+  }
+  target_held_ = false;
+  p_WT_ = scenario_->target().p_WT;
+  v_WT_ = scenario_->target().v_WT;
+  time_ = 0.0;
+  arms_.clear();
+  BuildArms();
+}
+
+void LiveSim::PlaceObstacles() {
+  for (const auto& arm : arms_) {
+    sim::World& w = *arm->world;
+    for (std::size_t j = 0; j < slots_.size(); ++j) {
+      const Slot& s = slots_[j];
+      if (s.active) {
+        w.SetObstaclePose(static_cast<int>(j), s.p, s.R);
+      } else {
+        w.SetObstaclePose(static_cast<int>(j), sim::ParkedPose());
+      }
+    }
+    w.SetTargetPosition(p_WT_);
+  }
+}
+
+void LiveSim::FillScene() {
+  scene_.obstacles.clear();
+  for (const Slot& s : slots_) {
+    if (s.active) scene_.obstacles.push_back(s.AsRmp());
+  }
+  scene_.has_target = true;
+  scene_.p_WT = p_WT_;
+  scene_.v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
+}
+
+void LiveSim::ControlStep() {
+  FillScene();
+  for (const auto& arm : arms_) {
+    const sim::ControlStepResult r = arm->control->Step(*arm->world, scene_);
+    arm->step_us = r.compute_us;
+  }
+  for (int k = 0; k < physics_steps_; ++k) {
+    for (const auto& arm : arms_) {
+      const sim::StepResult r = arm->world->Step(1);
+      if (!r.ok) {
+        // MuJoCo reset the robot state: start this arm again from the scenario's start posture
+        fmt::print(stderr, "rmpmarl view: the {} arm's simulation became non-finite at t = {:.3f} s; it restarts "
+                           "from the start posture\n", arm->label, time_);
+        arm->world->Reset(scenario_->q_start());
+        arm->control->Reset(*arm->world);
+      }
+    }
+    scenario_->Advance(dt_, no_contacts_, *shadow_);
+    time_ += dt_;
+    for (Slot& s : slots_) {
+      if (!s.active) continue;
+      if (s.held) {
+        if (s.drag_time >= 0.0 && time_ - s.drag_time > kDragHold) s.v.setZero();
+      } else if (s.scripted >= 0) {
+        const sim::ObstacleState& o = scenario_->obstacles()[s.scripted];
+        s.p = o.p_WO();
+        s.v = o.v_WO();
+        s.R = o.R_WO;
+      }
+    }
+    if (!target_held_) {
+      p_WT_ = scenario_->target().p_WT;
+      v_WT_ = scenario_->target().v_WT;
+    }
+    PlaceObstacles();
+  }
+  for (const auto& arm : arms_) {
+    const sim::ContactReport& report = arm->world->QueryContacts();
+    arm->contacts = &report;
+    double clearance = std::numeric_limits<double>::infinity();
+    for (const sim::WarningContact& w : report.warnings) {
+      if (w.other_kind == sim::PartnerKind::kObstacle) clearance = std::min(clearance, w.distance);
+    }
+    arm->clearance = clearance;
+    const bool colliding = clearance < 0.0;
+    if (colliding && !arm->in_collision) ++arm->collisions;
+    arm->in_collision = colliding;
+  }
+}
+
+void LiveSim::AdvanceTo(double t) {
+  // whole control steps while the next one ends at or before t (half a step of slack against rounding)
+  while (time_ + 0.5 * period_ <= t) ControlStep();
+}
+
+std::string LiveSim::ActiveIds() const {
+  std::vector<int> ids = obstacle_ids();
+  return ids.empty() ? std::string("none") : fmt::format("{}", fmt::join(ids, ", "));
+}
+
+std::string LiveSim::Apply(const Command& c) {
+  const std::string_view name = CommandName(c.kind);
+  auto slot_in_scene = [&](int id) -> Slot* {
+    if (id < 0 || id >= static_cast<int>(slots_.size()) || !slots_[id].active) return nullptr;
+    return &slots_[id];
+  };
+  switch (c.kind) {
+    case CommandKind::kSetTarget:
+      target_held_ = true;
+      p_WT_ = c.p;
+      v_WT_.setZero();
+      PlaceObstacles();
+      return {};
+    case CommandKind::kReleaseTarget:
+      target_held_ = false;
+      p_WT_ = scenario_->target().p_WT;
+      v_WT_ = scenario_->target().v_WT;
+      PlaceObstacles();
+      return {};
+    case CommandKind::kSetObstacle: {
+      Slot* s = slot_in_scene(c.id);
+      if (s == nullptr) return fmt::format("{}: obstacle {} is not in the scene (ids: {})", name, c.id, ActiveIds());
+      if (s->held && s->drag_time >= 0.0 && time_ > s->drag_time) {
+        // the velocity the controllers see: the drag's, smoothed over updates
+        const Eigen::Vector3d v = (c.p - s->p) / std::max(time_ - s->drag_time, period_);
+        s->v = 0.5 * (s->v + v);
+      } else if (!s->held || s->drag_time < 0.0) {
+        s->v.setZero();
+      }
+      s->held = true;
+      s->p = c.p;
+      s->drag_time = time_;
+      PlaceObstacles();
+      return {};
+    }
+    case CommandKind::kAddObstacle: {
+      const int active = static_cast<int>(std::count_if(slots_.begin(), slots_.end(),
+                                                        [](const Slot& s) { return s.active; }));
+      if (active >= options_.max_obstacles) {
+        return fmt::format("{}: the scene holds {} obstacles, the most it takes", name, active);
+      }
+      const sim::ObstacleShape shape =
+          c.shape == rmp::ObstacleShape::kSphere ? sim::ObstacleShape::kSphere : sim::ObstacleShape::kBox;
+      for (Slot& s : slots_) {
+        if (s.active || s.scripted >= 0 || s.spec.shape != shape) continue;
+        s.active = true;
+        s.held = true;
+        s.p = c.p;
+        s.v.setZero();
+        s.R.setIdentity();
+        s.drag_time = -1.0;
+        PlaceObstacles();
+        return {};
+      }
+      return fmt::format("{}: no room for another {} ({} at most; remove one first)", name,
+                         shape == sim::ObstacleShape::kSphere ? "sphere" : "cube",
+                         shape == sim::ObstacleShape::kSphere ? options_.extra_spheres : options_.extra_boxes);
+    }
+    case CommandKind::kRemoveObstacle: {
+      Slot* s = slot_in_scene(c.id);
+      if (s == nullptr) return fmt::format("{}: obstacle {} is not in the scene (ids: {})", name, c.id, ActiveIds());
+      s->active = false;
+      s->held = false;
+      s->v.setZero();
+      PlaceObstacles();
+      return {};
+    }
+    case CommandKind::kReset:
+      Reset(c.seed.value_or(seed_));
+      return {};
+    case CommandKind::kController:
+      if (c.name != controller_ || side_by_side_) {
+        controller_ = c.name;
+        side_by_side_ = false;
+        BuildArms();
+      }
+      return {};
+    case CommandKind::kSideBySide:
+      if (c.on && policy_ == nullptr) return fmt::format("{}: needs a learned controller (start with --policy FILE)", name);
+      if (c.on != side_by_side_) {
+        side_by_side_ = c.on;
+        if (!c.on) controller_ = "learned";
+        BuildArms();
+      }
+      return {};
+    case CommandKind::kSeek:
+      return fmt::format("{}: only a replay can seek", name);
+    case CommandKind::kPause:
+    case CommandKind::kResume:
+    case CommandKind::kStep:
+    case CommandKind::kSpeed:
+      break;
+  }
+  return fmt::format("{}: not handled by the simulation", name);
+}
+
+void LiveSim::UpdateHello() {
+  HelloInfo info;
+  info.mode = "live";
+  for (const auto& arm : arms_) info.arms.push_back({arm->label, arm->controller});
+  info.controllers = limits_.controllers;
+  info.controller = controller_;
+  info.side_by_side = side_by_side_;
+  info.workspace_min = scenario_->workspace().box.min();
+  info.workspace_max = scenario_->workspace().box.max();
+  info.max_obstacles = options_.max_obstacles;
+  info.arena = options_.arena;
+  info.min_speed = limits_.min_speed;
+  info.max_speed = limits_.max_speed;
+  info.control_rate = 1.0 / period_;
+  info.scenario = scenario_->name();
+  info.seed = seed_;
+  hello_ = EncodeHello(robot_, info);
+  ++hello_version_;
+}
+
+void LiveSim::Frame(const FrameStats& stats, std::string* out) {
+  obstacle_views_.clear();
+  for (std::size_t j = 0; j < slots_.size(); ++j) {
+    const Slot& s = slots_[j];
+    if (s.active) obstacle_views_.push_back({static_cast<int>(j), s.AsRmp(), s.held});
+  }
+  std::vector<ArmView> arms;
+  arms.reserve(arms_.size());
+  for (int a = 0; a < num_arms(); ++a) {
+    const Arm& arm = *arms_[a];
+    ArmView v;
+    v.world = arm.world.get();
+    v.contacts = arm.contacts;
+    v.learned = arm.learned;
+    v.p_WE = end_effector(a);
+    v.clearance = arm.clearance;
+    v.collisions = arm.collisions;
+    v.step_us = arm.step_us;
+    arms.push_back(v);
+  }
+  FrameView f;
+  f.seq = stats.seq;
+  f.time = time_;
+  f.paused = stats.paused;
+  f.speed = stats.speed;
+  f.rtf = stats.rtf;
+  f.load = stats.load;
+  f.refused = stats.refused;
+  f.p_WT = p_WT_;
+  f.target_held = target_held_;
+  f.obstacles = obstacle_views_;
+  f.arms = arms;
+  EncodeFrame(f, out);
+}
+
+const sim::World& LiveSim::world(int arm) const {
+  RMPMARL_ASSERT(arm >= 0 && arm < num_arms(), "LiveSim::world: arm index out of range");
+  return *arms_[arm]->world;
+}
+
+const std::string& LiveSim::controller(int arm) const {
+  RMPMARL_ASSERT(arm >= 0 && arm < num_arms(), "LiveSim::controller: arm index out of range");
+  return arms_[arm]->controller;
+}
+
+Eigen::Vector3d LiveSim::end_effector(int arm) const { return EndEffectorPosition(world(arm)); }
+
+std::vector<int> LiveSim::obstacle_ids() const {
+  std::vector<int> ids;
+  for (std::size_t j = 0; j < slots_.size(); ++j) {
+    if (slots_[j].active) ids.push_back(static_cast<int>(j));
+  }
+  return ids;
+}
+
+Eigen::Vector3d LiveSim::obstacle_position(int id) const {
+  RMPMARL_ASSERT(id >= 0 && id < static_cast<int>(slots_.size()) && slots_[id].active,
+                 "LiveSim::obstacle_position: obstacle not in the scene");
+  return slots_[id].p;
+}
+
+long LiveSim::collisions(int arm) const {
+  RMPMARL_ASSERT(arm >= 0 && arm < num_arms(), "LiveSim::collisions: arm index out of range");
+  return arms_[arm]->collisions;
+}
+
+}  // namespace rmpmarl::viewer
