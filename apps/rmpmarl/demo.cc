@@ -20,6 +20,7 @@
 #include "rmpmarl/sim/render.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
+#include "rmpmarl/viewer/recording.h"
 
 namespace rmpmarl::apps {
 namespace {
@@ -36,7 +37,24 @@ struct DemoArgs {
   std::optional<double> obstacle_speed, target_speed;
   std::optional<int> num_obstacles;
   std::string policy;  // a controller file (.rmpp) beside RMPflow, or "rmpflow" alone
+  std::string record;  // a replay file for `rmpmarl view --replay` ("" none)
 };
+
+// the hello of a recorded demo episode
+std::string DemoHello(const kinematics::Robot& robot, const sim::Scenario& scenario, std::vector<viewer::ArmLabel> arms,
+                      double control_rate, std::uint64_t seed) {
+  viewer::HelloInfo info;
+  info.mode = "replay";
+  info.arms = std::move(arms);
+  info.controller = info.arms.front().controller;
+  info.side_by_side = info.arms.size() > 1;
+  info.workspace_min = scenario.workspace().box.min();
+  info.workspace_max = scenario.workspace().box.max();
+  info.control_rate = control_rate;
+  info.scenario = scenario.name();
+  info.seed = seed;
+  return viewer::EncodeHello(robot, info);
+}
 
 sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
   return sim::CameraForWorkspace(ws, args.width, args.height);
@@ -80,11 +98,25 @@ void RunDemo(const DemoArgs& args) {
       episode.video_fps = args.fps;
     }
   }
+  std::optional<viewer::Recorder> recorder;
+  if (!args.record.empty()) {
+    recorder.emplace(DemoHello(robot, *scenario, {{"RMPflow", "rmpflow"}}, 1.0 / controller.control_period(),
+                               args.seed));
+    episode.video_fps = args.fps;
+  }
   sim::FrameCallback on_frame;
-  if (video) {
+  if (video || recorder) {
     on_frame = [&](const sim::FrameInfo& frame) {
-      renderer->Render(frame.world->mj_data(), &rgb);
-      video->AddFrame(rgb);
+      if (video) {
+        renderer->Render(frame.world->mj_data(), &rgb);
+        video->AddFrame(rgb);
+      }
+      if (recorder) {
+        viewer::ArmView arm;
+        arm.world = frame.world;
+        arm.contacts = frame.contacts;
+        recorder->AddFrame(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
+      }
     };
   }
 
@@ -117,6 +149,11 @@ void RunDemo(const DemoArgs& args) {
                args.width, args.height, renderer->gl_renderer());
     if (!mp4) fmt::print("                      ffmpeg not found: wrote PNG frames instead of an MP4\n");
   }
+  if (recorder) {
+    recorder->Write(args.record);
+    fmt::print("  replay              {} ({} frames): rmpmarl view --replay {}\n", args.record, recorder->frames(),
+               args.record);
+  }
   fmt::print("  wall time           {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
@@ -132,7 +169,8 @@ struct DemoRun {
 // runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
 // env's external controller; renders it when args.video is set.
 DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
-                       const DemoArgs& args) {
+                       const DemoArgs& args, rl::LearnedController* const* learned = nullptr,
+                       std::vector<std::string>* frames = nullptr) {
   const tasks::EnvSpec& spec = env.spec();
   const int A = spec.num_agents;
   tasks::StepBuffers buffers(spec);
@@ -156,9 +194,18 @@ DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, con
   double next_frame = 0.0;
   // the env truncates the episode at config.episode.max_steps (--duration); its metrics come with the last step
   while (!buffers.terminated && !buffers.truncated) {
-    if (video && env.world().time() + 1e-9 >= next_frame) {
-      renderer->Render(env.world().mj_data(), &rgb);
-      video->AddFrame(rgb);
+    if ((video || frames != nullptr) && env.world().time() + 1e-9 >= next_frame) {
+      if (video) {
+        renderer->Render(env.world().mj_data(), &rgb);
+        video->AddFrame(rgb);
+      }
+      if (frames != nullptr) {
+        viewer::ArmView arm;
+        arm.world = &env.world();
+        arm.learned = learned != nullptr ? *learned : nullptr;  // the env makes its controller at its first reset
+        frames->push_back(viewer::ScenarioFrame(static_cast<long>(frames->size()), env.world().time(),
+                                                env.scenario(), {arm}));
+      }
       next_frame += 1.0 / args.fps;
     }
     env.Step(actions.data(), rng, buffers.out());
@@ -221,18 +268,34 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
                  ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
                  : "");
   tasks::ExternalController agents;
+  rl::LearnedController* learned_policy = nullptr;  // owned by the env's controller
   agents.make_policy = [&](const kinematics::Robot& robot) {
-    return rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
+    auto policy = rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
+    learned_policy = policy.get();
+    return policy;
   };
   agents.options = config.controller;
   tasks::ManipulatorEnv learned_env(context, agents);
-  const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args);
+  const bool record = !args.record.empty();
+  std::vector<std::string> learned_frames, rmpflow_frames;
+  const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args, &learned_policy,
+                                         record ? &learned_frames : nullptr);
   tasks::ExternalController rmpflow;
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
     return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
   };
   tasks::ManipulatorEnv rmpflow_env(context, rmpflow);
-  const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args);
+  const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args, nullptr,
+                                          record ? &rmpflow_frames : nullptr);
+  std::optional<viewer::Recorder> recorder;
+  if (record) {
+    // one replay of both runs side by side, over the frames both have (an episode can end early on a collision)
+    recorder.emplace(DemoHello(robot, learned_env.scenario(), {{label, "learned"}, {"RMPflow", "rmpflow"}},
+                               config.episode.control_rate, args.seed));
+    const std::size_t n = std::min(learned_frames.size(), rmpflow_frames.size());
+    for (std::size_t i = 0; i < n; ++i) recorder->AddFrame(viewer::MergeFrameArms(learned_frames[i], rmpflow_frames[i]));
+    recorder->Write(args.record);
+  }
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
@@ -256,6 +319,10 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   row("result", result(learned.metrics), result(baseline.metrics));
   for (const DemoRun* r : {&learned, &baseline}) {
     if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
+  }
+  if (recorder) {
+    fmt::print("  replay {:<21}{} ({} frames, both runs side by side): rmpmarl view --replay {}\n", "", args.record,
+               recorder->frames(), args.record);
   }
   fmt::print("  wall time           {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
@@ -286,7 +353,8 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
       ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--video", args.video, "write an MP4 here (PNG frames when ffmpeg is absent)");
-  cmd->add_option("--fps", args.fps, "video frame rate")->check(CLI::Range(1.0, 240.0))->capture_default_str();
+  cmd->add_option("--record", args.record, "write the episode as a replay file (rmpmarl view --replay FILE)");
+  cmd->add_option("--fps", args.fps, "video and replay frame rate")->check(CLI::Range(1.0, 240.0))->capture_default_str();
   cmd->add_option("--width", args.width, "video width [px]")->check(CLI::Range(16, 4096))->capture_default_str();
   cmd->add_option("--height", args.height, "video height [px]")->check(CLI::Range(16, 4096))->capture_default_str();
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));

@@ -198,6 +198,14 @@ void LiveSim::PlaceObstacles() {
   }
 }
 
+void LiveSim::FillObstacleViews() {
+  obstacle_views_.clear();
+  for (std::size_t j = 0; j < slots_.size(); ++j) {
+    const Slot& s = slots_[j];
+    if (s.active) obstacle_views_.push_back({static_cast<int>(j), s.AsRmp(), s.held});
+  }
+}
+
 void LiveSim::FillScene() {
   scene_.obstacles.clear();
   for (const Slot& s : slots_) {
@@ -244,15 +252,11 @@ void LiveSim::ControlStep() {
     }
     PlaceObstacles();
   }
+  FillObstacleViews();
   for (const auto& arm : arms_) {
-    const sim::ContactReport& report = arm->world->QueryContacts();
-    arm->contacts = &report;
-    double clearance = std::numeric_limits<double>::infinity();
-    for (const sim::WarningContact& w : report.warnings) {
-      if (w.other_kind == sim::PartnerKind::kObstacle) clearance = std::min(clearance, w.distance);
-    }
-    arm->clearance = clearance;
-    const bool colliding = clearance < 0.0;
+    arm->contacts = &arm->world->QueryContacts();
+    arm->clearance = Clearance(*arm->world, obstacle_views_);
+    const bool colliding = arm->clearance < 0.0;
     if (colliding && !arm->in_collision) ++arm->collisions;
     arm->in_collision = colliding;
   }
@@ -385,11 +389,7 @@ void LiveSim::UpdateHello() {
 }
 
 void LiveSim::Frame(const FrameStats& stats, std::string* out) {
-  obstacle_views_.clear();
-  for (std::size_t j = 0; j < slots_.size(); ++j) {
-    const Slot& s = slots_[j];
-    if (s.active) obstacle_views_.push_back({static_cast<int>(j), s.AsRmp(), s.held});
-  }
+  FillObstacleViews();
   std::vector<ArmView> arms;
   arms.reserve(arms_.size());
   for (int a = 0; a < num_arms(); ++a) {

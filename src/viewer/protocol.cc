@@ -453,6 +453,22 @@ Eigen::Vector3d EndEffectorPosition(const sim::World& world) {
   return p_WL + R_WL * robot.end_effector.X_LE.translation();
 }
 
+double Clearance(const sim::World& world, std::span<const ObstacleView> obstacles) {
+  const kinematics::Robot& robot = world.model().robot();
+  const mjData* d = world.mj_data();
+  double clearance = std::numeric_limits<double>::infinity();
+  for (const kinematics::LinkCapsule& c : robot.capsules) {
+    const int b = world.model().link_body(c.link);
+    const Eigen::Map<const Eigen::Vector3d> p_WL(d->xpos + 3 * b);
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R_WL(d->xmat + 9 * b);
+    const math::Capsule capsule{p_WL + R_WL * c.p_LA, p_WL + R_WL * c.p_LB, c.radius};
+    for (const ObstacleView& o : obstacles) {
+      clearance = std::min(clearance, rmp::CapsuleObstacleDistance(capsule, o.obstacle).distance);
+    }
+  }
+  return clearance;
+}
+
 std::string EncodeError(std::string_view message) {
   return json({{"type", "error"}, {"message", std::string(message)}}).dump(-1, ' ', false,
                                                                            json::error_handler_t::replace);

@@ -13,6 +13,37 @@ namespace rmpmarl::viewer {
 
 using nlohmann::json;
 
+std::string ScenarioFrame(long seq, double time, const sim::Scenario& scenario, std::vector<ArmView> arms) {
+  std::vector<ObstacleView> obstacles;
+  for (int j = 0; j < scenario.num_obstacles(); ++j) {
+    const rmp::Obstacle o = scenario.ObstacleAsRmp(j);
+    if (rmp::Centre(o).z() < sim::ParkedPose().translation().z() + 1.0) continue;  // parked, out of the scene
+    obstacles.push_back({j, o, false});
+  }
+  for (ArmView& arm : arms) {
+    arm.p_WE = EndEffectorPosition(*arm.world);
+    arm.clearance = Clearance(*arm.world, obstacles);
+  }
+  FrameView f;
+  f.seq = seq;
+  f.time = time;
+  f.p_WT = scenario.target().p_WT;
+  f.obstacles = obstacles;
+  f.arms = arms;
+  std::string out;
+  EncodeFrame(f, &out);
+  return out;
+}
+
+std::string MergeFrameArms(const std::string& a, const std::string& b) {
+  json fa = json::parse(a, nullptr, false), fb = json::parse(b, nullptr, false);
+  if (fa.is_discarded() || fb.is_discarded() || !fa.contains("arms") || !fb.contains("arms")) {
+    throw InputError("MergeFrameArms: both must be frames");
+  }
+  for (auto& arm : fb["arms"]) fa["arms"].push_back(std::move(arm));
+  return fa.dump();
+}
+
 Recorder::Recorder(std::string hello) : hello_(std::move(hello)) {}
 
 void Recorder::AddFrame(std::string frame) { frames_.push_back(std::move(frame)); }

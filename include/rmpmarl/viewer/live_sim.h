@@ -119,6 +119,7 @@ class LiveSim final : public FrameSource {
                                const Eigen::VectorXd& qd) const;
   void PlaceObstacles();
   void FillScene();
+  void FillObstacleViews();
   void UpdateHello();
   std::string ActiveIds() const;
 

@@ -114,7 +114,7 @@ struct ArmView {
   const sim::ContactReport* contacts = nullptr;
   const rl::LearnedController* learned = nullptr;
   Eigen::Vector3d p_WE = Eigen::Vector3d::Zero();
-  double clearance = 0.0;  ///< smallest robot–obstacle distance within the warning margin [m]; +inf: none
+  double clearance = 0.0;  ///< smallest robot–obstacle distance [m] (Clearance); +inf: no obstacle
   long collisions = 0;     ///< control steps that began a collision
   double step_us = 0.0;    ///< last control step's compute time
 };
@@ -138,6 +138,10 @@ void EncodeFrame(const FrameView& frame, std::string* out);
 
 /// the end-effector position of a world's robot (from MuJoCo's link poses).
 Eigen::Vector3d EndEffectorPosition(const sim::World& world);
+
+/// the smallest signed distance between a world's robot capsules (at MuJoCo's link poses) and `obstacles` [m];
+/// +inf without obstacles.
+double Clearance(const sim::World& world, std::span<const ObstacleView> obstacles);
 
 /// an error message to the sender of a refused command.
 std::string EncodeError(std::string_view message);

@@ -5,12 +5,21 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/viewer/live_sim.h"
 
 namespace rmpmarl::viewer {
 
 /// the largest replay file ReplaySource reads [bytes].
 inline constexpr std::size_t kMaxReplayBytes = std::size_t{1} << 30;
+
+/// the frame of a scenario's episode (`demo`): its obstacles (ids = scenario indices) and target, the arms given.
+/// Clearances are computed here (Clearance); an arm's `contacts` may be null.
+std::string ScenarioFrame(long seq, double time, const sim::Scenario& scenario, std::vector<ArmView> arms);
+
+/// one frame with the arms of `a` followed by those of `b` (two runs of the same episode shown side by side; the
+/// obstacles and target are a's). Throws InputError when either is not a frame.
+std::string MergeFrameArms(const std::string& a, const std::string& b);
 
 /// Collects the frames of an episode and writes a replay file.
 class Recorder {
