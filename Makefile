@@ -24,7 +24,7 @@ FUZZ_GCC_DIR ?= build-fuzz-gcc
 FUZZ_SECONDS ?= 600
 FUZZ_TARGETS ?=
 
-.PHONY: all deps configure build demo test bench install clean test-sanitize soak fuzz
+.PHONY: all deps configure build demo view test bench install clean test-sanitize soak fuzz
 
 all: build
 
@@ -41,6 +41,11 @@ build: configure
 
 demo: build
 	./$(BUILD_DIR)/rmpmarl demo --video $(BUILD_DIR)/demo.mp4
+
+# the live viewer in the browser (docs/viewer.md); VIEW_ARGS="--robot ur5e --side-by-side" etc.
+VIEW_ARGS ?=
+view: build
+	./$(BUILD_DIR)/rmpmarl view $(VIEW_ARGS)
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
