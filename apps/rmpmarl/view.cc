@@ -15,6 +15,7 @@
 #include "rmpmarl/viewer/realtime.h"
 #include "rmpmarl/viewer/recording.h"
 #include "rmpmarl/viewer/server.h"
+#include "rmpmarl/viewer/visuals.h"
 
 namespace rmpmarl::apps {
 namespace {
@@ -43,6 +44,7 @@ void OnSignal(int) { g_interrupted = true; }
 void RunView(const ViewArgs& args) {
   std::unique_ptr<viewer::FrameSource> source;
   std::string what;
+  std::map<std::string, std::string> extra_files;  // the robot's meshes
   if (!args.replay.empty()) {
     auto replay = std::make_unique<viewer::ReplaySource>(args.replay);
     what = fmt::format("replay of '{}' ({} frames)", args.replay, replay->num_frames());
@@ -58,7 +60,11 @@ void RunView(const ViewArgs& args) {
                         : (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
       file = std::make_shared<const rl::PolicyFile>(rl::LoadPolicyFile(policy_path));
     }
+    viewer::RobotVisuals visuals = viewer::LoadRobotVisuals(robot);
+    for (const std::string& w : visuals.warnings) fmt::print("rmpmarl view: visuals: {}\n", w);
+    extra_files = std::move(visuals.files);
     viewer::LiveSimOptions options;
+    options.visuals = std::move(visuals.shapes);
     options.scenario = args.scenario;
     options.seed = args.seed;
     options.overrides.obstacle_speed = args.obstacle_speed;
@@ -88,6 +94,7 @@ void RunView(const ViewArgs& args) {
   server_options.host = args.host;
   server_options.port = args.port;
   server_options.web_root = viewer::DefaultWebRoot(args.web_root);
+  server_options.extra_files = std::move(extra_files);
   viewer::Server server(server_options, loop);
   server_ptr = &server;
   server.Start();

@@ -252,13 +252,15 @@ std::string_view ShapeKindName(ShapeKind kind) {
   return "unknown";
 }
 
-std::vector<LinkShape> ParseUrdfShapes(const std::string& urdf_xml, const Model& model, const std::string& source) {
+std::vector<LinkShape> ParseUrdfShapes(const std::string& urdf_xml, const Model& model, const std::string& source,
+                                       UrdfShapeSource which) {
   const urdf::ModelInterfaceSharedPtr urdf_model = ParseWithUrdfdom(urdf_xml, source);
   std::vector<LinkShape> shapes;
   for (int k = 0; k < model.num_links(); ++k) {
     const urdf::LinkConstSharedPtr link = urdf_model->getLink(model.link(k).name);
     if (!link) continue;
-    const bool visual = link->collision_array.empty();
+    const bool visual = which == UrdfShapeSource::kCollisionFirst ? link->collision_array.empty()
+                                                                  : !link->visual_array.empty();
     std::vector<std::pair<urdf::Pose, urdf::GeometrySharedPtr>> elements;
     if (!visual) {
       for (const auto& c : link->collision_array) elements.emplace_back(c->origin, c->geometry);

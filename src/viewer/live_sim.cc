@@ -384,6 +384,7 @@ void LiveSim::UpdateHello() {
   info.control_rate = 1.0 / period_;
   info.scenario = scenario_->name();
   info.seed = seed_;
+  info.visuals = options_.visuals;
   hello_ = EncodeHello(robot_, info);
   ++hello_version_;
 }

@@ -328,6 +328,23 @@ std::string EncodeHello(const kinematics::Robot& robot, const HelloInfo& info) {
       {"scenario", info.scenario},
       {"seed", info.seed},
   };
+  json visuals = json::array();
+  for (const VisualShape& v : info.visuals) {
+    const kinematics::LinkShape& g = v.shape;
+    const Eigen::Quaterniond q(g.X_LG.linear());
+    json shape = {{"link", g.link}, {"kind", std::string(kinematics::ShapeKindName(g.kind))}};
+    // meshes are sent in the link frame already; the primitives with their pose
+    shape["X"] = {g.X_LG.translation().x(), g.X_LG.translation().y(), g.X_LG.translation().z(), q.w(), q.x(), q.y(),
+                  q.z()};
+    switch (g.kind) {
+      case kinematics::ShapeKind::kSphere: shape["radius"] = g.radius; break;
+      case kinematics::ShapeKind::kCylinder: shape["radius"] = g.radius; shape["length"] = g.length; break;
+      case kinematics::ShapeKind::kBox: shape["size"] = Vec(g.size); break;
+      case kinematics::ShapeKind::kMesh: shape["url"] = v.mesh_url; shape["X"] = {0, 0, 0, 1, 0, 0, 0}; break;
+    }
+    visuals.push_back(std::move(shape));
+  }
+  hello["robot"]["visuals"] = std::move(visuals);
   if (info.mode == "replay") {
     hello["replay"] = {{"frames", info.replay_frames}, {"duration", info.replay_duration}};
   }

@@ -102,6 +102,10 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
     }
     if (ec) throw InputError(fmt::format("viewer: cannot read '{}': {}", options.web_root, ec.message()));
     files["/"] = files["/index.html"];
+    for (const auto& [path, body] : options.extra_files) {
+      RMPMARL_ASSERT(!path.empty() && path[0] == '/', "ServerOptions::extra_files: paths start with '/'");
+      files[path] = File{"application/octet-stream", body};
+    }
   }
 
   void Bind() {

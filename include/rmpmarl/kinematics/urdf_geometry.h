@@ -28,10 +28,18 @@ struct LinkShape {
   Eigen::Vector3d mesh_scale = Eigen::Vector3d::Ones();      ///< mesh: <mesh scale>
 };
 
+/// Which of a link's elements ParseUrdfShapes reads.
+enum class UrdfShapeSource {
+  kCollisionFirst,  ///< its <collision> elements, or its <visual> ones when it has none (what to fit capsules to)
+  kVisualFirst,     ///< its <visual> elements, or its <collision> ones when it has none (what to draw)
+};
+
 /// the shapes of every link of `model` (parsed from the same URDF text): a link's <collision> elements, or its
-/// <visual> elements when it has no <collision>; links with neither contribute nothing (frame-only links).
+/// <visual> elements when it has no <collision> (`which` swaps the two); links with neither contribute nothing
+/// (frame-only links).
 /// Throws InputError (naming `source`) on non-finite or non-positive sizes.
-std::vector<LinkShape> ParseUrdfShapes(const std::string& urdf_xml, const Model& model, const std::string& source);
+std::vector<LinkShape> ParseUrdfShapes(const std::string& urdf_xml, const Model& model, const std::string& source,
+                                       UrdfShapeSource which = UrdfShapeSource::kCollisionFirst);
 
 /// where the mesh `uri` of a URDF at `urdf_path` lives: "package://PKG/rest" in a directory PKG found under one of
 /// `package_paths`, then ROS_PACKAGE_PATH, then among the URDF's ancestor directories (the vendor layout

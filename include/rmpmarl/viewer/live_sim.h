@@ -69,6 +69,8 @@ struct LiveSimOptions {
   int max_obstacles = 16;
   /// commanded positions must lie within ±arena of the base [m]
   double arena = 5.0;
+  /// the robot's visual elements for the page (LoadRobotVisuals); empty: capsules only
+  std::vector<VisualShape> visuals{};
 };
 
 /// The live scene.

@@ -13,6 +13,7 @@
 
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
+#include "rmpmarl/viewer/visuals.h"
 
 namespace rmpmarl::rl {
 class LearnedController;
@@ -91,6 +92,8 @@ struct HelloInfo {
   double control_rate = 100.0;
   std::string scenario;
   std::uint64_t seed = 0;
+  /// the robot's visual elements (visuals.h), drawn besides the capsules
+  std::vector<VisualShape> visuals;
   long replay_frames = 0;     ///< replay only
   double replay_duration = 0.0;
 };

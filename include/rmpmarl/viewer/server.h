@@ -3,6 +3,7 @@
 /// messages between the pages and a viewer::Realtime loop. A page that stops reading loses frames, never stalls the
 /// loop; a socket that closes or misbehaves is dropped alone.
 #include <cstddef>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -17,6 +18,8 @@ struct ServerOptions {
   std::string web_root;            ///< directory of the built page (index.html, app.js, ...)
   std::size_t max_clients = 32;    ///< WebSocket connections at once; more are answered 503
   std::size_t max_pending_frames = 4;  ///< frames waiting for a slow page; older ones are dropped
+  /// more files to serve from memory: path ("/meshes/0.bin") → body, served as application/octet-stream
+  std::map<std::string, std::string> extra_files{};
 };
 
 /// Counters of the server (thread-safe reads).
