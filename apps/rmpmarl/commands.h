@@ -1,6 +1,7 @@
 #pragma once
 // Each subcommand lives in its own file and registers itself on the CLI11 app.
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -24,6 +25,10 @@ struct UserRobot {
 /// in memory (saying so on stdout; the home found goes into robot.home).
 UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
                         const std::vector<std::string>& package_paths = {});
+/// adds the robot and scenario options every simulation command takes: --robot (a shipped robot), --urdf and
+/// --collision (a user's robot), --scenario and --seed.
+void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* urdf, std::string* collision,
+                                std::string* scenario, std::uint64_t* seed);
 /// prints setup-robot's per-link table (capsule, stick-out, source) and warnings.
 void PrintLinkFits(const kinematics::RobotSetup& setup);
 

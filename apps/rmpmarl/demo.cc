@@ -341,15 +341,7 @@ std::optional<std::string> ShippedDefaultPolicy() {
 void RegisterDemo(CLI::App& app) {
   auto* cmd = app.add_subcommand("demo", "A robot tracks a moving target among moving obstacles (MuJoCo), with video");
   static DemoArgs args;
-  std::string robots, scenarios;
-  for (const auto& n : kinematics::ShippedRobotNames()) robots += (robots.empty() ? "" : ", ") + n;
-  for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
-  cmd->add_option("--robot", args.robot, "shipped robot: " + robots)->capture_default_str();
-  cmd->add_option("--urdf", args.urdf, "your robot's URDF instead of --robot (its collision YAML: --collision, else "
-                                      "<stem>.collision.yaml or collision.yaml beside it, else capsules fitted in memory)");
-  cmd->add_option("--collision", args.collision, "collision YAML of --urdf (rmpmarl setup-robot writes one)");
-  cmd->add_option("--scenario", args.scenario, "scenario: " + scenarios)->capture_default_str();
-  cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();
+  AddRobotAndScenarioOptions(cmd, &args.robot, &args.urdf, &args.collision, &args.scenario, &args.seed);
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
       ->check(CLI::Range(0.0, 3600.0));
   cmd->add_option("--video", args.video, "write an MP4 here (PNG frames when ffmpeg is absent)");

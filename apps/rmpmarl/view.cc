@@ -133,19 +133,10 @@ void RunView(const ViewArgs& args) {
 void RegisterView(CLI::App& app) {
   auto* cmd = app.add_subcommand("view", "Watch and steer a controller live in the browser (docs/viewer.md)");
   static ViewArgs args;
-  std::string robots, scenarios;
-  for (const auto& n : kinematics::ShippedRobotNames()) robots += (robots.empty() ? "" : ", ") + n;
-  for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
-  cmd->add_option("--robot", args.robot, "shipped robot: " + robots)->capture_default_str();
-  cmd->add_option("--urdf", args.urdf, "your robot's URDF instead of --robot (collision YAML: --collision, else "
-                                      "beside it, else capsules fitted in memory)");
-  cmd->add_option("--collision", args.collision, "collision YAML of --urdf");
+  AddRobotAndScenarioOptions(cmd, &args.robot, &args.urdf, &args.collision, &args.scenario, &args.seed);
   cmd->add_option("--policy", args.policy,
                   "a controller file (.rmpp) (default: the shipped models/policies/marl-rmp-residual.rmpp); rmpflow: "
                   "RMPflow alone");
-  cmd->add_option("--scenario", args.scenario, "scenario that moves the target and obstacles: " + scenarios)
-      ->capture_default_str();
-  cmd->add_option("--seed", args.seed, "episode seed")->capture_default_str();
   cmd->add_flag("--side-by-side", args.side_by_side, "the learned controller and RMPflow on two arms, same scene");
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
