@@ -373,7 +373,7 @@ void LiveSim::UpdateHello() {
   info.mode = "live";
   for (const auto& arm : arms_) info.arms.push_back({arm->label, arm->controller});
   info.controllers = limits_.controllers;
-  info.controller = controller_;
+  info.controller = arms_.front()->controller;
   info.side_by_side = side_by_side_;
   info.workspace_min = scenario_->workspace().box.min();
   info.workspace_max = scenario_->workspace().box.max();

@@ -54,6 +54,12 @@ void Realtime::Rebase() {
   sim0_ = source_.time();
 }
 
+void Realtime::RestartWindow() {
+  window_start_ = Clock::now();
+  window_sim_start_ = source_.time();
+  window_busy_ = 0.0;
+}
+
 void Realtime::PublishHelloIfChanged() {
   if (source_.hello_version() == hello_version_) return;
   auto hello = std::make_shared<const std::string>(source_.hello());
@@ -99,6 +105,7 @@ void Realtime::Drain() {
         sim0_ += speed_ * std::chrono::duration<double>(now - wall0_).count();
         wall0_ = now;
         speed_ = c.value;
+        RestartWindow();
         break;
       }
       default:
@@ -114,8 +121,12 @@ void Realtime::Drain() {
       continue;
     }
     ++counters_.accepted;
-    // simulated time jumped (a new episode, a seek) or the clock restarts (resume)
-    if (c.kind == CommandKind::kReset || c.kind == CommandKind::kSeek || c.kind == CommandKind::kResume) Rebase();
+    // simulated time jumped (a new episode, a seek) or the clock restarts (resume): the real-time factor is measured
+    // afresh
+    if (c.kind == CommandKind::kReset || c.kind == CommandKind::kSeek || c.kind == CommandKind::kResume) {
+      Rebase();
+      RestartWindow();
+    }
   }
 }
 
@@ -123,10 +134,7 @@ void Realtime::Run() {
   using std::chrono::duration;
   const duration<double> frame_period(1.0 / options_.fps);
   auto next_frame = Clock::now();
-  // the last second's statistics
-  auto window_start = Clock::now();
-  double window_sim_start = source_.time();
-  double window_busy = 0.0;
+  RestartWindow();
   double rtf = 1.0, load = 0.0;
   std::string frame;
   PublishHelloIfChanged();
@@ -152,16 +160,14 @@ void Realtime::Run() {
       source_.AdvanceTo(target);
     }
     const auto now = Clock::now();
-    window_busy += duration<double>(now - busy_start).count();
+    window_busy_ += duration<double>(now - busy_start).count();
     if (source_.time() > before) ++counters_.advances;
     // statistics over the last second of wall time
-    const double span = duration<double>(now - window_start).count();
+    const double span = duration<double>(now - window_start_).count();
     if (span >= 1.0) {
-      if (!paused_) rtf = (source_.time() - window_sim_start) / (span * speed_);
-      load = window_busy / span;
-      window_start = now;
-      window_sim_start = source_.time();
-      window_busy = 0.0;
+      if (!paused_) rtf = (source_.time() - window_sim_start_) / (span * speed_);
+      load = window_busy_ / span;
+      RestartWindow();
     }
     if (now >= next_frame) {
       FrameStats stats;

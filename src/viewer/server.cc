@@ -202,21 +202,22 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
       Close();
       return;
     }
+    std::weak_ptr<WsSession> weak = shared_from_this();
+    asio::io_context* ioc = &server_->ioc;
+    Reply reply = [weak, ioc](std::shared_ptr<const std::string> message) {
+      asio::post(*ioc, [weak, message = std::move(message)] {
+        if (auto self = weak.lock()) self->Send(message, false);
+      });
+    };
     if (!ws_.got_text()) {
       buffer_.consume(buffer_.size());
-      server_->loop.Refuse("binary message: the viewer takes JSON text messages", Reply());
+      server_->loop.Refuse("binary message: the viewer takes JSON text messages", reply);
       Read();
       return;
     }
     std::string text = beast::buffers_to_string(buffer_.data());
     buffer_.consume(buffer_.size());
-    std::weak_ptr<WsSession> weak = shared_from_this();
-    asio::io_context* ioc = &server_->ioc;
-    server_->loop.Submit(std::move(text), [weak, ioc](std::shared_ptr<const std::string> reply) {
-      asio::post(*ioc, [weak, reply = std::move(reply)] {
-        if (auto self = weak.lock()) self->Send(reply, false);
-      });
-    });
+    server_->loop.Submit(std::move(text), std::move(reply));
     Read();
   }
 
@@ -347,6 +348,8 @@ void Server::Impl::Accept() {
     if (ec) {
       if (ec == asio::error::operation_aborted || self->stopped) return;
     } else {
+      beast::error_code ignored;
+      s.set_option(tcp::no_delay(true), ignored);  // frames and replies go out at once, not after Nagle's delay
       std::make_shared<HttpSession>(self, std::move(s))->Run();
     }
     self->Accept();

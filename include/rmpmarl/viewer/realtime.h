@@ -65,6 +65,7 @@ class Realtime {
   void Drain();
   void PublishHelloIfChanged();
   void Rebase();
+  void RestartWindow();
 
   using Clock = std::chrono::steady_clock;
   FrameSource& source_;
@@ -82,6 +83,9 @@ class Realtime {
   // the wall-clock anchor: simulated time sim0_ at wall time wall0_
   Clock::time_point wall0_;
   double sim0_ = 0.0;
+  // the current measuring window of the real-time factor and load
+  Clock::time_point window_start_;
+  double window_sim_start_ = 0.0, window_busy_ = 0.0;
 };
 
 }  // namespace rmpmarl::viewer
