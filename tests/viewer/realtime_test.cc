@@ -82,6 +82,21 @@ TEST(RealtimeTest, KeepsTheWallClockAtEverySpeedAndPausesAndSteps) {
   EXPECT_EQ(r.loop->counters().refused.load(), 0);
 }
 
+TEST(RealtimeTest, TheRealTimeFactorStaysMeaningfulAcrossAReset) {
+  Running r;
+  std::this_thread::sleep_for(1300ms);
+  r.Send(R"({"type":"reset"})");
+  std::this_thread::sleep_for(1500ms);
+  std::lock_guard lock(r.mutex);
+  bool after_reset = false;
+  for (std::size_t i = 1; i < r.frames.size(); ++i) {
+    if (r.frames[i]["t"].get<double>() < r.frames[i - 1]["t"].get<double>()) after_reset = true;
+    if (after_reset) EXPECT_TRUE(r.frames[i]["rtf"].get<double>() >= 0.0 && r.frames[i]["rtf"].get<double>() < 1.5)
+        << "frame " << i << ": rtf " << r.frames[i]["rtf"];
+  }
+  EXPECT_TRUE(after_reset) << "the reset went back in simulated time";
+}
+
 TEST(RealtimeTest, AFloodOfMessagesIsRefusedOrAppliedAndTheLoopGoesOn) {
   RealtimeOptions options;
   options.max_queued = 64;
