@@ -100,7 +100,7 @@ void RunView(const ViewArgs& args) {
   server.Start();
   fmt::print("rmpmarl view: {}\n", what);
   fmt::print("rmpmarl view: serving {} (open it in a browser; Ctrl-C stops)\n", server.url());
-  if (args.host != "127.0.0.1" && args.host != "::1" && args.host != "localhost") {
+  if (args.host != "127.0.0.1" && args.host != "::1") {
     fmt::print("rmpmarl view: listening on {} — other machines can reach this viewer and steer the simulation\n",
                args.host);
   }
@@ -108,7 +108,14 @@ void RunView(const ViewArgs& args) {
 
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  std::thread sim([&] { loop.Run(); });
+  std::thread sim([&] {
+    try {
+      loop.Run();
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "rmpmarl view: the simulation stopped on an error: {}\n", e.what());
+      g_interrupted = true;
+    }
+  });
   const auto start = std::chrono::steady_clock::now();
   while (!g_interrupted) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -141,7 +148,7 @@ void RegisterView(CLI::App& app) {
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
   cmd->add_option("--obstacles", args.num_obstacles, "number of scenario obstacles")->check(CLI::Range(0, 16));
-  cmd->add_option("--host", args.host, "address to listen on (0.0.0.0: every interface)")->capture_default_str();
+  cmd->add_option("--host", args.host, "IP address to listen on (0.0.0.0: every interface)")->capture_default_str();
   cmd->add_option("--port", args.port, "port (0: any free one)")->check(CLI::Range(0, 65535))->capture_default_str();
   cmd->add_option("--fps", args.fps, "frames sent per second")->check(CLI::Range(1.0, 120.0))->capture_default_str();
   cmd->add_option("--replay", args.replay, "play back a replay file (rmpmarl demo --record, or the page's record)");

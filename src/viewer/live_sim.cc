@@ -129,33 +129,35 @@ std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, co
     arm->control = std::make_unique<sim::ReactiveController>(
         *model_, std::make_unique<sim::RmpflowAccelerationPolicy>(robot_, max_obstacles));
   }
-  const double period = arm->control->control_period();
-  if (!arms_.empty() && std::abs(period - period_) > 1e-12) {
-    throw InputError(fmt::format("viewer: the {} controller runs at {:g} Hz, the other arm's at {:g} Hz; side by side "
-                                 "needs one control rate", controller, 1.0 / period, 1.0 / period_));
-  }
   arm->control->Reset(*arm->world);
   return arm;
 }
 
 void LiveSim::BuildArms() {
-  // the new arms start from the first arm's state (or the scenario's start posture)
+  // the new arms start from the first arm's state (or the scenario's start posture); the old ones stay until every
+  // new one is built
   Eigen::VectorXd q = scenario_->q_start(), qd = Eigen::VectorXd::Zero(robot_.model.nq());
   if (!arms_.empty()) {
     q = arms_[0]->world->q();
     qd = arms_[0]->world->qd();
   }
-  std::vector<std::string> wanted = side_by_side_ ? std::vector<std::string>{"learned", "rmpflow"}
-                                                  : std::vector<std::string>{controller_};
-  arms_.clear();
+  const std::vector<std::string> wanted = side_by_side_ ? std::vector<std::string>{"learned", "rmpflow"}
+                                                        : std::vector<std::string>{controller_};
+  std::vector<std::unique_ptr<Arm>> arms;
+  double period = 0.0;
   for (const std::string& c : wanted) {
-    arms_.push_back(MakeArm(c, q, qd));
-    if (arms_.size() == 1) {
-      period_ = arms_[0]->control->control_period();
-      physics_steps_ = arms_[0]->control->physics_steps_per_control();
-      dt_ = period_ / physics_steps_;
+    arms.push_back(MakeArm(c, q, qd));
+    const double p = arms.back()->control->control_period();
+    if (arms.size() == 1) period = p;
+    if (std::abs(p - period) > 1e-12) {
+      throw InputError(fmt::format("the {} controller runs at {:g} Hz, the {} controller at {:g} Hz; side by side "
+                                   "needs one control rate", wanted[0], 1.0 / period, c, 1.0 / p));
     }
   }
+  arms_ = std::move(arms);
+  period_ = period;
+  physics_steps_ = arms_[0]->control->physics_steps_per_control();
+  dt_ = period_ / physics_steps_;
   PlaceObstacles();
   UpdateHello();
 }
@@ -264,7 +266,7 @@ void LiveSim::ControlStep() {
 
 void LiveSim::AdvanceTo(double t) {
   // whole control steps while the next one ends at or before t (half a step of slack against rounding)
-  while (time_ + 0.5 * period_ <= t) ControlStep();
+  while (next_time() <= t) ControlStep();
 }
 
 std::string LiveSim::ActiveIds() const {
@@ -343,20 +345,30 @@ std::string LiveSim::Apply(const Command& c) {
       Reset(c.seed.value_or(seed_));
       return {};
     case CommandKind::kController:
-      if (c.name != controller_ || side_by_side_) {
+    case CommandKind::kSideBySide: {
+      if (c.kind == CommandKind::kSideBySide && c.on && policy_ == nullptr) {
+        return fmt::format("{}: needs a learned controller (start with --policy FILE)", name);
+      }
+      const std::string controller = controller_;
+      const bool side_by_side = side_by_side_;
+      if (c.kind == CommandKind::kController) {
+        if (c.name == controller_ && !side_by_side_) return {};
         controller_ = c.name;
         side_by_side_ = false;
-        BuildArms();
-      }
-      return {};
-    case CommandKind::kSideBySide:
-      if (c.on && policy_ == nullptr) return fmt::format("{}: needs a learned controller (start with --policy FILE)", name);
-      if (c.on != side_by_side_) {
+      } else {
+        if (c.on == side_by_side_) return {};
         side_by_side_ = c.on;
         if (!c.on) controller_ = "learned";
+      }
+      try {
         BuildArms();
+      } catch (const InputError& e) {
+        controller_ = controller;  // the arms as they were
+        side_by_side_ = side_by_side;
+        return fmt::format("{}: {}", name, e.what());
       }
       return {};
+    }
     case CommandKind::kSeek:
       return fmt::format("{}: only a replay can seek", name);
     case CommandKind::kPause:

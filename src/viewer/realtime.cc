@@ -113,6 +113,9 @@ void Realtime::Drain() {
           refusal = source_.Apply(c);
         } catch (const InputError& e) {
           refusal = fmt::format("{}: {}", CommandName(c.kind), e.what());
+        } catch (const std::exception& e) {
+          // not the page's fault, but the simulation goes on without this command
+          refusal = fmt::format("{}: failed: {}", CommandName(c.kind), e.what());
         }
         break;
     }
@@ -152,7 +155,8 @@ void Realtime::Run() {
       steps_requested_ = 0;
       const double wall = duration<double>(Clock::now() - wall0_).count();
       double target = sim0_ + speed_ * wall;
-      if (target - source_.time() > options_.max_lag) {
+      // behind by more than max_lag (and able to advance at all: a replay at its end cannot) gives up catching up
+      if (target - source_.time() > options_.max_lag && std::isfinite(source_.next_time())) {
         ++counters_.overruns;
         Rebase();
         target = source_.time() + 0.02;
@@ -185,10 +189,10 @@ void Realtime::Run() {
     // sleep to the next control step or frame, whichever comes first (at most 5 ms, so messages are applied soon)
     const auto after = Clock::now();
     auto wake = std::min(next_frame, after + std::chrono::milliseconds(5));
-    if (!paused_) {
-      const double next_sim = source_.time() + 1e-3;
+    if (const double next_sim = source_.next_time(); !paused_ && std::isfinite(next_sim)) {
+      // the wall time at which the source can take its next step
       const auto due = wall0_ + std::chrono::duration_cast<Clock::duration>(
-                                    duration<double>((next_sim - sim0_) / speed_));
+                                    duration<double>(std::max(0.0, next_sim - sim0_) / speed_));
       wake = std::min(wake, due);
     }
     if (wake > after) std::this_thread::sleep_until(wake);

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -142,6 +143,10 @@ void ReplaySource::StepOnce() {
 }
 
 double ReplaySource::time() const { return times_[index_]; }
+
+double ReplaySource::next_time() const {
+  return index_ + 1 < num_frames() ? times_[index_ + 1] - 1e-9 : std::numeric_limits<double>::infinity();
+}
 
 void ReplaySource::Frame(const FrameStats& stats, std::string* out) {
   json f = frames_->frames[index_];

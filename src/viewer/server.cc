@@ -4,9 +4,11 @@
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <atomic>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -53,20 +55,27 @@ struct File {
 
 }  // namespace
 
-struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
+struct Server::Impl {
   class WsSession;
   class HttpSession;
 
   ServerOptions options;
   Realtime& loop;
-  std::map<std::string, File> files;  // request path → file, read at start
+  std::map<std::string, File> files;  // request path → file, read at start, never changed after
+  // declared first, destroyed last: destroying it destroys the handlers still queued (and the sessions they hold)
+  // while the acceptor and the session sets below are gone already
   asio::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
+  asio::steady_timer accept_retry{ioc};
   std::thread thread;
-  std::set<std::shared_ptr<WsSession>> sessions;  // I/O thread only
+  std::atomic<bool> stopped{false};
+  std::atomic<bool> finished{false};  // the I/O thread's run() returned
+  int port = 0;
+  // the I/O thread's alone
+  std::set<std::shared_ptr<WsSession>> sessions;
+  std::vector<std::weak_ptr<HttpSession>> http_sessions;
   mutable std::mutex counters_mutex;
   ServerCounters counters;
-  bool stopped = false;
 
   Impl(ServerOptions o, Realtime& l) : options(std::move(o)), loop(l) {}
 
@@ -124,18 +133,25 @@ struct Server::Impl : std::enable_shared_from_this<Server::Impl> {
       throw InputError(fmt::format("viewer: cannot listen on {}:{}: {}{}", options.host, options.port, ec.message(),
                                    ec == asio::error::address_in_use ? " (choose another --port, or 0 for any)" : ""));
     }
+    port = acceptor.local_endpoint().port();
   }
+
+  // on the I/O thread: closes the acceptor and every connection, so that run() returns
+  void CloseAll();
 
   void Accept();
 
   void Broadcast(const std::shared_ptr<const std::string>& message, bool droppable);
 };
 
+namespace {
+constexpr std::size_t kMaxHttpSessions = 64;
+}
+
 // One WebSocket page.
 class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(std::shared_ptr<Impl> server, tcp::socket&& socket)
-      : server_(std::move(server)), ws_(std::move(socket)) {}
+  WsSession(Impl* server, tcp::socket&& socket) : server_(server), ws_(std::move(socket)) {}
 
   void Run(http::request<http::string_body> request) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
@@ -149,26 +165,39 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
   void Send(std::shared_ptr<const std::string> message, bool droppable) {
     if (closed_) return;
     if (droppable) {
+      // a page behind: the oldest waiting frame makes room (not the one being written)
       std::size_t frames = 0;
       for (const auto& q : queue_) frames += q.droppable ? 1 : 0;
       if (frames >= server_->options.max_pending_frames) {
+        for (auto it = queue_.begin() + (writing_ ? 1 : 0); it != queue_.end(); ++it) {
+          if (it->droppable) {
+            queue_.erase(it);
+            break;
+          }
+        }
         server_->Count(&ServerCounters::dropped_frames);
-        return;
       }
     } else if (queue_.size() >= kMaxQueuedReplies + server_->options.max_pending_frames) {
       Close();  // a page that reads nothing at all
       return;
     }
     queue_.push_back({std::move(message), droppable});
-    if (queue_.size() == 1) Write();
+    if (!writing_) Write();
   }
 
   void Close() {
     if (closed_) return;
     closed_ = true;
-    queue_.clear();
-    server_->sessions.erase(shared_from_this());
-    server_->Count(&ServerCounters::open, -1);
+    // the message being written stays alive until its handler runs
+    if (writing_) {
+      queue_.erase(queue_.begin() + 1, queue_.end());
+    } else {
+      queue_.clear();
+    }
+    if (registered_) {
+      server_->sessions.erase(shared_from_this());
+      server_->Count(&ServerCounters::open, -1);
+    }
     beast::error_code ec;
     beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ec);
     beast::get_lowest_layer(ws_).close();
@@ -181,9 +210,18 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
   };
 
   void OnAccept(beast::error_code ec) {
-    if (ec) return;  // a failed handshake: nothing was registered
-    if (server_->stopped) return;
+    if (ec || server_->stopped) {
+      Close();
+      return;
+    }
+    if (server_->sessions.size() >= server_->options.max_clients) {
+      // several upgrades passed the check at once: the limit holds here
+      server_->Count(&ServerCounters::bad_requests);
+      Close();
+      return;
+    }
     server_->sessions.insert(shared_from_this());
+    registered_ = true;
     server_->Count(&ServerCounters::connections);
     server_->Count(&ServerCounters::open);
     Send(server_->loop.hello(), false);
@@ -222,35 +260,44 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
   }
 
   void Write() {
+    writing_ = true;
     ws_.text(true);
     ws_.async_write(asio::buffer(*queue_.front().message),
                     [self = shared_from_this()](beast::error_code ec, std::size_t) { self->OnWrite(ec); });
   }
 
   void OnWrite(beast::error_code ec) {
+    writing_ = false;
+    if (!queue_.empty()) queue_.pop_front();
     if (ec) {
       Close();
       return;
     }
     if (closed_) return;
-    queue_.pop_front();
     if (!queue_.empty()) Write();
   }
 
-  std::shared_ptr<Impl> server_;
+  Impl* server_;  // outlives every session: the Server's io_context, which holds their handlers, goes last
   websocket::stream<beast::tcp_stream> ws_;
   beast::flat_buffer buffer_;
   std::deque<Out> queue_;
+  bool writing_ = false;
   bool closed_ = false;
+  bool registered_ = false;
 };
 
 // One HTTP connection: files, or the upgrade to a WebSocket at /ws.
 class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(std::shared_ptr<Impl> server, tcp::socket&& socket)
-      : server_(std::move(server)), stream_(std::move(socket)) {}
+  HttpSession(Impl* server, tcp::socket&& socket) : server_(server), stream_(std::move(socket)) {}
 
   void Run() { Read(); }
+
+  void Close() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+    stream_.close();
+  }
 
  private:
   void Read() {
@@ -263,13 +310,14 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
   }
 
   void OnRead(beast::error_code ec) {
-    if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == asio::error::operation_aborted) {
+    if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == asio::error::operation_aborted ||
+        server_->stopped) {
       Shutdown();
       return;
     }
     if (ec) {
       server_->Count(&ServerCounters::bad_requests);
-      Respond(http::status::bad_request, "text/plain", fmt::format("bad request: {}\n", ec.message()), false);
+      RespondText(http::status::bad_request, fmt::format("bad request: {}\n", ec.message()), false);
       return;
     }
     http::request<http::string_body> request = parser_->release();
@@ -277,15 +325,15 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
     if (websocket::is_upgrade(request)) {
       if (request.target() != "/ws") {
         server_->Count(&ServerCounters::bad_requests);
-        Respond(http::status::not_found, "text/plain", "the WebSocket is at /ws\n", false);
+        RespondText(http::status::not_found, "the WebSocket is at /ws\n", false);
         return;
       }
       if (server_->sessions.size() >= server_->options.max_clients) {
         server_->Count(&ServerCounters::bad_requests);
-        Respond(http::status::service_unavailable, "text/plain",
-                fmt::format("{} pages are watching already, the most this viewer serves\n",
-                            server_->options.max_clients),
-                false);
+        RespondText(http::status::service_unavailable,
+                    fmt::format("{} pages are watching already, the most this viewer serves\n",
+                                server_->options.max_clients),
+                    false);
         return;
       }
       stream_.expires_never();
@@ -294,7 +342,7 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
     }
     if (request.method() != http::verb::get && request.method() != http::verb::head) {
       server_->Count(&ServerCounters::bad_requests);
-      Respond(http::status::method_not_allowed, "text/plain", "only GET and HEAD\n", request.keep_alive());
+      RespondText(http::status::method_not_allowed, "only GET and HEAD\n", request.keep_alive());
       return;
     }
     std::string target(request.target());
@@ -302,28 +350,36 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
     const auto it = server_->files.find(target);
     if (it == server_->files.end()) {
       server_->Count(&ServerCounters::bad_requests);
-      Respond(http::status::not_found, "text/plain", "not found\n", request.keep_alive());
+      RespondText(http::status::not_found, "not found\n", request.keep_alive());
       return;
     }
-    Respond(http::status::ok, it->second.content_type,
-            request.method() == http::verb::head ? std::string() : it->second.body, request.keep_alive(),
-            it->second.body.size());
+    // the body is the server's own copy of the file (never changed after start): not copied per request
+    auto response = std::make_shared<http::response<http::span_body<const char>>>(http::status::ok, 11);
+    const std::string& body = it->second.body;
+    response->set(http::field::content_type, it->second.content_type);
+    if (request.method() == http::verb::get) response->body() = {body.data(), body.size()};
+    response->content_length(body.size());
+    Send(response, request.keep_alive());
   }
 
-  void Respond(http::status status, const std::string& type, std::string body, bool keep_alive,
-               std::size_t content_length = std::string::npos) {
+  void RespondText(http::status status, std::string body, bool keep_alive) {
     auto response = std::make_shared<http::response<http::string_body>>(status, 11);
+    response->set(http::field::content_type, "text/plain");
+    response->body() = std::move(body);
+    response->prepare_payload();
+    Send(response, keep_alive);
+  }
+
+  template <typename Response>
+  void Send(std::shared_ptr<Response> response, bool keep_alive) {
     response->set(http::field::server, "rmpmarl-view");
-    response->set(http::field::content_type, type);
     response->set(http::field::cache_control, "no-cache");
     response->set("X-Content-Type-Options", "nosniff");
     response->keep_alive(keep_alive);
-    const std::size_t length = content_length == std::string::npos ? body.size() : content_length;
-    response->body() = std::move(body);
-    response->content_length(length);
+    stream_.expires_after(std::chrono::seconds(60));  // a slow download of a large file still ends
     http::async_write(stream_, *response,
                       [self = shared_from_this(), response, keep_alive](beast::error_code ec, std::size_t) {
-                        if (ec || !keep_alive) {
+                        if (ec || !keep_alive || self->server_->stopped) {
                           self->Shutdown();
                           return;
                         }
@@ -336,7 +392,7 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
     stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
   }
 
-  std::shared_ptr<Impl> server_;
+  Impl* server_;
   beast::tcp_stream stream_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
@@ -344,34 +400,60 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
 
 void Server::Impl::Accept() {
   // one I/O thread: every handler runs on it, no strand needed
-  acceptor.async_accept(ioc, [self = shared_from_this()](beast::error_code ec, tcp::socket s) {
+  acceptor.async_accept(ioc, [this](beast::error_code ec, tcp::socket s) {
+    if (stopped || ec == asio::error::operation_aborted) return;
     if (ec) {
-      if (ec == asio::error::operation_aborted || self->stopped) return;
+      // e.g. out of file descriptors: try again shortly instead of spinning on the waiting connection
+      accept_retry.expires_after(std::chrono::milliseconds(100));
+      accept_retry.async_wait([this](beast::error_code wait_ec) {
+        if (!wait_ec && !stopped) Accept();
+      });
+      return;
+    }
+    std::erase_if(http_sessions, [](const std::weak_ptr<HttpSession>& w) { return w.expired(); });
+    if (http_sessions.size() >= kMaxHttpSessions) {
+      Count(&ServerCounters::bad_requests);  // too many connections at once: this one is closed
+      beast::error_code ignored;
+      s.close(ignored);
     } else {
       beast::error_code ignored;
       s.set_option(tcp::no_delay(true), ignored);  // frames and replies go out at once, not after Nagle's delay
-      std::make_shared<HttpSession>(self, std::move(s))->Run();
+      auto session = std::make_shared<HttpSession>(this, std::move(s));
+      http_sessions.push_back(session);
+      session->Run();
     }
-    self->Accept();
+    Accept();
   });
+}
+
+void Server::Impl::CloseAll() {
+  beast::error_code ec;
+  acceptor.close(ec);
+  accept_retry.cancel();
+  const std::vector<std::shared_ptr<WsSession>> ws(sessions.begin(), sessions.end());
+  for (const auto& s : ws) s->Close();
+  for (const auto& w : http_sessions) {
+    if (auto s = w.lock()) s->Close();
+  }
+  http_sessions.clear();
 }
 
 void Server::Impl::Broadcast(const std::shared_ptr<const std::string>& message, bool droppable) {
-  asio::post(ioc, [self = shared_from_this(), message, droppable] {
+  asio::post(ioc, [this, message, droppable] {
     // copy: Send may close (and erase) a session
-    const std::vector<std::shared_ptr<WsSession>> sessions(self->sessions.begin(), self->sessions.end());
-    for (const auto& s : sessions) s->Send(message, droppable);
+    const std::vector<std::shared_ptr<WsSession>> copy(sessions.begin(), sessions.end());
+    for (const auto& s : copy) s->Send(message, droppable);
   });
 }
 
-Server::Server(ServerOptions options, Realtime& loop) : impl_(std::make_shared<Impl>(std::move(options), loop)) {
+Server::Server(ServerOptions options, Realtime& loop) : impl_(std::make_unique<Impl>(std::move(options), loop)) {
   impl_->LoadFiles();
   impl_->Bind();
 }
 
 Server::~Server() { Stop(); }
 
-int Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+int Server::port() const { return impl_->port; }
 
 std::string Server::url() const {
   const std::string& host = impl_->options.host;
@@ -382,25 +464,32 @@ std::string Server::url() const {
 
 void Server::Start() {
   impl_->Accept();
-  impl_->thread = std::thread([impl = impl_] { impl->ioc.run(); });
+  impl_->thread = std::thread([impl = impl_.get()] {
+    try {
+      impl->ioc.run();
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "rmpmarl view: the server stopped on an error: {}\n", e.what());
+    }
+    impl->finished = true;
+  });
 }
 
 void Server::Stop() {
-  if (!impl_ || impl_->stopped) return;
-  asio::post(impl_->ioc, [impl = impl_] {
-    impl->stopped = true;
+  if (impl_->stopped.exchange(true)) return;
+  if (!impl_->thread.joinable()) {
     beast::error_code ec;
-    impl->acceptor.close(ec);
-    const std::vector<std::shared_ptr<Impl::WsSession>> sessions(impl->sessions.begin(), impl->sessions.end());
-    for (const auto& s : sessions) s->Close();
-  });
-  if (impl_->thread.joinable()) {
-    // the sessions' last handlers finish; then the context runs out of work or is stopped
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    impl_->ioc.stop();
-    impl_->thread.join();
+    impl_->acceptor.close(ec);
+    return;
   }
-  impl_->stopped = true;
+  asio::post(impl_->ioc, [impl = impl_.get()] { impl->CloseAll(); });
+  // every connection closed, run() returns when the last handler has run; a handler still waiting on a timer
+  // after 2 s is cut short (the io_context destroys it with the Server)
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (!impl_->finished && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!impl_->finished) impl_->ioc.stop();
+  impl_->thread.join();
 }
 
 void Server::Broadcast(std::shared_ptr<const std::string> message, bool droppable) {

@@ -201,6 +201,43 @@ TEST_F(ServerTest, MisbehavingSocketsAreDroppedAloneAndTheSimulationGoesOn) {
   EXPECT_GE(loop_->counters().refused.load(), 3);
 }
 
+TEST_F(ServerTest, StopClosesOpenConnectionsPromptlyAndReleasesThePort) {
+  auto page = Connect();
+  page->NextOf("frame");
+  // a browser's keep-alive connection, idle after one request
+  asio::io_context ioc;
+  beast::tcp_stream idle(ioc);
+  idle.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), server_->port()));
+  http::request<http::string_body> req(http::verb::get, "/", 11);
+  req.set(http::field::host, "127.0.0.1");
+  req.keep_alive(true);
+  http::write(idle, req);
+  beast::flat_buffer buffer;
+  http::response<http::string_body> res;
+  http::read(idle, buffer, res);
+  ASSERT_TRUE(res.keep_alive());
+  const int port = server_->port();
+  loop_->Stop();
+  thread_.join();
+  const auto start = std::chrono::steady_clock::now();
+  server_->Stop();
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
+  beast::error_code ec;
+  page->buffer.consume(page->buffer.size());
+  for (int n = 0; n < 100 && !ec; ++n) page->ws.read(page->buffer, ec);
+  EXPECT_TRUE(ec) << "the page's socket was closed";
+  server_.reset();
+  // the port is free again
+  ServerOptions options;
+  options.port = port;
+  options.web_root = root_.string();
+  Server again(options, *loop_);
+  EXPECT_EQ(again.port(), port);
+  // TearDown stops what is left
+  thread_ = std::thread([] {});
+  server_ = std::make_unique<Server>(ServerOptions{.port = 0, .web_root = root_.string()}, *loop_);
+}
+
 TEST(ServerOptionsTest, AMissingPageOrABusyPortIsAClearError) {
   LiveSim sim(kinematics::LoadShippedRobot("panda"), nullptr, "", LiveSimOptions{.controller = "rmpflow"});
   Realtime loop(sim, {}, {}, {});

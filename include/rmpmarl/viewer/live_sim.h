@@ -46,6 +46,8 @@ class FrameSource {
   virtual void StepOnce() = 0;
   /// simulated time [s].
   virtual double time() const = 0;
+  /// the smallest t for which AdvanceTo(t) moves on (+inf: it cannot, e.g. a replay at its last frame).
+  virtual double next_time() const = 0;
   /// the hello message of the current set-up, and a number that changes when it does.
   virtual const std::string& hello() const = 0;
   virtual long hello_version() const = 0;
@@ -88,6 +90,7 @@ class LiveSim final : public FrameSource {
   void AdvanceTo(double t) override;
   void StepOnce() override { ControlStep(); }
   double time() const override { return time_; }
+  double next_time() const override { return time_ + 0.5 * period_; }
   const std::string& hello() const override { return hello_; }
   long hello_version() const override { return hello_version_; }
   void Frame(const FrameStats& stats, std::string* out) override;

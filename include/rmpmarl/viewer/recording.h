@@ -50,6 +50,7 @@ class ReplaySource final : public FrameSource {
   void AdvanceTo(double t) override;
   void StepOnce() override;
   double time() const override;
+  double next_time() const override;
   const std::string& hello() const override { return hello_; }
   long hello_version() const override { return 1; }
   void Frame(const FrameStats& stats, std::string* out) override;

@@ -31,6 +31,7 @@ struct ServerCounters {
   long bad_requests = 0;     ///< HTTP requests refused (unknown path, method, oversized)
 };
 
+/// Stop the Realtime loop (and join its thread) before the Server goes: the loop's pending replies refer to it.
 class Server {
  public:
   /// reads the page's files from options.web_root into memory and binds. Throws InputError when the page is not
@@ -54,7 +55,7 @@ class Server {
 
  private:
   struct Impl;
-  std::shared_ptr<Impl> impl_;  // shared with the sessions
+  std::unique_ptr<Impl> impl_;
 };
 
 /// the directory of the built page: `requested` when not empty, else the build tree's, else the installed one.
