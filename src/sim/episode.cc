@@ -110,14 +110,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
 
   const WorldModel& model = world.model();
   const kinematics::Robot& robot = model.robot();
-  const int ee_body = model.link_body(robot.end_effector.link);
-  const Eigen::Vector3d p_LE = robot.end_effector.X_LE.translation();
-  const mjData* d = world.mj_data();
-  auto end_effector = [&] {
-    const Eigen::Map<const Eigen::Vector3d> p_WL(d->xpos + 3 * ee_body);
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R_WL(d->xmat + 9 * ee_body);
-    return Eigen::Vector3d(p_WL + R_WL * p_LE);
-  };
+  auto end_effector = [&] { return world.EndEffectorPosition(); };
 
   const double dt = world.mj_model()->opt.timestep;
   const long total_steps = std::max(1L, std::lround(options.duration / dt));

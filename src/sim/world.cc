@@ -38,6 +38,14 @@ World& World::operator=(World&&) noexcept = default;
 
 double World::time() const { return data_->time; }
 
+Eigen::Vector3d World::EndEffectorPosition() const {
+  const kinematics::Robot& robot = model_->robot();
+  const int body = model_->link_body(robot.end_effector.link);
+  const Eigen::Map<const Eigen::Vector3d> p_WL(data_->xpos + 3 * body);
+  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R_WL(data_->xmat + 9 * body);
+  return p_WL + R_WL * robot.end_effector.X_LE.translation();
+}
+
 void World::Sync() {
   mj_step1(model_->mj_model(), data_.get());
   stale_ = false;

@@ -442,7 +442,7 @@ const std::string& LiveSim::controller(int arm) const {
   return arms_[arm]->controller;
 }
 
-Eigen::Vector3d LiveSim::end_effector(int arm) const { return EndEffectorPosition(world(arm)); }
+Eigen::Vector3d LiveSim::end_effector(int arm) const { return world(arm).EndEffectorPosition(); }
 
 std::vector<int> LiveSim::obstacle_ids() const {
   std::vector<int> ids;

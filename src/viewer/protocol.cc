@@ -461,15 +461,6 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
   out += "]}";
 }
 
-Eigen::Vector3d EndEffectorPosition(const sim::World& world) {
-  const kinematics::Robot& robot = world.model().robot();
-  const int b = world.model().link_body(robot.end_effector.link);
-  const mjData* d = world.mj_data();
-  const Eigen::Map<const Eigen::Vector3d> p_WL(d->xpos + 3 * b);
-  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R_WL(d->xmat + 9 * b);
-  return p_WL + R_WL * robot.end_effector.X_LE.translation();
-}
-
 double Clearance(const sim::World& world, std::span<const ObstacleView> obstacles) {
   const kinematics::Robot& robot = world.model().robot();
   const mjData* d = world.mj_data();

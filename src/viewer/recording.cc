@@ -22,7 +22,7 @@ std::string ScenarioFrame(long seq, double time, const sim::Scenario& scenario, 
     obstacles.push_back({j, o, false});
   }
   for (ArmView& arm : arms) {
-    arm.p_WE = EndEffectorPosition(*arm.world);
+    arm.p_WE = arm.world->EndEffectorPosition();
     arm.clearance = Clearance(*arm.world, obstacles);
   }
   FrameView f;

@@ -38,14 +38,7 @@ struct Rig {
   ReactiveController controller;
 };
 
-Eigen::Vector3d EndEffector(const World& world) {
-  const kinematics::Robot& robot = world.model().robot();
-  const int body = world.model().link_body(robot.end_effector.link);
-  const mjData* d = world.mj_data();
-  const Eigen::Map<const Eigen::Vector3d> p(d->xpos + 3 * body);
-  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(d->xmat + 9 * body);
-  return p + R * robot.end_effector.X_LE.translation();
-}
+Eigen::Vector3d EndEffector(const World& world) { return world.EndEffectorPosition(); }
 
 // (a) the end effector of a random well-conditioned configuration near the start posture, 3 seeds per robot.
 TEST(ClosedLoopTest, ReachesStaticTargetsWithin1cmOnEveryArm) {

@@ -24,12 +24,7 @@ std::vector<kinematics::Robot> Robots() {
 // end-effector position at q read from MuJoCo (body pose of the end-effector link), not from rmpmarl's FK.
 Eigen::Vector3d MujocoEndEffector(World& world, const Eigen::VectorXd& q) {
   world.Reset(q);
-  const kinematics::Robot& robot = world.model().robot();
-  const int body = world.model().link_body(robot.end_effector.link);
-  const mjData* d = world.mj_data();
-  const Eigen::Map<const Eigen::Vector3d> p(d->xpos + 3 * body);
-  const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(d->xmat + 9 * body);
-  return p + R * robot.end_effector.X_LE.translation();
+  return world.EndEffectorPosition();
 }
 
 // true when the segment [a, b] meets the box (slab test).

@@ -200,6 +200,8 @@ class World {
   const Eigen::VectorXd& qd() const { return qd_; }
   /// simulation time [s].
   double time() const;
+  /// the end effector's position p_WE [m] in the current state (MuJoCo's pose of its link).
+  Eigen::Vector3d EndEffectorPosition() const;
 
   /// contacts of the current state (recomputing MuJoCo's collision detection first when a mocap pose changed).
   /// The returned reference stays valid until the next call; nothing is allocated.

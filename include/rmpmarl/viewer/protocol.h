@@ -139,9 +139,6 @@ struct FrameView {
 /// witness points are the robot–obstacle warnings of `contacts` (nearest per capsule and obstacle).
 void EncodeFrame(const FrameView& frame, std::string* out);
 
-/// the end-effector position of a world's robot (from MuJoCo's link poses).
-Eigen::Vector3d EndEffectorPosition(const sim::World& world);
-
 /// the smallest signed distance between a world's robot capsules (at MuJoCo's link poses) and `obstacles` [m];
 /// +inf without obstacles.
 double Clearance(const sim::World& world, std::span<const ObstacleView> obstacles);
