@@ -15,8 +15,8 @@ Realtime::Realtime(FrameSource& source, RealtimeOptions options, Publish on_fram
   if (!(options_.fps > 0.0 && options_.fps <= 240.0)) {
     throw InputError(fmt::format("viewer: fps must be in (0, 240], got {:g}", options_.fps));
   }
-  if (options_.max_queued < 1 || !(options_.max_lag > 0.0)) {
-    throw InputError("viewer: max_queued must be >= 1 and max_lag > 0");
+  if (options_.max_queued < 1 || options_.max_queued_per_sender < 1 || !(options_.max_lag > 0.0)) {
+    throw InputError("viewer: max_queued and max_queued_per_sender must be >= 1 and max_lag > 0");
   }
   paused_ = options_.start_paused;
   hello_ = std::make_shared<const std::string>(source_.hello());
@@ -36,16 +36,21 @@ void Realtime::Refuse(const std::string& why, const Reply& reply) {
   if (reply) reply(std::make_shared<const std::string>(EncodeError(why)));
 }
 
-void Realtime::Submit(std::string text, Reply reply) {
+void Realtime::Submit(std::string text, Reply reply, long sender) {
+  std::size_t waiting = 0;
   {
     std::lock_guard lock(mutex_);
-    if (queue_.size() < options_.max_queued) {
+    std::size_t& mine = queued_by_sender_[sender];
+    if (queue_.size() < options_.max_queued && mine < options_.max_queued_per_sender) {
+      ++mine;
       queue_.push_back({std::move(text), std::move(reply)});
       return;
     }
+    waiting = mine;
   }
-  Refuse(fmt::format("message queue full ({} waiting): the simulation applies messages between control steps",
-                     options_.max_queued),
+  Refuse(fmt::format("message queue full ({} of yours waiting, at most {}; {} in all): the simulation applies "
+                     "messages between control steps",
+                     waiting, options_.max_queued_per_sender, options_.max_queued),
          reply);
 }
 
@@ -76,6 +81,7 @@ void Realtime::Drain() {
   {
     std::lock_guard lock(mutex_);
     pending.swap(queue_);
+    queued_by_sender_.clear();
   }
   for (Pending& m : pending) {
     const ParsedCommand parsed = ParseCommand(m.text, source_.limits());

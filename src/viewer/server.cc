@@ -72,6 +72,7 @@ struct Server::Impl {
   std::atomic<bool> finished{false};  // the I/O thread's run() returned
   int port = 0;
   // the I/O thread's alone
+  long next_session_id = 0;
   std::set<std::shared_ptr<WsSession>> sessions;
   std::vector<std::weak_ptr<HttpSession>> http_sessions;
   mutable std::mutex counters_mutex;
@@ -151,7 +152,7 @@ constexpr std::size_t kMaxHttpSessions = 64;
 // One WebSocket page.
 class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(Impl* server, tcp::socket&& socket) : server_(server), ws_(std::move(socket)) {}
+  WsSession(Impl* server, tcp::socket&& socket, long id) : server_(server), ws_(std::move(socket)), id_(id) {}
 
   void Run(http::request<http::string_body> request) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
@@ -255,7 +256,7 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
     }
     std::string text = beast::buffers_to_string(buffer_.data());
     buffer_.consume(buffer_.size());
-    server_->loop.Submit(std::move(text), std::move(reply));
+    server_->loop.Submit(std::move(text), std::move(reply), id_);
     Read();
   }
 
@@ -284,6 +285,7 @@ class Server::Impl::WsSession : public std::enable_shared_from_this<WsSession> {
   bool writing_ = false;
   bool closed_ = false;
   bool registered_ = false;
+  long id_ = 0;  // the page, for its share of the loop's queue
 };
 
 // One HTTP connection: files, or the upgrade to a WebSocket at /ws.
@@ -337,7 +339,8 @@ class Server::Impl::HttpSession : public std::enable_shared_from_this<HttpSessio
         return;
       }
       stream_.expires_never();
-      std::make_shared<WsSession>(server_, stream_.release_socket())->Run(std::move(request));
+      std::make_shared<WsSession>(server_, stream_.release_socket(), ++server_->next_session_id)
+          ->Run(std::move(request));
       return;
     }
     if (request.method() != http::verb::get && request.method() != http::verb::head) {

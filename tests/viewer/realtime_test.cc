@@ -97,6 +97,22 @@ TEST(RealtimeTest, TheRealTimeFactorStaysMeaningfulAcrossAReset) {
   EXPECT_TRUE(after_reset) << "the reset went back in simulated time";
 }
 
+TEST(RealtimeTest, APageThatFloodsTheQueueLeavesRoomForTheOthers) {
+  LiveSim sim(kinematics::LoadShippedRobot("panda"), nullptr, "", LiveSimOptions{.controller = "rmpflow"});
+  RealtimeOptions options;
+  options.log_refusals = false;
+  Realtime loop(sim, options, Publish(), Publish());  // not running: the queue only fills
+  std::vector<std::string> to_flooder, to_other;
+  for (int k = 0; k < 100; ++k) {
+    loop.Submit(R"({"type":"pause"})", [&](auto m) { to_flooder.push_back(*m); }, 1);
+  }
+  loop.Submit(R"({"type":"pause"})", [&](auto m) { to_other.push_back(*m); }, 2);
+  EXPECT_EQ(to_flooder.size(), 36u) << "the flooder's 65th and later messages";
+  EXPECT_NE(to_flooder.front().find("64 of yours waiting"), std::string::npos) << to_flooder.front();
+  EXPECT_TRUE(to_other.empty()) << "another page's message still fits";
+  EXPECT_EQ(loop.counters().refused.load(), 36);
+}
+
 TEST(RealtimeTest, AFloodOfMessagesIsRefusedOrAppliedAndTheLoopGoesOn) {
   RealtimeOptions options;
   options.max_queued = 64;

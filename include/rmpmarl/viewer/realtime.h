@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <unordered_map>
 
 #include "rmpmarl/viewer/live_sim.h"
 
@@ -19,6 +20,8 @@ namespace rmpmarl::viewer {
 struct RealtimeOptions {
   double fps = 30.0;           ///< frames published per wall second, in (0, 240]
   std::size_t max_queued = 256; ///< messages waiting at most; more are refused
+  /// messages one sender may have waiting (a page that floods the queue leaves room for the others)
+  std::size_t max_queued_per_sender = 64;
   /// when the simulation falls this far behind the wall clock [s] it gives up catching up (counted as an overrun)
   double max_lag = 0.25;
   bool start_paused = false;
@@ -44,8 +47,9 @@ class Realtime {
   /// `on_frame` gets every frame, `on_hello` every hello (the first at Run's start). Throws InputError for bad options.
   Realtime(FrameSource& source, RealtimeOptions options, Publish on_frame, Publish on_hello);
 
-  /// queues a page's message (thread-safe; refuses it at once when the queue is full).
-  void Submit(std::string text, Reply reply);
+  /// queues a page's message (thread-safe; refuses it at once when the queue, or the sender's share of it, is full).
+  /// `sender` identifies the page (any number; messages of one sender are applied in order).
+  void Submit(std::string text, Reply reply, long sender = 0);
   /// runs until Stop (blocking).
   void Run();
   /// asks Run to return (thread-safe).
@@ -75,6 +79,7 @@ class Realtime {
   std::atomic<bool> stop_{false};
   mutable std::mutex mutex_;
   std::deque<Pending> queue_;
+  std::unordered_map<long, std::size_t> queued_by_sender_;
   std::shared_ptr<const std::string> hello_;
   long hello_version_ = -1;
   bool paused_ = false;
