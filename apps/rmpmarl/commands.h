@@ -2,6 +2,7 @@
 // Each subcommand lives in its own file and registers itself on the CLI11 app.
 #include <CLI/CLI.hpp>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,9 @@ UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
 /// --collision (a user's robot), --scenario and --seed.
 void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* urdf, std::string* collision,
                                 std::string* scenario, std::uint64_t* seed);
+/// the shipped default controller, models/policies/marl-rmp-residual.rmpp: MAPPO's residual over the hand gate of the
+/// target stiffness on the coupled basic layer (docs/method.md). demo and view run it when no --policy is given.
+std::filesystem::path ShippedDefaultPolicyPath();
 /// prints setup-robot's per-link table (capsule, stick-out, source) and warnings.
 void PrintLinkFits(const kinematics::RobotSetup& setup);
 

@@ -328,13 +328,6 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
 
-// the shipped default controller, models/policies/marl-rmp-residual.rmpp, if present: MAPPO's residual over the hand
-// gate of the target stiffness on the coupled basic layer (docs/method.md).
-std::optional<std::string> ShippedDefaultPolicy() {
-  const std::filesystem::path p = kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp";
-  if (std::filesystem::exists(p)) return p.string();
-  return std::nullopt;
-}
 
 }  // namespace
 
@@ -362,7 +355,9 @@ void RegisterDemo(CLI::App& app) {
     if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;
     const bool learned_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||
                                args.scenario == "cluttered";
-    if (args.policy.empty() && learned_scene) policy = ShippedDefaultPolicy();
+    if (args.policy.empty() && learned_scene && std::filesystem::exists(ShippedDefaultPolicyPath())) {
+      policy = ShippedDefaultPolicyPath().string();
+    }
     if (policy) {
       RunComparisonDemo(args, *policy);
     } else {

@@ -1,5 +1,5 @@
 // A user's robot for check-robot, demo and view: its collision YAML when there is one, else fitted in memory; the
-// robot and scenario options those commands share.
+// robot and scenario options and the default controller those commands share.
 #include <fmt/core.h>
 
 #include "commands.h"
@@ -19,6 +19,10 @@ UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
              "searched (rmpmarl setup-robot {} writes them to files)\n", urdf, out.setup->exclusions.size(), urdf);
   for (const std::string& w : out.setup->warnings) fmt::print("  WARNING: {}\n", w);
   return out;
+}
+
+std::filesystem::path ShippedDefaultPolicyPath() {
+  return kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp";
 }
 
 void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* urdf, std::string* collision,

@@ -55,9 +55,7 @@ void RunView(const ViewArgs& args) {
     std::shared_ptr<const rl::PolicyFile> file;
     std::string policy_path;
     if (args.policy != "rmpflow") {
-      policy_path = !args.policy.empty()
-                        ? args.policy
-                        : (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+      policy_path = !args.policy.empty() ? args.policy : ShippedDefaultPolicyPath().string();
       file = std::make_shared<const rl::PolicyFile>(rl::LoadPolicyFile(policy_path));
     }
     viewer::RobotVisuals visuals = viewer::LoadRobotVisuals(robot);

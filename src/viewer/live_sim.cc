@@ -186,17 +186,18 @@ void LiveSim::Reset(std::uint64_t seed) {
 }
 
 void LiveSim::PlaceObstacles() {
+  for (std::size_t j = 0; j < slots_.size(); ++j) PlaceSlot(static_cast<int>(j));
+  for (const auto& arm : arms_) arm->world->SetTargetPosition(p_WT_);
+}
+
+void LiveSim::PlaceSlot(int j) {
+  const Slot& s = slots_[j];
   for (const auto& arm : arms_) {
-    sim::World& w = *arm->world;
-    for (std::size_t j = 0; j < slots_.size(); ++j) {
-      const Slot& s = slots_[j];
-      if (s.active) {
-        w.SetObstaclePose(static_cast<int>(j), s.p, s.R);
-      } else {
-        w.SetObstaclePose(static_cast<int>(j), sim::ParkedPose());
-      }
+    if (s.active) {
+      arm->world->SetObstaclePose(j, s.p, s.R);
+    } else {
+      arm->world->SetObstaclePose(j, sim::ParkedPose());
     }
-    w.SetTargetPosition(p_WT_);
   }
 }
 
@@ -237,7 +238,9 @@ void LiveSim::ControlStep() {
     }
     scenario_->Advance(dt_, no_contacts_, *shadow_);
     time_ += dt_;
-    for (Slot& s : slots_) {
+    // the worlds get what the scenario moved; held and removed obstacles stay where they were placed
+    for (std::size_t j = 0; j < slots_.size(); ++j) {
+      Slot& s = slots_[j];
       if (!s.active) continue;
       if (s.held) {
         if (s.drag_time >= 0.0 && time_ - s.drag_time > kDragHold) s.v.setZero();
@@ -246,13 +249,14 @@ void LiveSim::ControlStep() {
         s.p = o.p_WO();
         s.v = o.v_WO();
         s.R = o.R_WO;
+        PlaceSlot(static_cast<int>(j));
       }
     }
     if (!target_held_) {
       p_WT_ = scenario_->target().p_WT;
       v_WT_ = scenario_->target().v_WT;
+      for (const auto& arm : arms_) arm->world->SetTargetPosition(p_WT_);
     }
-    PlaceObstacles();
   }
   FillObstacleViews();
   for (const auto& arm : arms_) {

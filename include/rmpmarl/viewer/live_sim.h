@@ -122,7 +122,9 @@ class LiveSim final : public FrameSource {
   void BuildArms();
   std::unique_ptr<Arm> MakeArm(const std::string& controller, const Eigen::VectorXd& q,
                                const Eigen::VectorXd& qd) const;
+  // every slot's pose and the target into every arm's world; PlaceSlot: slot j only
   void PlaceObstacles();
+  void PlaceSlot(int j);
   void FillScene();
   void FillObstacleViews();
   void UpdateHello();
