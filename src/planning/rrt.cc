@@ -56,6 +56,8 @@ bool SameObstacle(const rmp::Obstacle& a, const rmp::Obstacle& b) {
   if (a.shape == rmp::ObstacleShape::kSphere) {
     return a.sphere.p_WC == b.sphere.p_WC && a.sphere.radius == b.sphere.radius;
   }
+  // a point set's index is rebuilt in place by its owner: never the same obstacle twice
+  if (a.shape == rmp::ObstacleShape::kPoints) return false;
   return a.box.X_WB.matrix() == b.box.X_WB.matrix() && a.box.half_size == b.box.half_size;
 }
 

@@ -28,6 +28,15 @@ Obstacle Obstacle::MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d&
   return o;
 }
 
+Obstacle Obstacle::MakePoints(const math::PointCloudIndex& index, double point_radius, const Eigen::Vector3d& v_WO) {
+  Obstacle o;
+  o.shape = ObstacleShape::kPoints;
+  o.points = &index;
+  o.point_radius = point_radius;
+  o.v_WO = v_WO;
+  return o;
+}
+
 void ValidateScene(const Scene& scene, std::string_view what) {
   // beyond a kilometre (or a kilometre per second) a value is a unit or sign error, not a scene
   constexpr double kLimit = 1e3;
@@ -35,6 +44,23 @@ void ValidateScene(const Scene& scene, std::string_view what) {
   auto text = [](const Eigen::Vector3d& v) { return fmt::format("[{}, {}, {}]", v.x(), v.y(), v.z()); };
   for (size_t i = 0; i < scene.obstacles.size(); ++i) {
     const Obstacle& o = scene.obstacles[i];
+    if (o.shape == ObstacleShape::kPoints) {
+      if (o.points == nullptr || o.points->empty()) {
+        throw InputError(fmt::format("{}: obstacles[{}] (points) needs a non-empty point index, got {}", what, i,
+                                     o.points == nullptr ? "none" : "an empty one"));
+      }
+      if (!(o.point_radius >= 0.0) || !(o.point_radius <= kLimit)) {
+        throw InputError(fmt::format("{}: obstacles[{}] (points): expected a point radius in [0, {}] m, got {}", what,
+                                     i, kLimit, o.point_radius));
+      }
+      const Eigen::AlignedBox3d& b = o.points->bounds();
+      if (!in_range(b.min()) || !in_range(b.max()) || !in_range(o.v_WO)) {
+        throw InputError(fmt::format("{}: obstacles[{}] (points): expected points and velocity within ±{} m (m/s), "
+                                     "got bounds {} … {}, velocity {}", what, i, kLimit, text(b.min()), text(b.max()),
+                                     text(o.v_WO)));
+      }
+      continue;
+    }
     const Eigen::Vector3d p = o.shape == ObstacleShape::kSphere ? o.sphere.p_WC : o.box.X_WB.translation();
     const Eigen::Vector3d size = o.shape == ObstacleShape::kSphere ? Eigen::Vector3d::Constant(o.sphere.radius)
                                                                    : o.box.half_size;
@@ -69,17 +95,39 @@ void ValidateScene(const Scene& scene, std::string_view what) {
 }
 
 math::DistanceResult CapsuleObstacleDistance(const math::Capsule& capsule, const Obstacle& obstacle) {
-  return obstacle.shape == ObstacleShape::kSphere ? math::CapsuleSphereDistance(capsule, obstacle.sphere)
-                                                  : math::CapsuleBoxDistance(capsule, obstacle.box);
+  switch (obstacle.shape) {
+    case ObstacleShape::kSphere:
+      return math::CapsuleSphereDistance(capsule, obstacle.sphere);
+    case ObstacleShape::kBox:
+      return math::CapsuleBoxDistance(capsule, obstacle.box);
+    case ObstacleShape::kPoints:
+      break;
+  }
+  return math::CapsulePointCloudDistance(capsule, *obstacle.points, obstacle.point_radius);
 }
 
 double BoundingRadius(const Obstacle& obstacle) {
-  return obstacle.shape == ObstacleShape::kSphere ? obstacle.sphere.radius : obstacle.box.half_size.norm();
+  switch (obstacle.shape) {
+    case ObstacleShape::kSphere:
+      return obstacle.sphere.radius;
+    case ObstacleShape::kBox:
+      return obstacle.box.half_size.norm();
+    case ObstacleShape::kPoints:
+      break;
+  }
+  return 0.5 * obstacle.points->bounds().diagonal().norm() + obstacle.point_radius;
 }
 
 Eigen::Vector3d Centre(const Obstacle& obstacle) {
-  return obstacle.shape == ObstacleShape::kSphere ? obstacle.sphere.p_WC
-                                                  : Eigen::Vector3d(obstacle.box.X_WB.translation());
+  switch (obstacle.shape) {
+    case ObstacleShape::kSphere:
+      return obstacle.sphere.p_WC;
+    case ObstacleShape::kBox:
+      return obstacle.box.X_WB.translation();
+    case ObstacleShape::kPoints:
+      break;
+  }
+  return obstacle.points->bounds().center();
 }
 
 }  // namespace rmpmarl::rmp

@@ -1,22 +1,29 @@
 #pragma once
-/// What the RMPs see of the world, as plain data filled by callers (a simulator, a test, a perception stack): sphere
-/// and box obstacles with linear velocities, and the end-effector target with its velocity. The rmp module never
-/// reads the simulator itself.
+/// What the RMPs see of the world, as plain data filled by callers (a simulator, a test, a perception stack): sphere,
+/// box and point-cloud obstacles with linear velocities, and the end-effector target with its velocity. The rmp module
+/// never reads the simulator itself.
 #include <Eigen/Geometry>
 #include <string_view>
 #include <vector>
 
 #include "rmpmarl/math/geometry.h"
+#include "rmpmarl/math/point_cloud.h"
 
 namespace rmpmarl::rmp {
 
-enum class ObstacleShape { kSphere, kBox };
+enum class ObstacleShape { kSphere, kBox, kPoints };
 
-/// One obstacle: a sphere or an oriented box moving with linear velocity v_WO (no rotation).
+/// One obstacle: a sphere, an oriented box or a set of points (spheres of `point_radius`, e.g. one cluster of a depth
+/// camera's cloud) moving with linear velocity v_WO (no rotation). Every capsule sees a point set through its nearest
+/// point (math::CapsulePointCloudDistance), so the collision RMPs (eq 8–9) and the agents' warnings use it unchanged.
 struct Obstacle {
   ObstacleShape shape = ObstacleShape::kSphere;
   math::Sphere sphere;                            ///< used when shape == kSphere
   math::Box box;                                  ///< used when shape == kBox
+  /// used when shape == kPoints: the points' index, not owned — it must outlive every use of the Scene holding it
+  /// (perception::CloudObstacles owns its clusters' indices until its next update).
+  const math::PointCloudIndex* points = nullptr;
+  double point_radius = 0.0;                       ///< kPoints: each point is a sphere of this radius [m], ≥ 0
   Eigen::Vector3d v_WO = Eigen::Vector3d::Zero();  ///< linear velocity [m/s] in W
 
   /// a sphere of centre p_WC and radius r moving with v_WO.
@@ -25,6 +32,10 @@ struct Obstacle {
   /// a box with centre pose X_WB and half side lengths moving with v_WO.
   static Obstacle MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& half_size,
                           const Eigen::Vector3d& v_WO = Eigen::Vector3d::Zero());
+  /// the points of a non-empty `index`, each a sphere of `point_radius`, moving with v_WO; `index` must outlive the
+  /// obstacle's use.
+  static Obstacle MakePoints(const math::PointCloudIndex& index, double point_radius,
+                             const Eigen::Vector3d& v_WO = Eigen::Vector3d::Zero());
 };
 
 /// The world as the RMPs see it at one instant.
@@ -36,16 +47,17 @@ struct Scene {
 };
 
 /// throws InputError naming `what` unless every obstacle has finite data, radius/half sizes > 0 and a rotation
-/// matrix, and the target is finite.
+/// matrix (a point set: a non-empty index and a point radius ≥ 0), and the target is finite.
 void ValidateScene(const Scene& scene, std::string_view what);
 
 /// signed distance (with witness points and normal, capsule = shape 1) between a capsule and an obstacle.
 math::DistanceResult CapsuleObstacleDistance(const math::Capsule& capsule, const Obstacle& obstacle);
 
-/// radius of a sphere around the obstacle's centre that contains it.
+/// radius of a sphere around the obstacle's centre that contains it (a point set: half its bounding box's diagonal
+/// plus the point radius).
 double BoundingRadius(const Obstacle& obstacle);
 
-/// centre of the obstacle (sphere centre, box centre).
+/// centre of the obstacle (sphere centre, box centre, a point set's bounding-box centre).
 Eigen::Vector3d Centre(const Obstacle& obstacle);
 
 }  // namespace rmpmarl::rmp

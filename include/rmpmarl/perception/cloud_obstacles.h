@@ -1,0 +1,142 @@
+#pragma once
+/// Obstacles from a point cloud (docs/perception.md): what a depth camera or a user's sensor sees becomes point-set
+/// obstacles (rmp::ObstacleShape::kPoints) that every controller — RMPflow, the paper's agents, the learned default —
+/// avoids through its nearest points, with velocities from tracking.
+///
+/// One update, in order:
+///  1. points with a NaN or infinite coordinate are dropped (counted); a cloud in millimetres is refused;
+///  2. points outside the workspace box are dropped (the floor below its top, the room beyond the reach);
+///  3. voxel-grid downsampling: one point per occupied voxel of `voxel_size`, the centroid of its points;
+///  4. the self filter: voxels within a robot capsule's radius + `self_filter_margin` (at the robot's configuration
+///     q) are the robot itself, dropped;
+///  5. Euclidean clustering: voxels that touch (26-neighbourhood) form one cluster; clusters of fewer than
+///     `min_cluster_voxels` voxels are speckle, dropped; the clusters nearest the arm become obstacles, the rest
+///     (beyond max_obstacles − 1) are merged into the last one, so no point is lost;
+///  6. tracking: a cluster continues the track whose predicted centroid is nearest (within `track_gate`); its velocity
+///     is the smoothed finite difference of the centroid. A new track starts at rest.
+/// Each obstacle's points are spheres of radius voxel_size / 2 (a voxel's centroid stands for points up to half a
+/// voxel away).
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/math/point_cloud.h"
+#include "rmpmarl/rmp/scene.h"
+
+namespace rmpmarl::perception {
+
+/// Options of CloudObstacles.
+struct CloudObstacleOptions {
+  double voxel_size = 0.02;  ///< [m], in [0.001, 0.5]
+  /// world-frame crop box [m]: the default starts 3 cm above a floor at z = 0 and spans a 2 m radius
+  Eigen::AlignedBox3d workspace{Eigen::Vector3d(-2.0, -2.0, 0.03), Eigen::Vector3d(2.0, 2.0, 2.5)};
+  double self_filter_margin = 0.01;  ///< [m] ≥ 0: a voxel within a capsule's radius + this is the robot's
+  int min_cluster_voxels = 2;        ///< ≥ 1: smaller clusters are dropped as speckle noise
+  int max_obstacles = 8;             ///< ≥ 1: obstacle slots; further clusters are merged into the last one
+  long max_points = 2'000'000;       ///< larger clouds are refused (InputError): a 1280 × 720 depth image is 0.92 M
+  /// a cloud whose median distance from the robot's base exceeds this [m] is refused as not in metres (a cloud in
+  /// millimetres puts a table 1 m away at 1000)
+  double unit_check_distance = 50.0;
+  bool estimate_velocity = true;      ///< false: every obstacle at rest
+  double track_gate = 0.25;          ///< [m] largest distance from a track's predicted centroid to its next cluster
+  double velocity_smoothing = 0.5;   ///< (0, 1]: weight of the newest finite difference
+  double max_speed = 3.0;            ///< [m/s] estimates are clipped to this speed
+};
+
+/// throws InputError naming the field unless the options are valid.
+void ValidateCloudObstacleOptions(const CloudObstacleOptions& options);
+
+/// What one update did, in points / voxels / clusters.
+struct CloudUpdateStats {
+  long input_points = 0;
+  long nonfinite_points = 0;  ///< dropped: a NaN or infinite coordinate
+  long outside_points = 0;    ///< dropped: outside the workspace box
+  long voxels = 0;            ///< occupied voxels after downsampling
+  long robot_voxels = 0;      ///< dropped by the self filter
+  int clusters = 0;           ///< kept clusters (before merging)
+  int speckle_clusters = 0;   ///< dropped: fewer than min_cluster_voxels
+  int merged_clusters = 0;    ///< clusters merged into the last obstacle slot
+  double time_us = 0.0;       ///< wall time of the update [µs]
+};
+
+/// One obstacle of the last update.
+struct CloudCluster {
+  Eigen::Vector3d centroid_W = Eigen::Vector3d::Zero();  ///< mean of its voxel centroids
+  Eigen::Vector3d v_WO = Eigen::Vector3d::Zero();        ///< tracked velocity [m/s]
+  int voxels = 0;
+  int track = -1;          ///< track id, stable across updates while the cluster is followed
+  double clearance = 0.0;  ///< distance from the centroid to the nearest robot capsule surface [m]
+};
+
+/// Point-cloud obstacles for one robot. Update() keeps its buffers, so steady-state updates of clouds no larger than
+/// earlier ones allocate little. Scenes filled by FillScene point into this object's indices: they are valid until
+/// the next Update or Reset.
+class CloudObstacles {
+ public:
+  /// throws InputError for bad options.
+  CloudObstacles(const kinematics::Robot& robot, CloudObstacleOptions options = {});
+
+  /// forgets the tracks and the obstacles (start of an episode).
+  void Reset();
+  /// a cloud p_W (3 × N, world frame) sensed at `time` [s] with the robot at configuration q. Throws InputError for a
+  /// cloud of more than max_points points, one in millimetres, a time earlier than the last update's, or a q of the
+  /// wrong size or not finite.
+  const CloudUpdateStats& Update(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, double time,
+                                 const Eigen::Ref<const Eigen::VectorXd>& q);
+  /// the same for a cloud in the robot's base frame (the root link's frame): p_W = X_WB p_B.
+  const CloudUpdateStats& UpdateInBaseFrame(const Eigen::Ref<const Eigen::Matrix3Xd>& p_B, double time,
+                                            const Eigen::Ref<const Eigen::VectorXd>& q);
+
+  /// sets scene->obstacles to the last update's obstacles (none before the first update).
+  void FillScene(rmp::Scene* scene) const;
+  /// the last update's obstacles.
+  const std::vector<CloudCluster>& clusters() const { return clusters_; }
+  int num_obstacles() const { return static_cast<int>(clusters_.size()); }
+  /// the kept points of the last update (voxel centroids off the robot, in kept clusters; 3 × N), for drawing.
+  const Eigen::Matrix3Xd& points() const { return kept_; }
+  const CloudUpdateStats& stats() const { return stats_; }
+  const CloudObstacleOptions& options() const { return options_; }
+  const kinematics::Robot& robot() const { return robot_; }
+
+ private:
+  struct Track {
+    int id = 0;
+    Eigen::Vector3d centroid_W = Eigen::Vector3d::Zero();
+    Eigen::Vector3d v_WO = Eigen::Vector3d::Zero();
+  };
+  void Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W);
+  void SelfFilter(const Eigen::Ref<const Eigen::VectorXd>& q);
+  void Cluster();
+  void UpdateTracks(double time);
+  int Find(int v);
+
+  kinematics::Robot robot_;
+  CloudObstacleOptions options_;
+  kinematics::Data kin_;
+  std::vector<math::Capsule> capsules_W_;
+  // voxel hash: open addressing over packed integer voxel keys
+  std::vector<std::int64_t> table_keys_;
+  std::vector<int> table_voxel_;
+  std::vector<std::int64_t> voxel_key_;
+  std::vector<Eigen::Vector3d> voxel_sum_;
+  std::vector<int> voxel_count_;
+  std::vector<char> voxel_robot_;
+  std::vector<int> parent_;          // union-find over voxels
+  std::vector<int> voxel_cluster_;   // voxel → slot, −1 none
+  std::vector<int> root_cluster_;    // union-find root → component
+  std::vector<double> sample_;       // scratch of the unit check
+  std::vector<CloudCluster> clusters_;
+  std::vector<math::PointCloudIndex> indices_;  // one per obstacle slot
+  std::vector<Eigen::Matrix3Xd> slot_points_;
+  Eigen::Matrix3Xd kept_;
+  std::vector<Track> tracks_, next_tracks_;
+  int next_track_id_ = 0;
+  double last_time_ = -1.0;
+  bool has_update_ = false;
+  CloudUpdateStats stats_;
+};
+
+}  // namespace rmpmarl::perception
