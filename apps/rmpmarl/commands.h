@@ -8,6 +8,9 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/perception/depth_perception.h"
+#include "rmpmarl/perception/recorded_cloud.h"
+#include "rmpmarl/tasks/manipulator_env.h"
 
 namespace rmpmarl::apps {
 
@@ -37,6 +40,27 @@ std::filesystem::path ShippedDefaultPolicyPath();
 void PrintLinkFits(const kinematics::RobotSetup& setup);
 
 /// `rmpmarl robots`: sweeps every shipped robot in its MuJoCo world and prints a table.
+// --perception truth|depth and the depth camera's settings (perception_options.cc).
+struct PerceptionArgs {
+  std::string mode = "truth";
+  double rate = 30.0;      // camera frames per second
+  double noise = 0.002;    // sigma_at_1m [m]
+  double dropout = 0.01;
+  double voxel = 0.02;     // [m]
+  int width = 320, height = 240;
+  std::string cloud;       // a recorded cloud (file or folder) instead of the scene's obstacles ("" none)
+};
+void AddPerceptionOptions(CLI::App* cmd, PerceptionArgs* args);
+bool UsesDepth(const PerceptionArgs& args);
+// depth or a recorded cloud: the controllers' obstacles come from a sensor
+bool UsesSensor(const PerceptionArgs& args);
+perception::DepthPerceptionOptions DepthOptions(const PerceptionArgs& args, std::uint64_t seed);
+// the env's sensor maker for --perception depth (empty for truth); it throws when offscreen rendering is unavailable.
+std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> MakeSensorFactory(
+    const PerceptionArgs& args, std::uint64_t seed);
+// a line describing the perception, for the commands' headers.
+std::string DescribePerception(const PerceptionArgs& args);
+
 void RegisterRobots(CLI::App& app);
 void RunRobotsTable(double duration);
 

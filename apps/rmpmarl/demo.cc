@@ -38,7 +38,21 @@ struct DemoArgs {
   std::optional<int> num_obstacles;
   std::string policy;  // a controller file (.rmpp) beside RMPflow, or "rmpflow" alone
   std::string record;  // a replay file for `rmpmarl view --replay` ("" none)
+  PerceptionArgs perception;
 };
+
+// obstacle slots of the controllers: the scene's, or the sensor's clusters with --perception depth
+int ObstacleSlots(const DemoArgs& args, int scene_obstacles) {
+  return UsesSensor(args.perception) ? std::max(scene_obstacles, perception::CloudObstacleOptions{}.max_obstacles)
+                                     : scene_obstacles;
+}
+
+void PrintSensorSummary(const sim::SensorSummary& s, const std::string& label) {
+  fmt::print("  camera {:<20} {} frames, {:.0f} µs per frame (render, back-project, cloud), {:.0f} points and {:.1f} "
+             "obstacles per frame; velocity error {:.3f} m/s mean, {:.3f} m/s p90 ({} matches)\n",
+             label, s.updates, s.update_mean_us, s.points_mean, s.obstacles_mean, s.velocity_error_mean,
+             s.velocity_error_p90, s.velocity_samples);
+}
 
 // the hello of a recorded demo episode
 std::string DemoHello(const kinematics::Robot& robot, const sim::Scenario& scenario, std::vector<viewer::ArmLabel> arms,
@@ -77,13 +91,16 @@ void RunDemo(const DemoArgs& args) {
   sim::World world(world_model);
   const auto config_path = rmp::RmpflowConfigPath(robot);
   auto policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(robot),
-                                                                 scenario->num_obstacles());
+                                                                 ObstacleSlots(args, scenario->num_obstacles()));
   sim::ReactiveController controller(*world_model, std::move(policy));
+  std::unique_ptr<sim::ObstacleSensor> sensor;
+  if (UsesSensor(args.perception)) sensor = MakeSensorFactory(args.perception, args.seed)(*world_model);
 
   sim::EpisodeOptions episode;
   episode.duration = args.duration > 0.0 ? args.duration : scenario->default_duration();
   episode.seed = args.seed;
   episode.tracking_warmup = 1.0;
+  episode.sensor = sensor.get();
 
   std::unique_ptr<sim::OffscreenRenderer> renderer;
   std::unique_ptr<sim::VideoWriter> video;
@@ -108,7 +125,8 @@ void RunDemo(const DemoArgs& args) {
   if (video || recorder) {
     on_frame = [&](const sim::FrameInfo& frame) {
       if (video) {
-        renderer->Render(frame.world->mj_data(), &rgb);
+        const Eigen::Matrix3Xd* points = frame.sensor != nullptr ? &frame.sensor->points() : nullptr;
+        renderer->Render(frame.world->mj_data(), &rgb, points, 0.5 * args.perception.voxel);
         video->AddFrame(rgb);
       }
       if (recorder) {
@@ -124,6 +142,7 @@ void RunDemo(const DemoArgs& args) {
              robot.name, robot.model.nq(), scenario->name(), scenario->num_obstacles(), controller.policy().name(),
              args.seed, episode.duration);
   fmt::print("  RMPflow parameters: {}{}\n", config_path.string(), robot.home.size() > 0 ? " (home found in memory)" : "");
+  fmt::print("  {}\n", DescribePerception(args.perception));
   const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, on_frame);
 
   auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("none within 15 cm"); };
@@ -140,6 +159,7 @@ void RunDemo(const DemoArgs& args) {
     fmt::print("  WARNING             {} non-finite policy outputs (position held)\n", r.nonfinite_policy_outputs);
   }
   if (r.diverged) fmt::print("  WARNING             the simulation diverged and the episode ended early\n");
+  if (sensor) PrintSensorSummary(r.sensor, "");
   fmt::print("  result              {}\n", r.success ? "success: no collision"
                                                      : fmt::format("FAILURE: {} collision events", r.collision_events));
   if (video) {
@@ -164,6 +184,7 @@ struct DemoRun {
   tasks::EpisodeMetrics metrics;
   double step_us = 0.0;  // policy + controller per control step
   std::string video;     // written file ("" none)
+  std::optional<sim::SensorSummary> sensor;
 };
 
 // runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
@@ -190,13 +211,14 @@ DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, con
       video = std::make_unique<sim::VideoWriter>(video_path, args.width, args.height, args.fps);
     }
   }
-  DemoRun run{label, {}, 0.0, ""};
+  DemoRun run{label, {}, 0.0, "", std::nullopt};
   double next_frame = 0.0;
   // the env truncates the episode at config.episode.max_steps (--duration); its metrics come with the last step
   while (!buffers.terminated && !buffers.truncated) {
     if ((video || frames != nullptr) && env.world().time() + 1e-9 >= next_frame) {
       if (video) {
-        renderer->Render(env.world().mj_data(), &rgb);
+        const Eigen::Matrix3Xd* points = env.sensor() != nullptr ? &env.sensor()->points() : nullptr;
+        renderer->Render(env.world().mj_data(), &rgb, points, 0.5 * args.perception.voxel);
         video->AddFrame(rgb);
       }
       if (frames != nullptr) {
@@ -211,6 +233,7 @@ DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, con
     env.Step(actions.data(), rng, buffers.out());
   }
   run.metrics = buffers.metrics;
+  if (env.sensor() != nullptr) run.sensor = env.sensor()->Summary();
   run.step_us = run.metrics.mean_control_us;  // the whole controller: sensing, network and basic layer
   if (video) run.video = video->Close().string();
   return run;
@@ -269,8 +292,11 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
                  : "");
   tasks::ExternalController agents;
   rl::LearnedController* learned_policy = nullptr;  // owned by the env's controller
+  const int slots = ObstacleSlots(args, context->num_obstacles());
+  fmt::print("  {}\n", DescribePerception(args.perception));
+  agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
   agents.make_policy = [&](const kinematics::Robot& robot) {
-    auto policy = rl::MakeLearnedController(robot, file, policy_path, context->num_obstacles());
+    auto policy = rl::MakeLearnedController(robot, file, policy_path, slots);
     learned_policy = policy.get();
     return policy;
   };
@@ -281,8 +307,9 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args, &learned_policy,
                                          record ? &learned_frames : nullptr);
   tasks::ExternalController rmpflow;
+  rmpflow.make_sensor = MakeSensorFactory(args.perception, args.seed);
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
-    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, context->num_obstacles());
+    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, slots);
   };
   tasks::ManipulatorEnv rmpflow_env(context, rmpflow);
   const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args, nullptr,
@@ -318,6 +345,9 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   };
   row("result", result(learned.metrics), result(baseline.metrics));
   for (const DemoRun* r : {&learned, &baseline}) {
+    if (r->sensor) PrintSensorSummary(*r->sensor, r->label);
+  }
+  for (const DemoRun* r : {&learned, &baseline}) {
     if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
   }
   if (recorder) {
@@ -349,6 +379,10 @@ void RegisterDemo(CLI::App& app) {
                   "a controller file (.rmpp): its learned agents and RMPflow on the same episode (default: the shipped "
                   "models/policies/marl-rmp-residual.rmpp); rmpflow: RMPflow alone (also the static-reach and "
                   "static-obstacle scenarios)");
+  AddPerceptionOptions(cmd, &args.perception);
+  cmd->add_option("--cloud", args.perception.cloud,
+                  "replay a recorded point cloud (.ply/.pcd in the robot's base frame, metres; or a folder of them "
+                  "played at --camera-rate): the controllers know only its obstacles");
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
     std::optional<std::string> policy;

@@ -49,6 +49,7 @@ void RegisterEval(CLI::App& app) {
     std::string robot, urdf, collision, scenario;
     double obstacle_speed = -1.0;
     bool as_controller = false;
+    PerceptionArgs perception;
     int episodes = 100;
     int envs = 8;
     int env_threads = 1;
@@ -78,10 +79,15 @@ void RegisterEval(CLI::App& app) {
   cmd->add_option("--envs", args->envs, "parallel envs (default 8)")->check(CLI::Range(1, 4096));
   cmd->add_option("--env-threads", args->env_threads, "env worker threads (default 1)")->check(CLI::Range(1, 256));
   cmd->add_option("--seed", args->seed, "seed of the evaluation envs");
+  AddPerceptionOptions(cmd, &args->perception);
   cmd->add_flag("--stochastic", args->stochastic, "sample actions (default: deterministic modes)");
   cmd->callback([args] {
     rl::TaskSelection task;
     const bool is_checkpoint = args->policy.size() >= 5 && args->policy.substr(args->policy.size() - 5) == ".ckpt";
+    const bool depth = UsesDepth(args->perception);
+    if (depth && !args->as_controller) {
+      throw InputError("eval: --perception depth runs the agents as a user's loop does: add --as-controller");
+    }
     const bool moved = !args->robot.empty() || !args->urdf.empty() || !args->scenario.empty() ||
                        args->obstacle_speed >= 0.0 || args->as_controller;
     if (!args->robot.empty() && !args->urdf.empty()) throw InputError("eval: --robot and --urdf: give one of them");
@@ -104,8 +110,10 @@ void RegisterEval(CLI::App& app) {
         }
         tasks::ExternalController learned;
         rl::LearnedControllerOptions options;
-        options.max_obstacles = context->num_obstacles();
+        options.max_obstacles = std::max(context->num_obstacles(),
+                                         depth ? DepthOptions(args->perception, 0).cloud.max_obstacles : 0);
         options.name = std::filesystem::path(args->policy).stem().string();
+        learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
         // the moved task (scene, robot, --overrides) is the controller's task too
         learned.make_policy = [config, weights = file.weights, options](const kinematics::Robot& robot) {
           return std::make_unique<rl::LearnedController>(robot, config, weights, options);
@@ -121,6 +129,7 @@ void RegisterEval(CLI::App& app) {
                  tasks::TaskKindName(config.task), config.robot, tasks::InterfaceModeName(config.interface),
                  args->as_controller ? ", as a controller in a user's loop" : "", r.episodes,
                  args->stochastic ? "sampled" : "deterministic");
+      fmt::print("{}\n", DescribePerception(args->perception));
       PrintEvalResult(r);
       return;
     }

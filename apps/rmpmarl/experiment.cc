@@ -60,9 +60,13 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   cmd->add_flag("--no-plots", [options](std::int64_t) { options->plots = false; }, "skip the PNG plots");
   cmd->add_flag("--shipped", options->shipped,
                 "evaluation only: learned methods from the policies shipped in models/policies/ (others left out)");
+  auto perception_args = std::make_shared<PerceptionArgs>();
+  AddPerceptionOptions(cmd, perception_args.get());
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
-  cmd->callback([options, out, runs, methods, list, command_line] {
+  cmd->callback([options, out, runs, methods, list, command_line, perception_args] {
+    options->perception = perception_args->mode;
+    if (UsesDepth(*perception_args)) options->depth = DepthOptions(*perception_args, options->eval_seed);
     if (*list) {
       for (const std::string& key : experiments::ExperimentMethods(options->name)) fmt::print("{}\n", key);
       return;

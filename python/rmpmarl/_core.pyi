@@ -83,19 +83,36 @@ class Controller:
                       target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
                       sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
                       box_velocities: Optional[ArrayLike] = None, box_rotations: Optional[ArrayLike] = None,
+                      cloud: Optional[ArrayLike] = None, cloud_time: Optional[float] = None,
                       decide: bool = True) -> FloatArray:
         """q̈ [nq] at (q, q̇); spheres [K, 4] (x, y, z, r), boxes [K, 6] (centre, half sizes), velocities [K, 3],
-        box_rotations [K, 3, 3]; target None holds the end effector"""
+        box_rotations [K, 3, 3]; cloud [N, 3] a sensor's new frame (base frame) taken at cloud_time [s]; target None
+        holds the end effector"""
     def update(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
                target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
                sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
                box_velocities: Optional[ArrayLike] = None,
-               box_rotations: Optional[ArrayLike] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
+               box_rotations: Optional[ArrayLike] = None, cloud: Optional[ArrayLike] = None,
+               cloud_time: Optional[float] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
         """one control step: (q_cmd [nq], qd_cmd [nq], info)"""
+    def clear_cloud(self) -> None:
+        """forgets the last cloud's obstacles and tracks"""
+    def set_cloud_options(self, *, voxel_size: float = 0.02, self_filter_margin: float = 0.01,
+                          min_cluster_voxels: int = 2, max_obstacles: int = 8,
+                          workspace: Optional[ArrayLike] = None) -> None:
+        """how clouds become obstacles (docs/perception.md); forgets the last cloud"""
+    @property
+    def cloud_points(self) -> FloatArray:
+        """the last cloud's kept points [M, 3], world frame"""
+    @property
+    def cloud_obstacles(self) -> list[dict[str, Any]]:
+        """the last cloud's obstacles: centroid [3], velocity [3], voxels, track"""
 
 def load_controller(policy_file: str, robot: Union[Robot, str, None] = None, max_obstacles: int = 16,
                     floor_height: Optional[float] = None) -> Controller:
     """the learned controller of a controller file (.rmpp) on `robot` (default: the file's robot)"""
+def read_point_cloud(path: str) -> FloatArray:
+    """the points [N, 3] of a .ply or .pcd file, in the file's frame and units"""
 def rmpflow(robot: Union[Robot, str], max_obstacles: int = 16, config: Optional[str] = None) -> Controller:
     """RMPflow on `robot` with its configs/rmpflow settings (or an RMPflow YAML)"""
 

@@ -10,6 +10,8 @@
 
 #include "bindings.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/perception/cloud_obstacles.h"
 #include "rmpmarl/rl/learned_controller.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rmp/rmpflow.h"
@@ -29,6 +31,10 @@ struct ControllerHandle {
   rl::LearnedController* learned = nullptr;  // owned by controller; null for RMPflow
   rmp::Scene scene;
   int max_obstacles = 0;
+  // the point cloud's obstacles (made at the first cloud): the last cloud's stay until a new one or clear_cloud()
+  std::unique_ptr<perception::CloudObstacles> cloud;
+  perception::CloudObstacleOptions cloud_options;
+  long steps = 0;  // control decisions, the cloud's clock when no cloud_time is given
   Eigen::VectorXd qdd;
   std::string file;
 };
@@ -92,17 +98,33 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
 }
 
 /// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
-void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& target_velocity,
+void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target, const py::handle& target_velocity,
                const py::handle& spheres, const py::handle& sphere_velocities, const py::handle& boxes,
-               const py::handle& box_velocities, const py::handle& box_rotations) {
+               const py::handle& box_velocities, const py::handle& box_rotations, const py::handle& cloud,
+               const py::handle& cloud_time) {
   rmp::Scene& s = h.scene;
+  // a new cloud (base frame, [N, 3]; NaN rows are dropped and counted): its obstacles replace the last cloud's
+  if (!cloud.is_none()) {
+    const py::array c = CheckedArray(cloud, {.name = "cloud", .shape = {-1, 3}, .finite = false});
+    double time = static_cast<double>(h.steps) * h.controller->control_period();
+    if (!cloud_time.is_none()) time = cloud_time.cast<double>();
+    if (!h.cloud) {
+      h.cloud_options.max_obstacles = std::max(1, std::min(h.cloud_options.max_obstacles, h.max_obstacles));
+      h.cloud = std::make_unique<perception::CloudObstacles>(h.world->robot(), h.cloud_options);
+    }
+    const Eigen::Map<const Eigen::Matrix3Xd> p_B(static_cast<const double*>(c.data()), 3, c.shape(0));
+    h.cloud->UpdateInBaseFrame(p_B, time, AsVector(q));
+  } else if (!cloud_time.is_none()) {
+    BadArgument("cloud_time: given without cloud");
+  }
   const py::array sph = spheres.is_none() ? py::array() : CheckedArray(spheres, {.name = "spheres", .shape = {-1, 4}});
   const py::array box = boxes.is_none() ? py::array() : CheckedArray(boxes, {.name = "boxes", .shape = {-1, 6}});
   // an absent argument is an empty array (py::array() holds a 0-size array, not a null handle)
   const py::ssize_t ns = sph.ndim() == 2 ? sph.shape(0) : 0, nb = box.ndim() == 2 ? box.shape(0) : 0;
-  if (ns + nb > h.max_obstacles) {
-    BadArgument(fmt::format("spheres, boxes: expected at most max_obstacles = {} obstacles in all, got {} + {} (make "
-                            "the controller with a larger max_obstacles)", h.max_obstacles, ns, nb));
+  const py::ssize_t nc = h.cloud ? h.cloud->num_obstacles() : 0;
+  if (ns + nb + nc > h.max_obstacles) {
+    BadArgument(fmt::format("spheres, boxes, cloud: expected at most max_obstacles = {} obstacles in all, got {} + {} + "
+                            "{} (make the controller with a larger max_obstacles)", h.max_obstacles, ns, nb, nc));
   }
   auto optional = [](const py::handle& obj, const char* name, std::vector<py::ssize_t> shape, const char* needs,
                      py::ssize_t count) {
@@ -121,6 +143,7 @@ void FillScene(ControllerHandle& h, const py::handle& target, const py::handle& 
   // rebuilt at every call in the controller's own buffer (reserved for max_obstacles: no allocation); a call that
   // raises leaves it for the next call to overwrite and steps nothing
   s.obstacles.clear();
+  if (h.cloud) h.cloud->FillScene(&s);  // the cloud's clusters first, then the given shapes
   const double* ps = static_cast<const double*>(sph.data());
   const double* pb = static_cast<const double*>(box.data());
   auto vec3 = [](const py::array& a, py::ssize_t i) {
@@ -156,13 +179,18 @@ py::object PerJoint(const ControllerHandle& h, const std::vector<float>* values)
 #define RMPMARL_SCENE_ARGS                                                                                  \
   py::kw_only(), py::arg("target") = py::none(), py::arg("target_velocity") = py::none(),                 \
       py::arg("spheres") = py::none(), py::arg("sphere_velocities") = py::none(), py::arg("boxes") = py::none(), \
-      py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none()
+      py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none(), py::arg("cloud") = py::none(), \
+      py::arg("cloud_time") = py::none()
 
 constexpr const char* kSceneDoc = R"doc(
 The scene (keyword-only, float64): target [3] (None: no target this step, the controller holds the end effector),
 target_velocity [3]; spheres [K, 4] rows (x, y, z, radius) with sphere_velocities [K, 3]; boxes [K, 6] rows
 (centre x, y, z, half sizes x, y, z) with box_velocities [K, 3] and box_rotations [K, 3, 3] (default identity). All in
-the robot's base frame, metres and m/s; at most max_obstacles obstacles in all.)doc";
+the robot's base frame, metres and m/s; at most max_obstacles obstacles in all.
+cloud [N, 3]: a sensor's point cloud in the base frame (rows with NaN are dropped), taken at cloud_time [s] (default:
+the controller's own clock). It is cropped, downsampled to voxels, cleared of the robot's own points, clustered into
+point-set obstacles and tracked for their velocities (docs/perception.md); its obstacles stay until the next cloud or
+clear_cloud(). Give a cloud when the sensor has a new frame, not at every step.)doc";
 
 }  // namespace
 
@@ -195,11 +223,14 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       .def("accelerations", [](ControllerHandle& h, const py::handle& q, const py::handle& qd, const py::handle& target,
                                const py::handle& target_velocity, const py::handle& spheres,
                                const py::handle& sphere_velocities, const py::handle& boxes,
-                               const py::handle& box_velocities, const py::handle& box_rotations, bool decide) {
+                               const py::handle& box_velocities, const py::handle& box_rotations,
+                               const py::handle& cloud, const py::handle& cloud_time, bool decide) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
-        FillScene(h, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations);
+        FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
+                  cloud, cloud_time);
+        if (decide) ++h.steps;
         {
           py::gil_scoped_release release;
           sim::AccelerationPolicy& policy = h.controller->policy();
@@ -215,11 +246,13 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       .def("update", [](ControllerHandle& h, const py::handle& q, const py::handle& qd, const py::handle& target,
                         const py::handle& target_velocity, const py::handle& spheres,
                         const py::handle& sphere_velocities, const py::handle& boxes, const py::handle& box_velocities,
-                        const py::handle& box_rotations) {
+                        const py::handle& box_rotations, const py::handle& cloud, const py::handle& cloud_time) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
-        FillScene(h, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations);
+        FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
+                  cloud, cloud_time);
+        ++h.steps;
         sim::ControlStepResult r;
         {
           py::gil_scoped_release release;
@@ -235,6 +268,53 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS,
            (std::string("one control step: returns (q_cmd [nq], qd_cmd [nq], info). A non-finite q̈ holds position "
                         "(info['finite'] False).") + kSceneDoc).c_str())
+      .def("clear_cloud", [](ControllerHandle& h) {
+        if (h.cloud) h.cloud->Reset();
+      }, "forgets the last cloud's obstacles and tracks")
+      .def("set_cloud_options", [](ControllerHandle& h, double voxel_size, double self_filter_margin,
+                                   int min_cluster_voxels, int max_obstacles, const py::handle& workspace) {
+        perception::CloudObstacleOptions o = h.cloud_options;
+        o.voxel_size = voxel_size;
+        o.self_filter_margin = self_filter_margin;
+        o.min_cluster_voxels = min_cluster_voxels;
+        o.max_obstacles = max_obstacles;
+        if (!workspace.is_none()) {
+          const py::array w = CheckedArray(workspace, {.name = "workspace", .shape = {2, 3}});
+          const double* d = static_cast<const double*>(w.data());
+          o.workspace = Eigen::AlignedBox3d(Eigen::Vector3d(d), Eigen::Vector3d(d + 3));
+        }
+        perception::ValidateCloudObstacleOptions(o);
+        if (max_obstacles > h.max_obstacles) {
+          BadArgument(fmt::format("max_obstacles: expected at most the controller's max_obstacles = {}, got {}",
+                                  h.max_obstacles, max_obstacles));
+        }
+        h.cloud_options = o;
+        h.cloud.reset();
+      }, py::kw_only(), py::arg("voxel_size") = 0.02, py::arg("self_filter_margin") = 0.01,
+         py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8, py::arg("workspace") = py::none(),
+         "how clouds become obstacles: voxel size [m], the self filter's margin [m], the smallest cluster [voxels], "
+         "obstacle slots for the cloud, workspace [[xmin, ymin, zmin], [xmax, ymax, zmax]] in the world frame (default: "
+         "3 cm above the floor to 2.5 m, ±2 m around). Forgets the last cloud.")
+      .def_property_readonly("cloud_points", [](const ControllerHandle& h) {
+        py::array_t<double> a({h.cloud ? static_cast<py::ssize_t>(h.cloud->points().cols()) : 0, py::ssize_t{3}});
+        if (h.cloud && h.cloud->points().cols() > 0) {
+          std::copy_n(h.cloud->points().data(), h.cloud->points().size(), a.mutable_data());
+        }
+        return a;
+      }, "the last cloud's kept points [M, 3] in the world frame (voxel centroids off the robot), a copy")
+      .def_property_readonly("cloud_obstacles", [](const ControllerHandle& h) {
+        py::list out;
+        if (!h.cloud) return out;
+        for (const perception::CloudCluster& c : h.cloud->clusters()) {
+          py::dict d;
+          d["centroid"] = VectorToNumpy(Eigen::VectorXd(c.centroid_W));
+          d["velocity"] = VectorToNumpy(Eigen::VectorXd(c.v_WO));
+          d["voxels"] = c.voxels;
+          d["track"] = c.track;
+          out.append(d);
+        }
+        return out;
+      }, "the last cloud's obstacles: dicts of centroid [3], tracked velocity [3] (world frame), voxels, track id")
       .def_property_readonly("observations", [](const ControllerHandle& h) {
         return PerJoint(h, h.learned ? &h.learned->observations() : nullptr);
       }, "learned: the agents' local observations of the last decision [nq, obs_dim] (a copy); None for RMPflow")
@@ -251,6 +331,13 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         "the learned controller of a controller file (.rmpp) on `robot` (an rmpmarl.Robot, a name or a .urdf path; "
         "default: the robot the file was trained on). floor_height: a floor plane z = h the agents see (default none, "
         "as in training).");
+  m.def("read_point_cloud", [](const std::string& path) {
+    const perception::PointCloudFile f = perception::ReadPointCloud(path);
+    py::array_t<double> a({static_cast<py::ssize_t>(f.points.cols()), py::ssize_t{3}});
+    if (f.points.size() > 0) std::copy_n(f.points.data(), f.points.size(), a.mutable_data());
+    return a;
+  }, py::arg("path"), "the points [N, 3] of a .ply or .pcd file (ascii or binary; PCD also binary_compressed), in the "
+                      "file's frame and units; points with NaN are dropped");
   m.def("rmpflow", &MakeRmpflow, py::arg("robot"), py::arg("max_obstacles") = 16, py::arg("config") = py::none(),
         "RMPflow on `robot` with its configs/rmpflow settings (or `config`, an RMPflow YAML)");
 }

@@ -19,6 +19,7 @@
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/tasks/agent_interface.h"
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/rl/learned_controller.h"
 #include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/rl/policy_runtime.h"
 #include "rmpmarl/sim/controller.h"
@@ -176,11 +177,31 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
     }
   }
 
+  const bool sensed = static_cast<bool>(protocol.make_sensor);
+  if (sensed && method.kind == MethodKind::kFixedOption) {
+    throw InputError(fmt::format("{}: a fixed-option method reads MuJoCo's contacts, not a sensor: with a sensor "
+                                 "(--perception depth) run RMPflow, RRT or learned methods", method.name));
+  }
   auto make_env = [&]() -> std::unique_ptr<tasks::ManipulatorEnv> {
+    if (sensed && method.kind == MethodKind::kPolicy) {
+      // the agents as a user's loop runs them: rl::LearnedController on what the sensor perceives
+      tasks::ExternalController external;
+      external.options = config.controller;
+      external.make_sensor = protocol.make_sensor;
+      rl::LearnedControllerOptions options;
+      options.max_obstacles = std::max(context->num_obstacles(), protocol.sensor_obstacle_slots);
+      options.name = method.name;
+      external.make_policy = [config, weights, options](const kinematics::Robot& robot) {
+        return std::make_unique<rl::LearnedController>(robot, config, weights, options);
+      };
+      return std::make_unique<tasks::ManipulatorEnv>(context, std::move(external));
+    }
     if (method.kind == MethodKind::kRmpflow || method.kind == MethodKind::kRrt) {
       tasks::ExternalController external;
       external.options = sim::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
-      const int max_obstacles = context->num_obstacles();
+      external.make_sensor = protocol.make_sensor;
+      const int max_obstacles =
+          sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
       if (method.kind == MethodKind::kRmpflow) {
         external.make_policy = [max_obstacles, adjust = method.adjust_rmpflow](const kinematics::Robot& robot) {
           rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name));

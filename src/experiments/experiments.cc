@@ -340,7 +340,11 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   if (o.seeds < 1) throw InputError(fmt::format("--seeds: expected >= 1, got {}", o.seeds));
   if (o.jobs < 1) throw InputError(fmt::format("--jobs: expected >= 1, got {}", o.jobs));
   if (o.episodes < 0) throw InputError(fmt::format("--episodes: expected >= 1 (0: the default), got {}", o.episodes));
-  if (o.out.empty()) o.out = fs::path("results") / o.name;
+  if (o.perception != "truth" && o.perception != "depth") {
+    throw InputError(fmt::format("--perception: expected truth or depth, got '{}'", o.perception));
+  }
+  const bool depth = o.perception == "depth";
+  if (o.out.empty()) o.out = fs::path("results") / (depth ? o.name + "-depth" : o.name);
   if (std::find(BudgetNames().begin(), BudgetNames().end(), o.budget) == BudgetNames().end()) {
     throw InputError(fmt::format("--budget: expected one of {}, got '{}'", fmt::join(BudgetNames(), ", "), o.budget));
   }
@@ -351,7 +355,14 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const Budgets budgets = BudgetsFor(o);
   RunnerOptions runner{o.runs, o.cli, o.jobs, 30.0};
-  EvalProtocol protocol{.episodes = 0, .eval_seed = o.eval_seed, .jobs = o.jobs};
+  EvalProtocol protocol;
+  protocol.episodes = 0;
+  protocol.eval_seed = o.eval_seed;
+  protocol.jobs = o.jobs;
+  if (depth) {
+    protocol.make_sensor = perception::DepthSensorMaker(o.depth);
+    protocol.sensor_obstacle_slots = o.depth.cloud.max_obstacles;
+  }
   auto episodes = [&](int full) { return o.episodes > 0 ? o.episodes : (o.quick ? 2 : full); };
   std::vector<TrainingRun> runs;
   auto train = [&] {
@@ -364,6 +375,14 @@ fs::path RunExperiment(const ExperimentOptions& options) {
 
   ReportText text;
   text.command = o.command_line;
+  if (depth) {
+    const perception::DepthCameraOptions& c = o.depth.cameras.front();
+    text.notes += fmt::format(
+        "Perception: depth. The controllers know the obstacles only through one simulated {}×{} depth camera at "
+        "{:g} Hz (noise σ = {:g} m × z², dropout {:g}), as point-set obstacles from {:g} m voxels with tracked "
+        "velocities (docs/perception.md); learned methods run as rl::LearnedController; fixed-option methods are "
+        "left out.\n\n", c.width, c.height, c.rate, c.noise.sigma_at_1m, c.noise.dropout, o.depth.cloud.voxel_size);
+  }
   std::vector<ResultRow> rows;
   std::vector<Job> jobs;
   auto final_policy = [&](const MethodSpec& m, int s) {

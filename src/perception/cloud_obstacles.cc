@@ -58,6 +58,9 @@ void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
     fail("velocity_smoothing", "a weight in (0, 1]", fmt::format("{}", o.velocity_smoothing));
   }
   if (!(o.max_speed > 0.0 && std::isfinite(o.max_speed))) fail("max_speed", "a finite speed > 0 m/s", fmt::format("{}", o.max_speed));
+  if (!(o.min_speed >= 0.0 && o.min_speed < o.max_speed)) {
+    fail("min_speed", fmt::format("a speed in [0, max_speed = {}) m/s", o.max_speed), fmt::format("{}", o.min_speed));
+  }
 }
 
 CloudObstacles::CloudObstacles(const kinematics::Robot& robot, CloudObstacleOptions options)
@@ -122,10 +125,20 @@ const CloudUpdateStats& CloudObstacles::Update(const Eigen::Ref<const Eigen::Mat
   }
   stats_ = {};
   stats_.input_points = n;
+  auto lap = [last = start]() mutable {
+    const auto now = std::chrono::steady_clock::now();
+    const double us = std::chrono::duration<double, std::micro>(now - last).count();
+    last = now;
+    return us;
+  };
   Downsample(p_W);
+  stats_.downsample_us = lap();
   SelfFilter(q);
+  stats_.filter_us = lap();
   Cluster();
+  stats_.cluster_us = lap();
   UpdateTracks(time);
+  stats_.track_us = lap();
   last_time_ = time;
   has_update_ = true;
   stats_.time_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
@@ -261,8 +274,11 @@ void CloudObstacles::Cluster() {
       all.emplace_back();
     }
     CloudCluster& c = all[root_cluster[root]];
-    c.centroid_W += voxel_sum_[v];
+    // weighted by the voxel's points: the centroid of the raw points, which moves with the object rather than in
+    // voxel-sized steps
+    c.centroid_W += voxel_count_[v] * voxel_sum_[v];
     ++c.voxels;
+    c.points += voxel_count_[v];
     voxel_cluster_[v] = root_cluster[root];
   }
   // drop speckle, measure each cluster's clearance from the arm, order nearest first
@@ -270,7 +286,7 @@ void CloudObstacles::Cluster() {
   order.reserve(all.size());
   for (int k = 0; k < static_cast<int>(all.size()); ++k) {
     CloudCluster& c = all[k];
-    c.centroid_W /= c.voxels;
+    c.centroid_W /= static_cast<double>(c.points);
     if (c.voxels < options_.min_cluster_voxels) {
       ++stats_.speckle_clusters;
       continue;
@@ -312,11 +328,12 @@ void CloudObstacles::Cluster() {
     if (s < 0) continue;
     slot_points_[s].col(counts[s]++) = voxel_sum_[v];
     kept_.col(k++) = voxel_sum_[v];
-    merged[s].centroid_W += voxel_sum_[v];
+    merged[s].centroid_W += voxel_count_[v] * voxel_sum_[v];
     ++merged[s].voxels;
+    merged[s].points += voxel_count_[v];
   }
   for (int s = 0; s < slots; ++s) {
-    merged[s].centroid_W /= merged[s].voxels;
+    merged[s].centroid_W /= static_cast<double>(merged[s].points);
     merged[s].clearance = all[order[s]].clearance;
     indices_[s].Build(slot_points_[s]);
   }
@@ -360,9 +377,12 @@ void CloudObstacles::UpdateTracks(double time) {
     if (cluster_track[c] >= 0) {
       const Track& old = tracks_[cluster_track[c]];
       t.id = old.id;
+      t.matches = old.matches + 1;
       if (options_.estimate_velocity && dt > 0.0) {
+        // the first continuation takes the finite difference as it is (the track started at rest for want of one)
         const Eigen::Vector3d raw = (cl.centroid_W - old.centroid_W) / dt;
-        t.v_WO = options_.velocity_smoothing * raw + (1.0 - options_.velocity_smoothing) * old.v_WO;
+        const double w = t.matches == 1 ? 1.0 : options_.velocity_smoothing;
+        t.v_WO = w * raw + (1.0 - w) * old.v_WO;
         const double speed = t.v_WO.norm();
         if (speed > options_.max_speed) t.v_WO *= options_.max_speed / speed;
       } else {
@@ -372,7 +392,7 @@ void CloudObstacles::UpdateTracks(double time) {
       t.id = next_track_id_++;
     }
     cl.track = t.id;
-    cl.v_WO = t.v_WO;
+    cl.v_WO = t.v_WO.norm() < options_.min_speed ? Eigen::Vector3d::Zero() : t.v_WO;
     next_tracks_.push_back(t);
   }
   std::swap(tracks_, next_tracks_);

@@ -11,6 +11,9 @@
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::sim {
+
+ObstacleSensor::~ObstacleSensor() = default;
+
 namespace {
 
 void CheckOptions(const EpisodeOptions& o) {
@@ -107,6 +110,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
   controller.Reset(world);
   rmp::Scene scene;
   scenario.FillScene(&scene);
+  if (options.sensor != nullptr) options.sensor->Reset(world);
 
   const WorldModel& model = world.model();
   const kinematics::Robot& robot = model.robot();
@@ -131,7 +135,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
       slot = std::min(slot, 1000.0 * c.distance);
     }
     if (frame_period > 0.0 && on_frame && time >= next_frame * frame_period - 0.5 * dt) {
-      on_frame(FrameInfo{next_frame, time, &world, &scenario, &contacts, error});
+      on_frame(FrameInfo{next_frame, time, &world, &scenario, &contacts, error, options.sensor});
       ++next_frame;
     }
   };
@@ -144,6 +148,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
     if (options.stop_on_collision && collided) break;
     if (step % control_every == 0) {
       scenario.FillScene(&scene);
+      if (options.sensor != nullptr) options.sensor->Sense(world, &scene);
       controller.Step(world, scene);
       ++r.control_steps;
     }
@@ -171,6 +176,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
   r.resyncs = stats.resyncs;
   r.control_step_mean_us = stats.mean_compute_us();
   r.control_step_max_us = stats.max_compute_us;
+  if (options.sensor != nullptr) r.sensor = options.sensor->Summary();
   r.success = r.collision_events == 0 && !r.diverged;
   r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return r;

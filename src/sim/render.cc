@@ -167,7 +167,7 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   mjv_defaultCamera(&impl.camera);
   mjv_defaultOption(&impl.option);
   mjr_defaultContext(&impl.context_mj);
-  mjv_makeScene(impl.model, &impl.scene, 2000);
+  mjv_makeScene(impl.model, &impl.scene, 12000);  // the model's geoms and a sensor's points
   impl.scene_made = true;
   mjr_makeContext(impl.model, &impl.context_mj, mjFONTSCALE_100);
   impl.context_made = true;
@@ -198,16 +198,27 @@ OffscreenRenderer::~OffscreenRenderer() {
     eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(impl_->display, impl_->context);
   }
-  if (impl_->display != EGL_NO_DISPLAY) eglTerminate(impl_->display);
+  // no eglTerminate: an EGL display is one per process, shared with every other renderer and depth camera, and
+  // terminating it would destroy their contexts too
 }
 
-void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rgb) {
+void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rgb, const Eigen::Matrix3Xd* points,
+                               double point_radius) {
   Impl& impl = *impl_;
   eglMakeCurrent(impl.display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl.context);
   const mjrRect viewport{0, 0, options_.width, options_.height};
   // mjv_updateScene takes a non-const mjData (it may write warnings); the state itself is not modified.
   mjv_updateScene(impl.model, const_cast<mjData*>(data), &impl.option, nullptr, &impl.camera, mjCAT_ALL, &impl.scene);
   if (options_.draw_ground) AddGround(&impl.scene);
+  if (points != nullptr) {
+    const mjtNum size[3] = {point_radius, point_radius, point_radius};
+    const mjtNum mat[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const float rgba[4] = {0.1f, 0.85f, 0.95f, 1.0f};
+    for (long i = 0; i < points->cols() && impl.scene.ngeom < impl.scene.maxgeom; ++i) {
+      const mjtNum pos[3] = {(*points)(0, i), (*points)(1, i), (*points)(2, i)};
+      mjv_initGeom(&impl.scene.geoms[impl.scene.ngeom++], mjGEOM_BOX, size, pos, mat, rgba);
+    }
+  }
   mjr_render(viewport, &impl.scene, &impl.context_mj);
   mjr_readPixels(flipped_.data(), nullptr, viewport, &impl.context_mj);
   rgb->resize(flipped_.size());

@@ -215,6 +215,7 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context, Exter
   external_.options.control_rate = config_.episode.control_rate;
   sim::ValidateControllerOptions(external_.options, config_.episode.physics_timestep);
   external_controllers_.resize(context_->num_variants());
+  sensors_.resize(context_->num_variants());
   // the agents' basic layer is never stepped when a baseline drives the robot: not reset every episode either
   controller_.reset();
 }
@@ -259,6 +260,11 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
     }
     external_controller_ = ext.get();
     external_controller_->Reset(*world_);
+    if (external_.make_sensor) {
+      std::unique_ptr<sim::ObstacleSensor>& sensor = sensors_[variant_];
+      if (!sensor) sensor = external_.make_sensor(world_->model());
+      sensor_ = sensor.get();
+    }
   }
   if (controller_) controller_->Reset(*world_);
   q_cmd_ = world_->q();
@@ -289,6 +295,7 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
   collision_physics_steps_ = 0;
   metrics_.min_clearance_m = step_min_clearance_;
   scenario_->FillScene(&scene_);
+  if (sensor_ != nullptr) sensor_->Reset(*world_);
   p_WT_ = scenario_->target().p_WT;
   v_WT_ = scenario_->target().v_WT;
   UpdateKinematics();
@@ -325,7 +332,14 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
   const int size = a.size();
   if (external_controller_ != nullptr) {  // a baseline drives the robot; the actions are ignored
     q_cmd_before_ = external_controller_->q_cmd();
-    control_us_sum_ += external_controller_->Step(*world_, scene_).compute_us;
+    if (sensor_ != nullptr) {
+      sensed_scene_.has_target = scene_.has_target;
+      sensed_scene_.p_WT = scene_.p_WT;
+      sensed_scene_.v_WT = scene_.v_WT;
+      sensed_scene_.obstacles = scene_.obstacles;  // the truth, for the sensor to score itself; replaced by Sense
+      sensor_->Sense(*world_, &sensed_scene_);
+    }
+    control_us_sum_ += external_controller_->Step(*world_, sensor_ != nullptr ? sensed_scene_ : scene_).compute_us;
     info_.qdd = external_controller_->qdd();
     info_.dq_command = external_controller_->q_cmd() - q_cmd_before_;
     std::fill(option_started, option_started + num_agents_, 0.0f);

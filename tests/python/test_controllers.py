@@ -129,3 +129,78 @@ def test_without_a_target_the_learned_controller_holds_the_end_effector():
         q, qd, _ = controller.update(q, qd)
     # measured: 0.1 mm after 2 s (a target that followed the end effector drifted 90 mm in 1 s)
     assert np.linalg.norm(robot.end_effector_position(q) - p0) < 0.002
+
+
+def _box_surface_points(centre, half, per_side=12):
+    """points on the six faces of an axis-aligned cube, as a depth camera would see all of them"""
+    g = (np.arange(per_side) + 0.5) / per_side * 2.0 - 1.0
+    a, b = np.meshgrid(g, g)
+    faces = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            f = np.zeros((a.size, 3))
+            f[:, axis] = sign
+            f[:, (axis + 1) % 3] = a.ravel()
+            f[:, (axis + 2) % 3] = b.ravel()
+            faces.append(f)
+    return centre + half * np.concatenate(faces)
+
+
+def test_a_point_cloud_of_the_crossing_box_is_avoided_like_the_box():
+    """the crossing-box loop above with the box known only as a 30 Hz point cloud of its surface: the cloud's
+    obstacle is tracked (its velocity estimated) and the arm keeps its distance"""
+    robot = rmpmarl.Robot("panda")
+    controller = rmpmarl.load_controller(rmpmarl.shipped_policy(), robot=robot, max_obstacles=8)
+    q, qd = Q0.copy(), np.zeros(7)
+    controller.reset(q, qd)
+    p0 = robot.end_effector_position(q)
+    errors, clearances, speeds = [], [], []
+    for k in range(400):
+        t = k / controller.control_rate
+        target = p0 + 0.1 * np.array([np.cos(t) - 1.0, np.sin(t), 0.0])
+        box_centre = p0 + np.array([-0.1, -0.6 + 0.3 * t, 0.25])
+        cloud = _box_surface_points(box_centre, 0.05) if k % 3 == 0 else None  # a new frame every 30 ms
+        q, qd, info = controller.update(q, qd, target=target, cloud=cloud, cloud_time=t if cloud is not None else None)
+        assert info["finite"]
+        obstacles = controller.cloud_obstacles
+        assert len(obstacles) == 1
+        if k > 30:
+            speeds.append(obstacles[0]["velocity"][1])
+        errors.append(np.linalg.norm(robot.end_effector_position(q) - target))
+        clearances.append(min(_capsule_box_clearance(c, box_centre, 0.05) for c in robot.capsules(q)))
+    assert abs(np.median(speeds) - 0.3) < 0.05, np.median(speeds)
+    assert np.mean(errors[100:]) < 0.06, np.mean(errors[100:])
+    assert errors[-1] < 0.02, errors[-1]
+    assert min(clearances) > 0.02, min(clearances)
+    assert controller.cloud_points.shape[1] == 3 and controller.cloud_points.shape[0] > 50
+
+
+def test_point_cloud_bad_input_and_files(tmp_path):
+    controller = rmpmarl.rmpflow("panda", max_obstacles=4)
+    q = Q0.copy()
+    controller.reset(q)
+    target = np.array([0.4, 0.0, 0.5])
+    # millimetres are refused with the reason; NaN rows are dropped; an empty cloud is no obstacle
+    with pytest.raises(ValueError, match="millimetres"):
+        controller.update(q, np.zeros(7), target=target, cloud=1000.0 * _box_surface_points(np.array([0.5, 0.3, 0.4]), 0.05))
+    cloud = _box_surface_points(np.array([0.5, 0.3, 0.4]), 0.05)
+    cloud[5] = np.nan
+    q_cmd, _, info = controller.update(q, np.zeros(7), target=target, cloud=cloud, cloud_time=1.0)
+    assert info["finite"] and np.all(np.isfinite(q_cmd)) and len(controller.cloud_obstacles) == 1
+    controller.update(q, np.zeros(7), target=target, cloud=np.zeros((0, 3)), cloud_time=1.1)
+    assert len(controller.cloud_obstacles) == 0
+    with pytest.raises(ValueError, match="cloud"):
+        controller.update(q, np.zeros(7), target=target, cloud=np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="cloud_time"):
+        controller.update(q, np.zeros(7), target=target, cloud_time=2.0)
+    with pytest.raises(ValueError, match="voxel_size"):
+        controller.set_cloud_options(voxel_size=0.0)
+    # a PLY written by hand reads back
+    path = tmp_path / "cloud.ply"
+    pts = _box_surface_points(np.array([0.5, 0.3, 0.4]), 0.05, per_side=3)
+    header = f"ply\nformat ascii 1.0\nelement vertex {len(pts)}\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+    path.write_text(header + "".join(f"{x} {y} {z}\n" for x, y, z in pts))
+    read = rmpmarl.read_point_cloud(str(path))
+    assert read.shape == pts.shape and np.allclose(read, pts, atol=1e-6)
+    with pytest.raises(ValueError, match="missing.ply"):
+        rmpmarl.read_point_cloud(str(tmp_path / "missing.ply"))

@@ -9,11 +9,13 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "rmpmarl/planning/rrt.h"
+#include "rmpmarl/sim/episode.h"
 #include "rmpmarl/tasks/agent_interface.h"
 #include "rmpmarl/tasks/env.h"
 #include "rmpmarl/tasks/task_config.h"
@@ -66,6 +68,12 @@ struct EvalProtocol {
   /// evaluation seed S: episodes are EpisodeSeed(S, 0 … episodes − 1). Tune on another seed than the one reported.
   std::uint64_t eval_seed = 20231001;
   int jobs = 2;  ///< worker threads (one env and one runtime each); results do not depend on it
+  /// what the controllers know of the obstacles: empty, the exact shapes; else a sensor per env and robot variant
+  /// (perception::DepthPerception). RMPflow and RRT are told what it senses; learned methods then run as
+  /// rl::LearnedController (warnings from the sensed obstacles, not from MuJoCo's contacts); fixed-option methods,
+  /// which read MuJoCo's contacts, are refused.
+  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> make_sensor;
+  int sensor_obstacle_slots = 8;  ///< with make_sensor: the controllers' obstacle slots (the sensor's clusters)
 };
 
 /// One evaluated episode.

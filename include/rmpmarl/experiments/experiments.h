@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/perception/depth_perception.h"
+
 namespace rmpmarl::experiments {
 
 struct ExperimentOptions {
@@ -36,6 +38,10 @@ struct ExperimentOptions {
   /// fig5: users' arms (.urdf paths, collision YAML beside each, else capsules fitted in memory) run after the shipped
   /// ones, labelled by their file stem
   std::vector<std::string> urdfs;
+  /// what the controllers know of the obstacles: "truth" (exact shapes) or "depth" (perception::DepthPerception with
+  /// `depth`; fixed-option methods are then left out, learned ones run as rl::LearnedController)
+  std::string perception = "truth";
+  perception::DepthPerceptionOptions depth;
 };
 
 /// table3, table4, fig3, fig5, cluttered.

@@ -13,6 +13,32 @@
 
 namespace rmpmarl::sim {
 
+/// What a sensor made of the obstacles over an episode (ObstacleSensor::Summary).
+struct SensorSummary {
+  long updates = 0;                  ///< sensor frames processed
+  double update_mean_us = 0.0;       ///< wall time per frame: rendering, back-projection and the cloud pipeline [µs]
+  double points_mean = 0.0;          ///< kept points per frame (after filtering and downsampling)
+  double obstacles_mean = 0.0;       ///< obstacles per frame
+  long velocity_samples = 0;         ///< sensed obstacles matched to a true one (centre within 0.15 m)
+  double velocity_error_mean = 0.0;  ///< mean |v_sensed − v_true| over the matched ones [m/s]
+  double velocity_error_p90 = 0.0;   ///< its 90th percentile [m/s]
+};
+
+/// Tells the controller what a sensor perceives of the obstacles instead of their exact shapes. RunEpisode and the
+/// environments' external controllers call Reset at the start of an episode and Sense before every control step,
+/// with the scene the scenario filled (the truth, which a sensor may read only to score itself).
+class ObstacleSensor {
+ public:
+  virtual ~ObstacleSensor();
+  virtual void Reset(const World& world) = 0;
+  /// replaces scene->obstacles with the sensed ones at the world's current state. Obstacles of kind kPoints point
+  /// into the sensor: valid until its next Sense or Reset.
+  virtual void Sense(const World& world, rmp::Scene* scene) = 0;
+  /// the points the sensor sees now (3 × N, world frame; for drawing), empty when it has none.
+  virtual const Eigen::Matrix3Xd& points() const = 0;
+  virtual SensorSummary Summary() const = 0;
+};
+
 /// Options of RunEpisode.
 struct EpisodeOptions {
   double duration = 10.0;         ///< simulated time [s], > 0
@@ -21,6 +47,8 @@ struct EpisodeOptions {
   double reach_tolerance = 0.01;  ///< time_to_reach is the first time the tracking error is below this [m]
   double tracking_warmup = 0.0;   ///< tracking mean/std/max ignore the first warmup seconds [s]
   bool stop_on_collision = false; ///< end the episode at the first collision event
+  /// not owned; null: the controller is told the scenario's exact obstacles
+  ObstacleSensor* sensor = nullptr;
 };
 
 /// What a frame callback sees: the state after a physics step, before the scenario moves on.
@@ -31,6 +59,7 @@ struct FrameInfo {
   const Scenario* scenario = nullptr;
   const ContactReport* contacts = nullptr;
   double tracking_error = 0.0;         ///< ‖p_WE − p_WT‖ [m]
+  const ObstacleSensor* sensor = nullptr;  ///< EpisodeOptions::sensor
 };
 
 /// Called at EpisodeOptions::video_fps (first frame at t = 0).
@@ -70,6 +99,8 @@ struct EpisodeResult {
   double control_step_mean_us = 0.0;  ///< policy evaluation + integration, steady_clock [µs]
   double control_step_max_us = 0.0;
   double wall_time = 0.0;             ///< wall-clock time of the whole episode [s]
+
+  SensorSummary sensor;  ///< with EpisodeOptions::sensor: what it perceived (zeros without one)
 
   bool diverged = false;  ///< MuJoCo hit a non-finite state (World::Step not ok); the episode ended there
   bool success = false;   ///< no collision event and no divergence

@@ -41,8 +41,10 @@ class OffscreenRenderer {
   OffscreenRenderer(const OffscreenRenderer&) = delete;
   OffscreenRenderer& operator=(const OffscreenRenderer&) = delete;
 
-  /// renders the state in `data` into `rgb` (width × height × 3, top row first).
-  void Render(const mjData* data, std::vector<std::uint8_t>* rgb);
+  /// renders the state in `data` into `rgb` (width × height × 3, top row first). With `points` (3 × N, world frame),
+  /// also draws them as small cyan cubes of half side `point_radius` (a sensor's cloud; at most 10 000 of them).
+  void Render(const mjData* data, std::vector<std::uint8_t>* rgb, const Eigen::Matrix3Xd* points = nullptr,
+              double point_radius = 0.01);
 
   int width() const { return options_.width; }
   int height() const { return options_.height; }

@@ -22,6 +22,7 @@
 #include "rmpmarl/tasks/reward.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/controller.h"
+#include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
 
@@ -104,6 +105,10 @@ struct StepInfo {
 struct ExternalController {
   std::function<std::unique_ptr<sim::AccelerationPolicy>(const kinematics::Robot& variant_robot)> make_policy;
   sim::ControllerOptions options;  ///< control_rate is replaced by the task's
+  /// what the controller is told of the obstacles: empty, the scenario's exact shapes; else a sensor made per robot
+  /// variant (e.g. perception::DepthPerception), which replaces them before every control step. The agents'
+  /// observations and the metrics keep the truth.
+  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel& variant_world)> make_sensor;
 };
 
 /// The manipulator environment. See docs/environments.md for the observation, action and reward definitions.
@@ -124,6 +129,8 @@ class ManipulatorEnv final : public Env {
   const TaskContext& context() const { return *context_; }
   const sim::World& world() const { return *world_; }
   const sim::Scenario& scenario() const { return *scenario_; }
+  /// the external controller's sensor in the current episode, null without one.
+  const sim::ObstacleSensor* sensor() const { return sensor_; }
   /// the variant of the current episode.
   int variant() const { return variant_; }
   /// the scenario setting of the current episode (line-crossing: index into the speeds).
@@ -171,6 +178,9 @@ class ManipulatorEnv final : public Env {
   std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp: drives the agents' basic layer
   ExternalController external_;                            // baselines (make_policy empty: the agents act)
   std::vector<std::unique_ptr<sim::ReactiveController>> external_controllers_;  // per variant, made lazily
+  std::vector<std::unique_ptr<sim::ObstacleSensor>> sensors_;  // per variant with ExternalController::make_sensor
+  sim::ObstacleSensor* sensor_ = nullptr;                        // the current variant's, or null
+  rmp::Scene sensed_scene_;                                      // what the external controller is told
   sim::ReactiveController* external_controller_ = nullptr; // the current variant's
   int physics_steps_ = 1;
   double control_period_ = 0.0;
