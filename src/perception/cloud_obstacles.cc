@@ -54,8 +54,8 @@ void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
   if (o.max_points < 1) fail("max_points", "at least 1", fmt::format("{}", o.max_points));
   if (!(o.unit_check_distance > 0.0)) fail("unit_check_distance", "a distance > 0 m", fmt::format("{}", o.unit_check_distance));
   if (!(o.track_gate > 0.0 && std::isfinite(o.track_gate))) fail("track_gate", "a finite distance > 0 m", fmt::format("{}", o.track_gate));
-  if (!(o.velocity_smoothing > 0.0 && o.velocity_smoothing <= 1.0)) {
-    fail("velocity_smoothing", "a weight in (0, 1]", fmt::format("{}", o.velocity_smoothing));
+  if (o.velocity_window < 2 || o.velocity_window > 16) {
+    fail("velocity_window", "a number of updates in [2, 16]", fmt::format("{}", o.velocity_window));
   }
   if (!(o.max_speed > 0.0 && std::isfinite(o.max_speed))) fail("max_speed", "a finite speed > 0 m/s", fmt::format("{}", o.max_speed));
   if (!(o.min_speed >= 0.0 && o.min_speed < o.max_speed)) {
@@ -369,6 +369,7 @@ void CloudObstacles::UpdateTracks(double time) {
     track_used[p.track] = 1;
   }
   next_tracks_.clear();
+  const int window = options_.velocity_window;
   for (int c = 0; c < n; ++c) {
     CloudCluster& cl = clusters_[c];
     if (merged_last && c == n - 1) continue;
@@ -377,21 +378,54 @@ void CloudObstacles::UpdateTracks(double time) {
     if (cluster_track[c] >= 0) {
       const Track& old = tracks_[cluster_track[c]];
       t.id = old.id;
-      t.matches = old.matches + 1;
-      if (options_.estimate_velocity && dt > 0.0) {
-        // the first continuation takes the finite difference as it is (the track started at rest for want of one)
-        const Eigen::Vector3d raw = (cl.centroid_W - old.centroid_W) / dt;
-        const double w = t.matches == 1 ? 1.0 : options_.velocity_smoothing;
-        t.v_WO = w * raw + (1.0 - w) * old.v_WO;
-        const double speed = t.v_WO.norm();
-        if (speed > options_.max_speed) t.v_WO *= options_.max_speed / speed;
-      } else {
-        t.v_WO = old.v_WO;
+      t.age = old.age + 1;
+      t.v_WO = old.v_WO;
+      // the window goes on, its oldest entry dropped when full
+      const int keep = std::min(old.count, window - 1);
+      for (int k = 0; k < keep; ++k) {
+        t.t[k] = old.t[old.count - keep + k];
+        t.c[k] = old.c[old.count - keep + k];
       }
+      t.count = keep;
     } else {
       t.id = next_track_id_++;
+      // a piece split off a followed object (the arm or the image border cuts it in two) moves with it: it inherits
+      // the velocity of the nearest track's prediction within the gate; anything else starts at rest
+      double nearest = options_.track_gate;
+      for (const Track& old : tracks_) {
+        const double d = (cl.centroid_W - (old.centroid_W + dt * old.v_WO)).norm();
+        if (d < nearest) {
+          nearest = d;
+          t.v_WO = old.v_WO;
+        }
+      }
     }
+    t.t[t.count] = time;
+    t.c[t.count] = cl.centroid_W;
+    ++t.count;
+    if (options_.estimate_velocity && t.count >= 2) {
+      // least-squares slope of centroid against time over the window
+      double tm = 0.0;
+      Eigen::Vector3d cm = Eigen::Vector3d::Zero();
+      for (int k = 0; k < t.count; ++k) {
+        tm += t.t[k];
+        cm += t.c[k];
+      }
+      tm /= t.count;
+      cm /= t.count;
+      double stt = 0.0;
+      Eigen::Vector3d stc = Eigen::Vector3d::Zero();
+      for (int k = 0; k < t.count; ++k) {
+        stt += (t.t[k] - tm) * (t.t[k] - tm);
+        stc += (t.t[k] - tm) * (t.c[k] - cm);
+      }
+      if (stt > 0.0) t.v_WO = stc / stt;
+      const double speed = t.v_WO.norm();
+      if (speed > options_.max_speed) t.v_WO *= options_.max_speed / speed;
+    }
+    if (!options_.estimate_velocity) t.v_WO.setZero();
     cl.track = t.id;
+    cl.age = t.age;
     cl.v_WO = t.v_WO.norm() < options_.min_speed ? Eigen::Vector3d::Zero() : t.v_WO;
     next_tracks_.push_back(t);
   }

@@ -51,6 +51,7 @@ void DepthPerception::Reset(const sim::World& world) {
   updates_ = 0;
   update_us_ = points_ = obstacles_ = 0.0;
   velocity_errors_.clear();
+  tracked_errors_.clear();
 }
 
 void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
@@ -98,7 +99,11 @@ void DepthPerception::ScoreVelocities(const rmp::Scene& truth) {
         match = &o;
       }
     }
-    if (match != nullptr) velocity_errors_.push_back((c.v_WO - match->v_WO).norm());
+    if (match != nullptr) {
+      const double e = (c.v_WO - match->v_WO).norm();
+      velocity_errors_.push_back(e);
+      if (c.age >= 2) tracked_errors_.push_back(e);
+    }
   }
 }
 
@@ -119,6 +124,12 @@ sim::SensorSummary DepthPerception::Summary() const {
     auto p90 = e.begin() + static_cast<long>(0.9 * (e.size() - 1));
     std::nth_element(e.begin(), p90, e.end());
     s.velocity_error_p90 = *p90;
+  }
+  s.velocity_samples_tracked = static_cast<long>(tracked_errors_.size());
+  if (!tracked_errors_.empty()) {
+    double sum = 0.0;
+    for (double x : tracked_errors_) sum += x;
+    s.velocity_error_tracked_mean = sum / static_cast<double>(tracked_errors_.size());
   }
   return s;
 }

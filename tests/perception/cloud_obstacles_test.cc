@@ -212,7 +212,7 @@ TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   EXPECT_THROW(cloud.Update(p, 0.05, q), InputError) << "time went backwards";
   EXPECT_THROW(cloud.Update(p, 0.5, Eigen::VectorXd::Zero(3)), InputError);
   for (const CloudObstacleOptions& bad : {CloudObstacleOptions{.voxel_size = 0.0}, CloudObstacleOptions{.min_cluster_voxels = 0},
-                                          CloudObstacleOptions{.max_obstacles = 0}, CloudObstacleOptions{.velocity_smoothing = 0.0}}) {
+                                          CloudObstacleOptions{.max_obstacles = 0}, CloudObstacleOptions{.velocity_window = 1}}) {
     EXPECT_THROW(CloudObstacles(robot, bad), InputError);
   }
   // a cloud of ten million points, downsampled by the caller's limit: handled when the limit allows it

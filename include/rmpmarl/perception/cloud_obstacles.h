@@ -13,7 +13,8 @@
 ///     `min_cluster_voxels` voxels are speckle, dropped; the clusters nearest the arm become obstacles, the rest
 ///     (beyond max_obstacles − 1) are merged into the last one, so no point is lost;
 ///  6. tracking: a cluster continues the track whose predicted centroid is nearest (within `track_gate`); its velocity
-///     is the smoothed finite difference of the centroid. A new track starts at rest.
+///     is the least-squares slope of the centroid over the last few updates. A new cluster near a track's prediction
+///     (a piece cut off a followed object) inherits its velocity; any other new track starts at rest.
 /// Each obstacle's points are spheres of radius voxel_size / 2 (a voxel's centroid stands for points up to half a
 /// voxel away).
 #include <Eigen/Core>
@@ -42,7 +43,8 @@ struct CloudObstacleOptions {
   double unit_check_distance = 50.0;
   bool estimate_velocity = true;      ///< false: every obstacle at rest
   double track_gate = 0.25;          ///< [m] largest distance from a track's predicted centroid to its next cluster
-  double velocity_smoothing = 0.5;   ///< (0, 1]: weight of the newest finite difference
+  /// [updates] in [2, 16]: a track's velocity is the least-squares slope of its last `velocity_window` centroids
+  int velocity_window = 5;
   double max_speed = 3.0;            ///< [m/s] estimates are clipped to this speed
   /// [m/s] estimates below this are reported as 0: a static obstacle's centroid jitters by a fraction of a voxel
   /// between frames (2 cm voxels at 30 Hz: 0.03 m/s mean, 0.05 m/s p90), and a controller's look-ahead reads any
@@ -77,6 +79,7 @@ struct CloudCluster {
   int voxels = 0;
   long points = 0;         ///< points of the cloud in its voxels
   int track = -1;          ///< track id, stable across updates while the cluster is followed
+  int age = 0;             ///< updates the track was followed before this one (0: a new track, at rest)
   double clearance = 0.0;  ///< distance from the centroid to the nearest robot capsule surface [m]
 };
 
@@ -111,11 +114,16 @@ class CloudObstacles {
   const kinematics::Robot& robot() const { return robot_; }
 
  private:
+  static constexpr int kMaxWindow = 16;
   struct Track {
     int id = 0;
-    int matches = 0;  // updates that continued it
     Eigen::Vector3d centroid_W = Eigen::Vector3d::Zero();
     Eigen::Vector3d v_WO = Eigen::Vector3d::Zero();
+    int age = 0;
+    // the window of (time, centroid), oldest first
+    int count = 0;
+    double t[kMaxWindow] = {};
+    Eigen::Vector3d c[kMaxWindow];
   };
   void Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W);
   void SelfFilter(const Eigen::Ref<const Eigen::VectorXd>& q);

@@ -59,7 +59,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   // summary
   long updates_ = 0;
   double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0;
-  std::vector<double> velocity_errors_;
+  std::vector<double> velocity_errors_, tracked_errors_;  // all matches; tracks followed ≥ 2 updates
 };
 
 /// a maker of DepthPerception sensors with `options` (for tasks::ExternalController::make_sensor and

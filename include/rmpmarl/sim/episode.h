@@ -22,6 +22,8 @@ struct SensorSummary {
   long velocity_samples = 0;         ///< sensed obstacles matched to a true one (centre within 0.15 m)
   double velocity_error_mean = 0.0;  ///< mean |v_sensed − v_true| over the matched ones [m/s]
   double velocity_error_p90 = 0.0;   ///< its 90th percentile [m/s]
+  long velocity_samples_tracked = 0;          ///< of which obstacles followed for 2 updates or more
+  double velocity_error_tracked_mean = 0.0;   ///< mean |v_sensed − v_true| over those [m/s]
 };
 
 /// Tells the controller what a sensor perceives of the obstacles instead of their exact shapes. RunEpisode and the
