@@ -62,6 +62,8 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
                 "evaluation only: learned methods from the policies shipped in models/policies/ (others left out)");
   auto perception_args = std::make_shared<PerceptionArgs>();
   AddPerceptionOptions(cmd, perception_args.get());
+  cmd->add_flag("--as-controller", options->as_controller,
+                "learned methods run as rl::LearnedController, as in a user's loop (always so with --perception depth)");
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
   cmd->callback([options, out, runs, methods, list, command_line, perception_args] {

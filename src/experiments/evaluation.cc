@@ -183,13 +183,14 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
                                  "(--perception depth) run RMPflow, RRT or learned methods", method.name));
   }
   auto make_env = [&]() -> std::unique_ptr<tasks::ManipulatorEnv> {
-    if (sensed && method.kind == MethodKind::kPolicy) {
+    if ((sensed || protocol.learned_as_controller) && method.kind == MethodKind::kPolicy) {
       // the agents as a user's loop runs them: rl::LearnedController on what the sensor perceives
       tasks::ExternalController external;
       external.options = config.controller;
       external.make_sensor = protocol.make_sensor;
       rl::LearnedControllerOptions options;
-      options.max_obstacles = std::max(context->num_obstacles(), protocol.sensor_obstacle_slots);
+      options.max_obstacles =
+          sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
       options.name = method.name;
       external.make_policy = [config, weights, options](const kinematics::Robot& robot) {
         return std::make_unique<rl::LearnedController>(robot, config, weights, options);

@@ -359,6 +359,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   protocol.episodes = 0;
   protocol.eval_seed = o.eval_seed;
   protocol.jobs = o.jobs;
+  protocol.learned_as_controller = o.as_controller;
   if (depth) {
     protocol.make_sensor = perception::DepthSensorMaker(o.depth);
     protocol.sensor_obstacle_slots = o.depth.cloud.max_obstacles;
@@ -375,6 +376,10 @@ fs::path RunExperiment(const ExperimentOptions& options) {
 
   ReportText text;
   text.command = o.command_line;
+  if (o.as_controller) {
+    text.notes += "Learned methods run as rl::LearnedController: their warnings come from the obstacles the controller "
+                  "is told (as in a user's loop), not from MuJoCo's contacts.\n\n";
+  }
   if (depth) {
     const perception::DepthCameraOptions& c = o.depth.cameras.front();
     text.notes += fmt::format(

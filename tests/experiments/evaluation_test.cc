@@ -2,6 +2,7 @@
 // seeds, thread-count independence, and the confidence intervals against hand-computed values.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <set>
@@ -9,6 +10,8 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/statistics.h"
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/sim/controller.h"
 
@@ -152,7 +155,9 @@ TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
     m.adjust_task = lookahead;
     return m;
   };
-  const EvalProtocol protocol{.episodes = 4, .eval_seed = 11, .jobs = 2};
+  EvalProtocol protocol;
+  protocol.episodes = 4;
+  protocol.eval_seed = 11;
   const auto always = EvaluateMethod(gate(100.0), task, protocol), never = EvaluateMethod(gate(-100.0), task, protocol);
   const auto sometimes = EvaluateMethod(gate(0.15), task, protocol);
   const auto c = EvaluateMethod(clear_fixed, task, protocol), t = EvaluateMethod(threat_fixed, task, protocol);
@@ -276,6 +281,56 @@ TEST(EvaluationTest, SplitByReferenceMatchesEpisodesByIndex) {
   EXPECT_TRUE(std::isnan(none.free_success));
   EXPECT_THROW(SplitByReference({record(7, 0, 1)}, reference), InputError);
   EXPECT_THROW(SplitByReference({}, {record(0, 0, 1), record(0, 1, 2)}), InputError);  // a reference index twice
+}
+
+// A sensor that tells the controllers the exact shapes and counts its calls: the sensed path of the evaluation.
+class PassThroughSensor final : public sim::ObstacleSensor {
+ public:
+  explicit PassThroughSensor(std::atomic<long>* senses) : senses_(senses) {}
+  void Reset(const sim::World&) override {}
+  void Sense(const sim::World&, rmp::Scene*) override { ++*senses_; }
+  const Eigen::Matrix3Xd& points() const override { return none_; }
+  sim::SensorSummary Summary() const override { return {}; }
+
+ private:
+  std::atomic<long>* senses_;
+  Eigen::Matrix3Xd none_{3, 0};
+};
+
+// The controllers are told what a sensor gives them: through a sensor that passes the truth on, RMPflow's episodes
+// and the learned agents' (as rl::LearnedController) are the episodes without one, bit for bit; fixed-option methods,
+// which read MuJoCo's contacts, are refused.
+TEST(SensedEvaluationTest, APassThroughSensorChangesNothingAndFixedOptionsAreRefused) {
+  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+  tasks::TaskConfig task = rl::PolicyTaskConfig(rl::LoadPolicyFile(path), path);
+  task.episode.max_steps = 60;
+  std::atomic<long> senses{0};
+  EvalProtocol exact;
+  exact.episodes = 3;
+  exact.eval_seed = 5;
+  exact.learned_as_controller = true;
+  EvalProtocol sensed = exact;
+  sensed.make_sensor = [&senses](const sim::WorldModel&) { return std::make_unique<PassThroughSensor>(&senses); };
+  const Method learned = Method::Policy("learned", path, task.interface);
+  for (const Method& m : {Method::Rmpflow("rmpflow"), learned}) {
+    SCOPED_TRACE(m.name);
+    const long before = senses;
+    const auto a = EvaluateMethod(m, task, exact), b = EvaluateMethod(m, task, sensed);
+    EXPECT_EQ(senses - before, 3 * 60) << "one Sense per control step";
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_EQ(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm);
+      EXPECT_EQ(a[i].metrics.min_clearance_m, b[i].metrics.min_clearance_m);
+    }
+  }
+  // as a controller the learned agents differ from the agents in the env (their warnings are the capsules', not
+  // MuJoCo's), so the flag is what makes the comparison fair
+  EvalProtocol env = exact;
+  env.learned_as_controller = false;
+  const auto in_env = EvaluateMethod(learned, task, env), as_controller = EvaluateMethod(learned, task, exact);
+  bool differ = false;
+  for (int i = 0; i < 3; ++i) differ |= in_env[i].metrics.mean_tracking_error_mm != as_controller[i].metrics.mean_tracking_error_mm;
+  EXPECT_TRUE(differ);
+  EXPECT_THROW(EvaluateMethod(Method::FixedOption("fixed", 0), task, sensed), InputError);
 }
 
 }  // namespace

@@ -72,8 +72,11 @@ struct EvalProtocol {
   /// (perception::DepthPerception). RMPflow and RRT are told what it senses; learned methods then run as
   /// rl::LearnedController (warnings from the sensed obstacles, not from MuJoCo's contacts); fixed-option methods,
   /// which read MuJoCo's contacts, are refused.
-  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> make_sensor;
+  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> make_sensor{};
   int sensor_obstacle_slots = 8;  ///< with make_sensor: the controllers' obstacle slots (the sensor's clusters)
+  /// learned methods run as rl::LearnedController (as with a sensor) also on the exact shapes: the baseline that
+  /// separates what perception costs from what the controller's own warnings change
+  bool learned_as_controller = false;
 };
 
 /// One evaluated episode.

@@ -42,6 +42,8 @@ struct ExperimentOptions {
   /// `depth`; fixed-option methods are then left out, learned ones run as rl::LearnedController)
   std::string perception = "truth";
   perception::DepthPerceptionOptions depth;
+  /// learned methods run as rl::LearnedController also with "truth" (the baseline of a depth run's learned rows)
+  bool as_controller = false;
 };
 
 /// table3, table4, fig3, fig5, cluttered.

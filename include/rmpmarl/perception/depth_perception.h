@@ -20,7 +20,7 @@ struct DepthPerceptionOptions {
   /// the cameras (all at the first one's rate); default: one 320 × 240 camera at DepthCameraOptions' default pose
   std::vector<DepthCameraOptions> cameras{DepthCameraOptions{}};
   int stride = 1;  ///< back-project every stride-th pixel in u and v, ≥ 1
-  CloudObstacleOptions cloud;
+  CloudObstacleOptions cloud{};
 };
 
 /// throws InputError naming the field unless the options are valid (cameras' own checks included).

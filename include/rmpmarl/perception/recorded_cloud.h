@@ -15,7 +15,7 @@ namespace rmpmarl::perception {
 /// Options of RecordedCloud.
 struct RecordedCloudOptions {
   double rate = 30.0;  ///< [Hz] updates per simulated second (a folder's frames advance at this rate), > 0
-  CloudObstacleOptions cloud;
+  CloudObstacleOptions cloud{};
 };
 
 /// the .ply/.pcd files a path names: the file itself, or a folder's files in name order. Throws InputError for a

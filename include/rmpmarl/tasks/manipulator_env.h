@@ -108,7 +108,7 @@ struct ExternalController {
   /// what the controller is told of the obstacles: empty, the scenario's exact shapes; else a sensor made per robot
   /// variant (e.g. perception::DepthPerception), which replaces them before every control step. The agents'
   /// observations and the metrics keep the truth.
-  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel& variant_world)> make_sensor;
+  std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel& variant_world)> make_sensor{};
 };
 
 /// The manipulator environment. See docs/environments.md for the observation, action and reward definitions.
