@@ -67,7 +67,7 @@ void PointCloudIndex::Reserve(int num_points) {
   y_.reserve(n);
   z_.reserve(n);
   original_index_.reserve(n);
-  order_.reserve(n);
+  work_.reserve(n);
   // leaves hold between leaf_size / 2 and leaf_size points, so there are at most 2n + 1 leaves for leaf_size 1 and
   // fewer nodes than twice the leaves
   nodes_.reserve(4 * n + 2);
@@ -78,28 +78,22 @@ void PointCloudIndex::Build(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, int l
   const int n = static_cast<int>(p_W.cols());
   nodes_.clear();
   bounds_.setEmpty();
-  order_.resize(n);
+  work_.resize(n);
   x_.resize(n);
   y_.resize(n);
   z_.resize(n);
   original_index_.resize(n);
   if (n == 0) return;
   RMPMARL_ASSERT(p_W.allFinite(), "PointCloudIndex::Build: every point must be finite");
-  for (int i = 0; i < n; ++i) order_[i] = i;
-  // the coordinates go to the reordered arrays first (in Build order), so the tree's partitioning reads them there
-  for (int i = 0; i < n; ++i) {
-    x_[i] = p_W(0, i);
-    y_[i] = p_W(1, i);
-    z_[i] = p_W(2, i);
-  }
+  // the points are partitioned in place, coordinates and index together: the selections read contiguous memory
+  for (int i = 0; i < n; ++i) work_[i] = {{p_W(0, i), p_W(1, i), p_W(2, i)}, i};
   BuildNode(0, n, leaf_size);
   // the coordinates in tree order: each leaf's points contiguous
   for (int k = 0; k < n; ++k) {
-    const int i = order_[k];
-    original_index_[k] = i;
-    x_[k] = p_W(0, i);
-    y_[k] = p_W(1, i);
-    z_[k] = p_W(2, i);
+    x_[k] = work_[k].p[0];
+    y_[k] = work_[k].p[1];
+    z_[k] = work_[k].p[2];
+    original_index_[k] = work_[k].index;
   }
   bounds_ = Eigen::AlignedBox3d(nodes_[0].lo, nodes_[0].hi);
 }
@@ -107,25 +101,29 @@ void PointCloudIndex::Build(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, int l
 int PointCloudIndex::BuildNode(int begin, int end, int leaf_size) {
   const int id = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (int k = begin; k < end; ++k) {
-    const int i = order_[k];
-    const Eigen::Vector3d p(x_[i], y_[i], z_[i]);
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = std::numeric_limits<double>::infinity();
+    hi[a] = -lo[a];
   }
-  nodes_[id].lo = lo;
-  nodes_[id].hi = hi;
+  for (int k = begin; k < end; ++k) {
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], work_[k].p[a]);
+      hi[a] = std::max(hi[a], work_[k].p[a]);
+    }
+  }
+  nodes_[id].lo = Eigen::Vector3d(lo[0], lo[1], lo[2]);
+  nodes_[id].hi = Eigen::Vector3d(hi[0], hi[1], hi[2]);
   nodes_[id].begin = begin;
   nodes_[id].end = end;
   if (end - begin <= leaf_size) return id;
   int axis = 0;
-  (hi - lo).maxCoeff(&axis);
-  const std::vector<double>& c = axis == 0 ? x_ : axis == 1 ? y_ : z_;
+  (nodes_[id].hi - nodes_[id].lo).maxCoeff(&axis);
   const int mid = begin + (end - begin) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&c](int a, int b) { return c[a] < c[b] || (c[a] == c[b] && a < b); });
+  std::nth_element(work_.begin() + begin, work_.begin() + mid, work_.begin() + end,
+                   [axis](const BuildPoint& a, const BuildPoint& b) {
+                     return a.p[axis] < b.p[axis] || (a.p[axis] == b.p[axis] && a.index < b.index);
+                   });
   const int left = BuildNode(begin, mid, leaf_size);
   const int right = BuildNode(mid, end, leaf_size);
   nodes_[id].left = left;

@@ -64,7 +64,11 @@ class PointCloudIndex {
   std::vector<Node> nodes_;
   std::vector<double> x_, y_, z_;    // reordered coordinates (leaf ranges contiguous)
   std::vector<int> original_index_;  // reordered position → Build order
-  std::vector<int> order_;           // scratch of Build
+  struct BuildPoint {
+    double p[3];
+    int index;
+  };
+  std::vector<BuildPoint> work_;     // scratch of Build
   Eigen::AlignedBox3d bounds_;
 };
 
