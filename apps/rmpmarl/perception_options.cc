@@ -23,6 +23,9 @@ void AddPerceptionOptions(CLI::App* cmd, PerceptionArgs* args) {
       ->check(CLI::Range(16, 4096));
   cmd->add_option("--voxel", args->voxel, "--perception depth: voxel size of the downsampled cloud [m]")
       ->check(CLI::Range(0.001, 0.5));
+  cmd->add_option("--point-margin", args->point_margin,
+                  "--perception depth, --cloud: margin added to each sensed point's radius (half a voxel) [m]")
+      ->check(CLI::Range(0.0, 0.2));
 }
 
 bool UsesDepth(const PerceptionArgs& args) { return args.mode == "depth"; }
@@ -39,6 +42,7 @@ perception::DepthPerceptionOptions DepthOptions(const PerceptionArgs& args, std:
   c.noise.dropout = args.dropout;
   c.noise.seed = seed;
   o.cloud.voxel_size = args.voxel;
+  o.cloud.point_margin = args.point_margin;
   perception::ValidateDepthPerceptionOptions(o);
   return o;
 }
@@ -50,6 +54,7 @@ std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> Make
     perception::RecordedCloudOptions options;
     options.rate = args.rate;
     options.cloud.voxel_size = args.voxel;
+    options.cloud.point_margin = args.point_margin;
     perception::RecordedCloudFiles(args.cloud);  // a bad path is refused before anything runs
     return [options, path = args.cloud](const sim::WorldModel& model) -> std::unique_ptr<sim::ObstacleSensor> {
       return std::make_unique<perception::RecordedCloud>(model.robot(), path, options);
@@ -62,12 +67,13 @@ std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> Make
 std::string DescribePerception(const PerceptionArgs& args) {
   if (!args.cloud.empty()) {
     return fmt::format("perception: the recorded cloud {} (robot base frame, metres), updated at {:g} Hz, voxels {:g} "
-                       "m; the scene's own obstacles are simulated but not told to the controllers", args.cloud,
-                       args.rate, args.voxel);
+                       "m, point margin {:g} m; the scene's own obstacles are simulated but not told to the controllers",
+                       args.cloud, args.rate, args.voxel, args.point_margin);
   }
   if (!UsesDepth(args)) return "perception: truth (the obstacles' exact shapes)";
-  return fmt::format("perception: depth (one {}x{} camera at {:g} Hz, noise {:g} m at 1 m, dropout {:g}, voxels {:g} m)",
-                     args.width, args.height, args.rate, args.noise, args.dropout, args.voxel);
+  return fmt::format("perception: depth (one {}x{} camera at {:g} Hz, noise {:g} m at 1 m, dropout {:g}, voxels {:g} m, "
+                     "point margin {:g} m)", args.width, args.height, args.rate, args.noise, args.dropout, args.voxel,
+                     args.point_margin);
 }
 
 }  // namespace rmpmarl::apps

@@ -98,7 +98,7 @@ class Controller:
     def clear_cloud(self) -> None:
         """forgets the last cloud's obstacles and tracks"""
     def set_cloud_options(self, *, voxel_size: float = 0.02, self_filter_margin: float = 0.01,
-                          min_cluster_voxels: int = 2, max_obstacles: int = 8,
+                          point_margin: float = 0.02, min_cluster_voxels: int = 2, max_obstacles: int = 8,
                           workspace: Optional[ArrayLike] = None) -> None:
         """how clouds become obstacles (docs/perception.md); forgets the last cloud"""
     @property

@@ -272,10 +272,11 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         if (h.cloud) h.cloud->Reset();
       }, "forgets the last cloud's obstacles and tracks")
       .def("set_cloud_options", [](ControllerHandle& h, double voxel_size, double self_filter_margin,
-                                   int min_cluster_voxels, int max_obstacles, const py::handle& workspace) {
+                                   double point_margin, int min_cluster_voxels, int max_obstacles, const py::handle& workspace) {
         perception::CloudObstacleOptions o = h.cloud_options;
         o.voxel_size = voxel_size;
         o.self_filter_margin = self_filter_margin;
+        o.point_margin = point_margin;
         o.min_cluster_voxels = min_cluster_voxels;
         o.max_obstacles = max_obstacles;
         if (!workspace.is_none()) {
@@ -291,8 +292,10 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         h.cloud_options = o;
         h.cloud.reset();
       }, py::kw_only(), py::arg("voxel_size") = 0.02, py::arg("self_filter_margin") = 0.01,
-         py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8, py::arg("workspace") = py::none(),
-         "how clouds become obstacles: voxel size [m], the self filter's margin [m], the smallest cluster [voxels], "
+         py::arg("point_margin") = 0.02, py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8,
+         py::arg("workspace") = py::none(),
+         "how clouds become obstacles: voxel size [m], the self filter's margin [m], the margin added to each "
+         "point's radius (half a voxel) [m], the smallest cluster [voxels], "
          "obstacle slots for the cloud, workspace [[xmin, ymin, zmin], [xmax, ymax, zmax]] in the world frame (default: "
          "3 cm above the floor to 2.5 m, ±2 m around). Forgets the last cloud.")
       .def_property_readonly("cloud_points", [](const ControllerHandle& h) {

@@ -273,6 +273,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
           }
         }
         r.control_step_us = act_us / steps + step.metrics.mean_control_us;
+        if (const sim::ObstacleSensor* sensor = env->sensor(); sensor != nullptr) r.sensor = sensor->Summary();
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(error_mutex);

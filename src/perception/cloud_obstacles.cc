@@ -47,6 +47,9 @@ void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
   if (!(o.self_filter_margin >= 0.0 && o.self_filter_margin <= 0.5)) {
     fail("self_filter_margin", "a margin in [0, 0.5] m", fmt::format("{}", o.self_filter_margin));
   }
+  if (!(o.point_margin >= 0.0 && o.point_margin <= 0.2)) {
+    fail("point_margin", "a margin in [0, 0.2] m", fmt::format("{}", o.point_margin));
+  }
   if (o.min_cluster_voxels < 1) fail("min_cluster_voxels", "at least 1", fmt::format("{}", o.min_cluster_voxels));
   if (o.max_obstacles < 1 || o.max_obstacles > 256) {
     fail("max_obstacles", "a count in [1, 256]", fmt::format("{}", o.max_obstacles));
@@ -434,7 +437,7 @@ void CloudObstacles::UpdateTracks(double time) {
 
 void CloudObstacles::FillScene(rmp::Scene* scene) const {
   scene->obstacles.clear();
-  const double radius = 0.5 * options_.voxel_size;
+  const double radius = 0.5 * options_.voxel_size + options_.point_margin;
   for (size_t s = 0; s < clusters_.size(); ++s) {
     scene->obstacles.push_back(rmp::Obstacle::MakePoints(indices_[s], radius, clusters_[s].v_WO));
   }

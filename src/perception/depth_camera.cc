@@ -14,6 +14,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/sim/world.h"
+#include "../sim/egl_context.h"
 
 namespace rmpmarl::perception {
 
@@ -21,56 +22,6 @@ namespace {
 
 constexpr int kMaxImageSide = 8192;  // [px] within every OpenGL implementation's renderbuffer limit
 constexpr double kRigidTolerance = 1e-6;
-
-// EGL displays to try, best first: a GPU device if one is exposed, Mesa's surfaceless platform, the default display
-// (the same order as sim::OffscreenRenderer).
-std::vector<EGLDisplay> CandidateDisplays() {
-  std::vector<EGLDisplay> candidates;
-  auto get_platform_display =
-      reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-  if (get_platform_display != nullptr) {
-    auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
-    if (query_devices != nullptr) {
-      EGLDeviceEXT devices[8];
-      EGLint count = 0;
-      if (query_devices(8, devices, &count)) {
-        for (EGLint i = 0; i < count; ++i) {
-          candidates.push_back(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr));
-        }
-      }
-    }
-    candidates.push_back(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr));
-  }
-  candidates.push_back(eglGetDisplay(EGL_DEFAULT_DISPLAY));
-  return candidates;
-}
-
-// makes a desktop-OpenGL context with a 24-bit depth buffer current on `display`; EGL_NO_CONTEXT (and why) when it
-// cannot. The display stays initialised either way: EGL displays are shared by the whole process, and terminating
-// one would destroy the contexts of every other renderer on it.
-EGLContext MakeContext(EGLDisplay display, std::string* why_not) {
-  EGLint major = 0, minor = 0;
-  if (display == EGL_NO_DISPLAY || !eglInitialize(display, &major, &minor)) {
-    *why_not = fmt::format("EGL display cannot be initialised (EGL error 0x{:x})", eglGetError());
-    return EGL_NO_CONTEXT;
-  }
-  const EGLint config_attributes[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
-                                      EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
-                                      EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
-  EGLConfig config;
-  EGLint num_configs = 0;
-  if (!eglChooseConfig(display, config_attributes, &config, 1, &num_configs) || num_configs < 1) {
-    *why_not = "EGL offers no OpenGL configuration with 24-bit depth";
-  } else if (!eglBindAPI(EGL_OPENGL_API)) {
-    *why_not = "EGL cannot bind the desktop OpenGL API";
-  } else {
-    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, nullptr);
-    if (context != EGL_NO_CONTEXT && eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) return context;
-    if (context != EGL_NO_CONTEXT) eglDestroyContext(display, context);
-    *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
-  }
-  return EGL_NO_CONTEXT;
-}
 
 bool IsFinite(const Eigen::Isometry3d& X) { return X.matrix().allFinite(); }
 
@@ -163,7 +114,8 @@ struct DepthCamera::Impl {
     if (eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) return;
     const EGLint error = eglGetError();
     std::string why_not;
-    context = MakeContext(display, &why_not);  // the old context's GL objects died with it: nothing to free
+    // the old context's GL objects died with it: nothing to free
+    context = sim::internal::MakeCurrentEglContext(display, &why_not);
     if (context == EGL_NO_CONTEXT || !MakeRenderContext(width, height)) {
       throw std::runtime_error(fmt::format("DepthCamera::Render: the camera's EGL context cannot be made current (EGL "
                                            "error 0x{:x}) nor made again: {}",
@@ -250,9 +202,9 @@ std::unique_ptr<DepthCamera> DepthCamera::Create(const sim::WorldModel& model, c
   camera->impl_ = std::make_unique<Impl>();
   Impl& impl = *camera->impl_;
   std::string reasons;
-  for (EGLDisplay display : CandidateDisplays()) {
+  for (EGLDisplay display : sim::internal::CandidateEglDisplays()) {
     std::string why;
-    impl.context = MakeContext(display, &why);
+    impl.context = sim::internal::MakeCurrentEglContext(display, &why);
     if (impl.context != EGL_NO_CONTEXT) {
       impl.display = display;
       break;

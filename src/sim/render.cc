@@ -16,6 +16,7 @@
 #include <fstream>
 
 #include "rmpmarl/common/error.h"
+#include "egl_context.h"
 
 namespace rmpmarl::sim {
 
@@ -32,55 +33,6 @@ struct OffscreenRenderer::Impl {
 };
 
 namespace {
-
-// EGL displays to try, best first: a GPU device if one is exposed, Mesa's surfaceless platform, the default display.
-std::vector<EGLDisplay> CandidateDisplays() {
-  std::vector<EGLDisplay> candidates;
-  auto get_platform_display =
-      reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-  if (get_platform_display != nullptr) {
-    auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
-    if (query_devices != nullptr) {
-      EGLDeviceEXT devices[8];
-      EGLint count = 0;
-      if (query_devices(8, devices, &count)) {
-        for (EGLint i = 0; i < count; ++i) {
-          candidates.push_back(get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr));
-        }
-      }
-    }
-    candidates.push_back(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr));
-  }
-  candidates.push_back(eglGetDisplay(EGL_DEFAULT_DISPLAY));
-  return candidates;
-}
-
-// makes a desktop-OpenGL context current on `display`; returns EGL_NO_CONTEXT (and why) when it cannot.
-EGLContext MakeContext(EGLDisplay display, std::string* why_not) {
-  EGLint major = 0, minor = 0;
-  if (display == EGL_NO_DISPLAY || !eglInitialize(display, &major, &minor)) {
-    *why_not = fmt::format("EGL display cannot be initialised (EGL error 0x{:x})", eglGetError());
-    return EGL_NO_CONTEXT;
-  }
-  const EGLint config_attributes[] = {EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
-                                      EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8, EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
-                                      EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT,
-                                      EGL_NONE};
-  EGLConfig config;
-  EGLint num_configs = 0;
-  if (!eglChooseConfig(display, config_attributes, &config, 1, &num_configs) || num_configs < 1) {
-    *why_not = "EGL offers no OpenGL configuration with 24-bit depth";
-  } else if (!eglBindAPI(EGL_OPENGL_API)) {
-    *why_not = "EGL cannot bind the desktop OpenGL API";
-  } else {
-    EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, nullptr);
-    if (context != EGL_NO_CONTEXT && eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) return context;
-    if (context != EGL_NO_CONTEXT) eglDestroyContext(display, context);
-    *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
-  }
-  eglTerminate(display);
-  return EGL_NO_CONTEXT;
-}
 
 // colours and lighting of the renderer's private model copy (the shared physics model is never touched): obstacles in
 // the paper's red, green, yellow, blue (then repeating), a red target, a light robot, a brighter headlight.
@@ -143,9 +95,9 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   renderer->impl_ = std::make_unique<Impl>();
   Impl& impl = *renderer->impl_;
   std::string reasons;
-  for (EGLDisplay display : CandidateDisplays()) {
+  for (EGLDisplay display : internal::CandidateEglDisplays()) {
     std::string why;
-    impl.context = MakeContext(display, &why);
+    impl.context = internal::MakeCurrentEglContext(display, &why);
     if (impl.context != EGL_NO_CONTEXT) {
       impl.display = display;
       break;

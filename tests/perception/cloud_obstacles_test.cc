@@ -149,6 +149,8 @@ TEST(CloudObstaclesTest, ClustersBecomeObstaclesWithTrackedVelocities) {
       const bool moving = (c.centroid_W - pa).norm() < 0.03;
       EXPECT_TRUE(moving || (c.centroid_W - b).norm() < 0.03);
       EXPECT_LT((rmp::Centre(scene.obstacles[j]) - (moving ? pa : b)).norm(), 0.03);
+      // each point a sphere of half a 2 cm voxel plus the default 2 cm margin
+      EXPECT_DOUBLE_EQ(scene.obstacles[j].point_radius, 0.03);
       if (k >= 4) {  // the smoothed estimate has converged: the box moves 2 cm per frame, 1 voxel
         EXPECT_LT((c.v_WO - (moving ? v : Eigen::Vector3d::Zero())).norm(), 0.1 * v.norm()) << "frame " << k;
       }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <limits>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/perception/cloud_io.h"
@@ -48,6 +49,7 @@ TEST(DepthPerceptionTest, SensedClearancesFollowTheTrueShapesThroughACrossingEpi
   auto model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   DepthPerceptionOptions options;
   options.cameras[0].noise = {.sigma_at_1m = 0.002, .dropout = 0.01, .seed = 4};
+  options.cloud.point_margin = 0.0;  // the geometry the camera sees, without the controllers' safety margin
   std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, options);
   if (!sensor) GTEST_SKIP() << "offscreen rendering is not available here";
   sim::World world(model);
@@ -122,6 +124,16 @@ TEST(DepthPerceptionTest, BadOptionsAreRefused) {
   stride.stride = 0;
   EXPECT_THROW(DepthPerception::Create(model, none, &why), InputError);
   EXPECT_THROW(DepthPerception::Create(model, stride, &why), InputError);
+  for (double margin : {-0.01, 0.25, std::numeric_limits<double>::quiet_NaN()}) {
+    DepthPerceptionOptions o;
+    o.cloud.point_margin = margin;
+    try {
+      DepthPerception::Create(model, o, &why);
+      ADD_FAILURE() << "point_margin " << margin << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("point_margin"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(RecordedCloudTest, AFileOrAFolderOfFramesReplaysAsObstacles) {

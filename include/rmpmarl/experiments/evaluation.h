@@ -92,6 +92,8 @@ struct EpisodeRecord {
   /// planners (RRT): replans in the episode, how many found a path, and their wall times [ms] (0 otherwise)
   int plans = 0, plans_succeeded = 0;
   double planning_ms_mean = 0.0, planning_ms_max = 0.0;
+  /// with EvalProtocol::make_sensor: what the sensor perceived in the episode (zeros without one)
+  sim::SensorSummary sensor;
 };
 
 /// seed of episode i of evaluation seed S: splitmix64 of (S, i), forced ≥ 2^32 so that it never equals a training
