@@ -272,7 +272,8 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         if (h.cloud) h.cloud->Reset();
       }, "forgets the last cloud's obstacles and tracks")
       .def("set_cloud_options", [](ControllerHandle& h, double voxel_size, double self_filter_margin,
-                                   double point_margin, int min_cluster_voxels, int max_obstacles, const py::handle& workspace) {
+                                   double point_margin, int min_cluster_voxels, int max_obstacles,
+                                   const py::handle& workspace) {
         perception::CloudObstacleOptions o = h.cloud_options;
         o.voxel_size = voxel_size;
         o.self_filter_margin = self_filter_margin;
@@ -292,7 +293,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         h.cloud_options = o;
         h.cloud.reset();
       }, py::kw_only(), py::arg("voxel_size") = 0.02, py::arg("self_filter_margin") = 0.01,
-         py::arg("point_margin") = 0.02, py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8,
+         py::arg("point_margin") = perception::CloudObstacleOptions{}.point_margin, py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8,
          py::arg("workspace") = py::none(),
          "how clouds become obstacles: voxel size [m], the self filter's margin [m], the margin added to each "
          "point's radius (half a voxel) [m], the smallest cluster [voxels], "

@@ -384,8 +384,8 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     const perception::DepthCameraOptions& c = o.depth.cameras.front();
     text.notes += fmt::format(
         "Perception: depth. The controllers know the obstacles only through one simulated {}×{} depth camera at "
-        "{:g} Hz (noise σ = {:g} m × z², dropout {:g}), as point-set obstacles from {:g} m voxels (each point a sphere of half a voxel + {:g} m) with "
-        "tracked velocities (docs/perception.md); learned methods run as rl::LearnedController; fixed-option methods "
+        "{:g} Hz (noise σ = {:g} m × z², dropout {:g}), as point-set obstacles from {:g} m voxels (each point a "
+        "sphere of half a voxel + {:g} m) with tracked velocities (docs/perception.md); learned methods run as rl::LearnedController; fixed-option methods "
         "are left out.\n\n", c.width, c.height, c.rate, c.noise.sigma_at_1m, c.noise.dropout, o.depth.cloud.voxel_size,
         o.depth.cloud.point_margin);
   }

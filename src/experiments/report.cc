@@ -196,11 +196,16 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
                       Num(p.min_clearance_mm, "{:.0f}"), Num(p.control_us, "{:.1f}"),
                       paper.success.empty() ? "–" : paper.success, paper.tracking.empty() ? "–" : paper.tracking);
   }
-  // planning statistics of planner rows (RRT)
-  std::string planners;
+  // per method and condition, over its episodes: planning statistics of planner rows (RRT), and what the sensor
+  // perceived (--perception depth): frame cost, points, obstacles, and the error of the velocities it estimated
+  // against the true obstacles' (a sensed obstacle scored against the true one within 0.15 m)
+  std::string planners, sensed;
   for (const Pooled& p : pooled) {
     long plans = 0, succeeded = 0;
     double sum_ms = 0.0, max_ms = 0.0;
+    long frames = 0, samples = 0, tracked = 0;
+    double frame_us = 0.0, points = 0.0, obstacles = 0.0, error = 0.0, tracked_error = 0.0;
+    std::vector<double> p90;
     for (const ResultRow& r : rows) {
       if (r.method != p.method || r.condition != p.condition) continue;
       for (const EpisodeRecord& e : r.episodes) {
@@ -208,29 +213,7 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
         succeeded += e.plans_succeeded;
         sum_ms += e.planning_ms_mean * e.plans;
         max_ms = std::max(max_ms, e.planning_ms_max);
-      }
-    }
-    if (plans == 0) continue;
-    planners += fmt::format("| {} | {} | {:.1f} | {:.0f} % | {:.2f} ms | {:.1f} ms |\n", p.method, p.condition,
-                            static_cast<double>(plans) / p.episodes, 100.0 * succeeded / plans, sum_ms / plans, max_ms);
-  }
-  if (!planners.empty()) {
-    md << "\nPlanning (wall clock of each replan: IK + RRT-Connect + shortcut; the simulation waits for it):\n\n"
-          "| method | condition | replans / episode | found a path | mean | max |\n|---|---|---|---|---|---|\n"
-       << planners;
-  }
-  // what the sensor perceived (--perception depth): frame cost, points, obstacles, and the error of the velocities
-  // it estimated against the true obstacles' (a sensed obstacle scored against the true one within 0.15 m)
-  std::string sensed;
-  for (const Pooled& p : pooled) {
-    long frames = 0, samples = 0, tracked = 0;
-    double frame_us = 0.0, points = 0.0, obstacles = 0.0, error = 0.0, tracked_error = 0.0;
-    std::vector<double> p90;
-    for (const ResultRow& r : rows) {
-      if (r.method != p.method || r.condition != p.condition) continue;
-      for (const EpisodeRecord& e : r.episodes) {
         const sim::SensorSummary& s = e.sensor;
-        if (s.updates == 0) continue;
         frames += s.updates;
         frame_us += s.update_mean_us * s.updates;
         points += s.points_mean * s.updates;
@@ -242,13 +225,24 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
         if (s.velocity_samples > 0) p90.push_back(s.velocity_error_p90);
       }
     }
-    if (frames == 0) continue;
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    sensed += fmt::format("| {} | {} | {:.1f} | {:.2f} ms | {:.0f} | {:.1f} | {} | {} | {} |\n", p.method, p.condition,
-                          static_cast<double>(frames) / p.episodes, frame_us / frames / 1000.0, points / frames,
-                          obstacles / frames, Num(samples > 0 ? error / samples : nan, "{:.3f}"),
-                          Num(p90.empty() ? nan : FiniteMedian(p90), "{:.3f}"),
-                          Num(tracked > 0 ? tracked_error / tracked : nan, "{:.3f}"));
+    if (plans > 0) {
+      planners += fmt::format("| {} | {} | {:.1f} | {:.0f} % | {:.2f} ms | {:.1f} ms |\n", p.method, p.condition,
+                              static_cast<double>(plans) / p.episodes, 100.0 * succeeded / plans, sum_ms / plans,
+                              max_ms);
+    }
+    if (frames > 0) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      sensed += fmt::format("| {} | {} | {:.1f} | {:.2f} ms | {:.0f} | {:.1f} | {} | {} | {} |\n", p.method,
+                            p.condition, static_cast<double>(frames) / p.episodes, frame_us / frames / 1000.0,
+                            points / frames, obstacles / frames, Num(samples > 0 ? error / samples : nan, "{:.3f}"),
+                            Num(p90.empty() ? nan : FiniteMedian(p90), "{:.3f}"),
+                            Num(tracked > 0 ? tracked_error / tracked : nan, "{:.3f}"));
+    }
+  }
+  if (!planners.empty()) {
+    md << "\nPlanning (wall clock of each replan: IK + RRT-Connect + shortcut; the simulation waits for it):\n\n"
+          "| method | condition | replans / episode | found a path | mean | max |\n|---|---|---|---|---|---|\n"
+       << planners;
   }
   if (!sensed.empty()) {
     md << "\nPerception (per camera frame: rendering, back-projection and the cloud pipeline; velocity error = "

@@ -201,20 +201,10 @@ std::unique_ptr<DepthCamera> DepthCamera::Create(const sim::WorldModel& model, c
   camera->intrinsics_ = IntrinsicsFor(options);
   camera->impl_ = std::make_unique<Impl>();
   Impl& impl = *camera->impl_;
-  std::string reasons;
-  for (EGLDisplay display : sim::internal::CandidateEglDisplays()) {
-    std::string why;
-    impl.context = sim::internal::MakeCurrentEglContext(display, &why);
-    if (impl.context != EGL_NO_CONTEXT) {
-      impl.display = display;
-      break;
-    }
-    reasons += (reasons.empty() ? "" : "; ") + why;
-  }
-  if (impl.context == EGL_NO_CONTEXT) {
-    *why_not = reasons.empty() ? "no EGL display found" : reasons;
-    return nullptr;
-  }
+  const sim::internal::EglContext egl = sim::internal::MakeCurrentEglContextOnFirstDisplay(why_not);
+  if (egl.context == EGL_NO_CONTEXT) return nullptr;
+  impl.display = egl.display;
+  impl.context = egl.context;
   const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   camera->gl_renderer_ = gl_renderer != nullptr ? gl_renderer : "unknown";
 

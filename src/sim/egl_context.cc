@@ -3,9 +3,13 @@
 #include <EGL/eglext.h>
 #include <fmt/format.h>
 
-namespace rmpmarl::sim::internal {
+#include <vector>
 
-std::vector<EGLDisplay> CandidateEglDisplays() {
+namespace rmpmarl::sim::internal {
+namespace {
+
+// EGL displays to try, best first: a GPU device if one is exposed, Mesa's surfaceless platform, the default display.
+std::vector<EGLDisplay> CandidateDisplays() {
   std::vector<EGLDisplay> candidates;
   auto get_platform_display =
       reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
@@ -25,6 +29,8 @@ std::vector<EGLDisplay> CandidateEglDisplays() {
   candidates.push_back(eglGetDisplay(EGL_DEFAULT_DISPLAY));
   return candidates;
 }
+
+}  // namespace
 
 EGLContext MakeCurrentEglContext(EGLDisplay display, std::string* why_not) {
   EGLint major = 0, minor = 0;
@@ -48,6 +54,18 @@ EGLContext MakeCurrentEglContext(EGLDisplay display, std::string* why_not) {
     *why_not = fmt::format("EGL could not create/make current an OpenGL context (EGL error 0x{:x})", eglGetError());
   }
   return EGL_NO_CONTEXT;
+}
+
+EglContext MakeCurrentEglContextOnFirstDisplay(std::string* why_not) {
+  std::string reasons;
+  for (EGLDisplay display : CandidateDisplays()) {
+    std::string why;
+    const EGLContext context = MakeCurrentEglContext(display, &why);
+    if (context != EGL_NO_CONTEXT) return {display, context};
+    reasons += (reasons.empty() ? "" : "; ") + why;
+  }
+  *why_not = reasons.empty() ? "no EGL display found" : reasons;
+  return {};
 }
 
 }  // namespace rmpmarl::sim::internal

@@ -94,20 +94,10 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   renderer->options_ = options;
   renderer->impl_ = std::make_unique<Impl>();
   Impl& impl = *renderer->impl_;
-  std::string reasons;
-  for (EGLDisplay display : internal::CandidateEglDisplays()) {
-    std::string why;
-    impl.context = internal::MakeCurrentEglContext(display, &why);
-    if (impl.context != EGL_NO_CONTEXT) {
-      impl.display = display;
-      break;
-    }
-    reasons += (reasons.empty() ? "" : "; ") + why;
-  }
-  if (impl.context == EGL_NO_CONTEXT) {
-    *why_not = reasons.empty() ? "no EGL display found" : reasons;
-    return nullptr;
-  }
+  const internal::EglContext egl = internal::MakeCurrentEglContextOnFirstDisplay(why_not);
+  if (egl.context == EGL_NO_CONTEXT) return nullptr;
+  impl.display = egl.display;
+  impl.context = egl.context;
   const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   renderer->gl_renderer_ = gl_renderer != nullptr ? gl_renderer : "unknown";
 
