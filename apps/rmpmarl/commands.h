@@ -49,6 +49,7 @@ struct PerceptionArgs {
   double voxel = 0.02;     // [m]
   double point_margin = perception::CloudObstacleOptions{}.point_margin;  // [m] added to each point's radius
   int width = 320, height = 240;
+  std::string memory = "on";  // on: static obstacles the arm hides are remembered (perception::OcclusionMemory)
   std::string cloud;       // a recorded cloud (file or folder) instead of the scene's obstacles ("" none)
 };
 void AddPerceptionOptions(CLI::App* cmd, PerceptionArgs* args);

@@ -48,10 +48,10 @@ int ObstacleSlots(const DemoArgs& args, int scene_obstacles) {
 }
 
 void PrintSensorSummary(const sim::SensorSummary& s, const std::string& label) {
-  fmt::print("  camera {:<20} {} frames, {:.0f} µs per frame (render, back-project, cloud), {:.0f} points and {:.1f} "
-             "obstacles per frame; velocity error {:.3f} m/s mean, {:.3f} m/s p90 ({} matches), {:.3f} m/s mean "
+  fmt::print("  camera {:<20} {} frames, {:.0f} µs per frame (render, back-project, cloud), {:.0f} points ({:.0f} "
+             "remembered while hidden) and {:.1f} obstacles per frame; velocity error {:.3f} m/s mean, {:.3f} m/s p90 ({} matches), {:.3f} m/s mean "
              "over obstacles followed for 2 frames or more ({} matches)\n",
-             label, s.updates, s.update_mean_us, s.points_mean, s.obstacles_mean, s.velocity_error_mean,
+             label, s.updates, s.update_mean_us, s.points_mean, s.hidden_mean, s.obstacles_mean, s.velocity_error_mean,
              s.velocity_error_p90, s.velocity_samples, s.velocity_error_tracked_mean, s.velocity_samples_tracked);
 }
 

@@ -23,6 +23,10 @@ void AddPerceptionOptions(CLI::App* cmd, PerceptionArgs* args) {
       ->check(CLI::Range(16, 4096));
   cmd->add_option("--voxel", args->voxel, "--perception depth: voxel size of the downsampled cloud [m]")
       ->check(CLI::Range(0.001, 0.5));
+  cmd->add_option("--camera-memory", args->memory,
+                  "--perception depth: on: points of obstacles at rest are remembered while the arm hides them from "
+                  "the camera, until it sees through their place; off: each frame's cloud alone")
+      ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--point-margin", args->point_margin,
                   "--perception depth, --cloud: margin added to each sensed point's radius (half a voxel) [m]")
       ->check(CLI::Range(0.0, 0.2));
@@ -43,6 +47,7 @@ perception::DepthPerceptionOptions DepthOptions(const PerceptionArgs& args, std:
   c.noise.seed = seed;
   o.cloud.voxel_size = args.voxel;
   o.cloud.point_margin = args.point_margin;
+  o.memory.enabled = args.memory == "on";
   perception::ValidateDepthPerceptionOptions(o);
   return o;
 }
@@ -72,8 +77,8 @@ std::string DescribePerception(const PerceptionArgs& args) {
   }
   if (!UsesDepth(args)) return "perception: truth (the obstacles' exact shapes)";
   return fmt::format("perception: depth (one {}x{} camera at {:g} Hz, noise {:g} m at 1 m, dropout {:g}, voxels {:g} m, "
-                     "point margin {:g} m)", args.width, args.height, args.rate, args.noise, args.dropout, args.voxel,
-                     args.point_margin);
+                     "point margin {:g} m, memory of hidden obstacles {})", args.width, args.height, args.rate,
+                     args.noise, args.dropout, args.voxel, args.point_margin, args.memory);
 }
 
 }  // namespace rmpmarl::apps

@@ -385,9 +385,10 @@ fs::path RunExperiment(const ExperimentOptions& options) {
     text.notes += fmt::format(
         "Perception: depth. The controllers know the obstacles only through one simulated {}×{} depth camera at "
         "{:g} Hz (noise σ = {:g} m × z², dropout {:g}), as point-set obstacles from {:g} m voxels (each point a "
-        "sphere of half a voxel + {:g} m) with tracked velocities (docs/perception.md); learned methods run as rl::LearnedController; fixed-option methods "
-        "are left out.\n\n", c.width, c.height, c.rate, c.noise.sigma_at_1m, c.noise.dropout, o.depth.cloud.voxel_size,
-        o.depth.cloud.point_margin);
+        "sphere of half a voxel + {:g} m) with tracked velocities{} (docs/perception.md); learned methods run as "
+        "rl::LearnedController; fixed-option methods are left out.\n\n", c.width, c.height, c.rate,
+        c.noise.sigma_at_1m, c.noise.dropout, o.depth.cloud.voxel_size, o.depth.cloud.point_margin,
+        o.depth.memory.enabled ? ", and obstacles at rest remembered while the arm hides them" : "");
   }
   std::vector<ResultRow> rows;
   std::vector<Job> jobs;

@@ -204,7 +204,7 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
     long plans = 0, succeeded = 0;
     double sum_ms = 0.0, max_ms = 0.0;
     long frames = 0, samples = 0, tracked = 0;
-    double frame_us = 0.0, points = 0.0, obstacles = 0.0, error = 0.0, tracked_error = 0.0;
+    double frame_us = 0.0, points = 0.0, obstacles = 0.0, hidden = 0.0, error = 0.0, tracked_error = 0.0;
     std::vector<double> p90;
     for (const ResultRow& r : rows) {
       if (r.method != p.method || r.condition != p.condition) continue;
@@ -218,6 +218,7 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
         frame_us += s.update_mean_us * s.updates;
         points += s.points_mean * s.updates;
         obstacles += s.obstacles_mean * s.updates;
+        hidden += s.hidden_mean * s.updates;
         samples += s.velocity_samples;
         error += s.velocity_error_mean * s.velocity_samples;
         tracked += s.velocity_samples_tracked;
@@ -232,9 +233,9 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
     }
     if (frames > 0) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
-      sensed += fmt::format("| {} | {} | {:.1f} | {:.2f} ms | {:.0f} | {:.1f} | {} | {} | {} |\n", p.method,
+      sensed += fmt::format("| {} | {} | {:.1f} | {:.2f} ms | {:.0f} | {:.1f} | {:.1f} | {} | {} | {} |\n", p.method,
                             p.condition, static_cast<double>(frames) / p.episodes, frame_us / frames / 1000.0,
-                            points / frames, obstacles / frames, Num(samples > 0 ? error / samples : nan, "{:.3f}"),
+                            points / frames, hidden / frames, obstacles / frames, Num(samples > 0 ? error / samples : nan, "{:.3f}"),
                             Num(p90.empty() ? nan : FiniteMedian(p90), "{:.3f}"),
                             Num(tracked > 0 ? tracked_error / tracked : nan, "{:.3f}"));
     }
@@ -248,9 +249,9 @@ void WriteReport(const std::vector<ResultRow>& rows, const ReportText& text, con
     md << "\nPerception (per camera frame: rendering, back-projection and the cloud pipeline; velocity error = "
           "|v_sensed − v_true| of each sensed obstacle whose centre lies within 0.15 m of a true one, over every frame; "
           "p90: the median over episodes of each episode's 90th percentile; followed: obstacles seen for two frames "
-          "or more):\n\n"
-          "| method | condition | frames / episode | frame | voxels kept | obstacles | velocity error m/s | p90 | "
-          "followed |\n|---|---|---|---|---|---|---|---|---|\n"
+          "or more; remembered hidden: voxels of static obstacles the camera could not see, kept from earlier frames):\n\n"
+          "| method | condition | frames / episode | frame | voxels kept | remembered hidden | obstacles | "
+          "velocity error m/s | p90 | followed |\n|---|---|---|---|---|---|---|---|---|---|\n"
        << sensed;
   }
   md << "\n" << text.notes << "\n";

@@ -72,6 +72,7 @@ CloudObstacles::CloudObstacles(const kinematics::Robot& robot, CloudObstacleOpti
   capsules_W_.resize(robot_.capsules.size());
   indices_.resize(options_.max_obstacles);
   slot_points_.resize(options_.max_obstacles);
+  slot_counts_.resize(options_.max_obstacles);
   clusters_.reserve(options_.max_obstacles);
 }
 
@@ -95,8 +96,24 @@ const CloudUpdateStats& CloudObstacles::UpdateInBaseFrame(const Eigen::Ref<const
 
 const CloudUpdateStats& CloudObstacles::Update(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, double time,
                                                const Eigen::Ref<const Eigen::VectorXd>& q) {
+  static const Eigen::Matrix3Xd kNone(3, 0);
+  static const std::vector<int> kNoCounts;
+  return Update(p_W, time, q, kNone, kNoCounts);
+}
+
+const CloudUpdateStats& CloudObstacles::Update(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, double time,
+                                               const Eigen::Ref<const Eigen::VectorXd>& q,
+                                               const Eigen::Matrix3Xd& remembered_W,
+                                               const std::vector<int>& remembered_counts) {
   const auto start = std::chrono::steady_clock::now();
   const long n = p_W.cols();
+  if (static_cast<size_t>(remembered_W.cols()) != remembered_counts.size()) {
+    throw InputError(fmt::format("point cloud update: expected one count per remembered point ({}), got {}",
+                                 remembered_W.cols(), remembered_counts.size()));
+  }
+  for (int c : remembered_counts) {
+    if (c < 1) throw InputError(fmt::format("point cloud update: expected remembered counts ≥ 1, got {}", c));
+  }
   if (n > options_.max_points) {
     throw InputError(fmt::format("point cloud: expected at most {} points (CloudObstacleOptions.max_points), got {}; "
                                  "downsample it first or raise the limit", options_.max_points, n));
@@ -134,7 +151,7 @@ const CloudUpdateStats& CloudObstacles::Update(const Eigen::Ref<const Eigen::Mat
     last = now;
     return us;
   };
-  Downsample(p_W);
+  Downsample(p_W, remembered_W, remembered_counts);
   stats_.downsample_us = lap();
   SelfFilter(q);
   stats_.filter_us = lap();
@@ -148,10 +165,11 @@ const CloudUpdateStats& CloudObstacles::Update(const Eigen::Ref<const Eigen::Mat
   return stats_;
 }
 
-void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W) {
-  const long n = p_W.cols();
+void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, const Eigen::Matrix3Xd& remembered_W,
+                                const std::vector<int>& remembered_counts) {
+  const long n = p_W.cols(), m = remembered_W.cols();
   size_t size = 64;
-  while (size < 2 * static_cast<size_t>(n)) size <<= 1;
+  while (size < 2 * static_cast<size_t>(n + m)) size <<= 1;
   table_keys_.assign(size, kEmpty);
   table_voxel_.resize(size);
   voxel_key_.clear();
@@ -160,15 +178,15 @@ void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W) {
   const size_t mask = size - 1;
   const double inv = 1.0 / options_.voxel_size;
   const Eigen::AlignedBox3d& box = options_.workspace;
-  for (long i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = p_W.col(i);
+  // a point standing for `count` points of the cloud
+  auto add = [&](const Eigen::Vector3d& p, int count) {
     if (!p.allFinite()) {
       ++stats_.nonfinite_points;
-      continue;
+      return;
     }
     if (!box.contains(p)) {
       ++stats_.outside_points;
-      continue;
+      return;
     }
     const std::int64_t key = PackKey(static_cast<std::int64_t>(std::floor(p.x() * inv)),
                                      static_cast<std::int64_t>(std::floor(p.y() * inv)),
@@ -179,14 +197,16 @@ void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W) {
       table_keys_[slot] = key;
       table_voxel_[slot] = static_cast<int>(voxel_key_.size());
       voxel_key_.push_back(key);
-      voxel_sum_.push_back(p);
-      voxel_count_.push_back(1);
+      voxel_sum_.push_back(count * p);
+      voxel_count_.push_back(count);
     } else {
       const int v = table_voxel_[slot];
-      voxel_sum_[v] += p;
-      ++voxel_count_[v];
+      voxel_sum_[v] += count * p;
+      voxel_count_[v] += count;
     }
-  }
+  };
+  for (long i = 0; i < n; ++i) add(p_W.col(i), 1);
+  for (long i = 0; i < m; ++i) add(remembered_W.col(i), remembered_counts[i]);
   stats_.voxels = static_cast<long>(voxel_key_.size());
   // voxel_sum_ becomes the centroid
   for (size_t v = 0; v < voxel_sum_.size(); ++v) voxel_sum_[v] /= voxel_count_[v];
@@ -322,13 +342,17 @@ void CloudObstacles::Cluster() {
     }
   }
   std::vector<CloudCluster> merged(slots);
-  for (int s = 0; s < slots; ++s) slot_points_[s].resize(3, counts[s]);
+  for (int s = 0; s < slots; ++s) {
+    slot_points_[s].resize(3, counts[s]);
+    slot_counts_[s].resize(counts[s]);
+  }
   kept_.resize(3, kept);
   std::fill(counts.begin(), counts.end(), 0);
   long k = 0;
   for (int v = 0; v < nv; ++v) {
     const int s = voxel_cluster_[v];
     if (s < 0) continue;
+    slot_counts_[s][counts[s]] = voxel_count_[v];
     slot_points_[s].col(counts[s]++) = voxel_sum_[v];
     kept_.col(k++) = voxel_sum_[v];
     merged[s].centroid_W += voxel_count_[v] * voxel_sum_[v];

@@ -24,10 +24,11 @@ void ValidateDepthPerceptionOptions(const DepthPerceptionOptions& o) {
     throw InputError(fmt::format("DepthPerceptionOptions.stride: expected a pixel stride in [1, 64], got {}", o.stride));
   }
   ValidateCloudObstacleOptions(o.cloud);
+  ValidateOcclusionMemoryOptions(o.memory);
 }
 
 DepthPerception::DepthPerception(const sim::WorldModel& model, const DepthPerceptionOptions& options)
-    : options_(options), cloud_(model.robot(), options.cloud) {}
+    : options_(options), cloud_(model.robot(), options.cloud), memory_(options.memory, options.cloud.voxel_size) {}
 
 std::unique_ptr<DepthPerception> DepthPerception::Create(const sim::WorldModel& model,
                                                          const DepthPerceptionOptions& options, std::string* why_not) {
@@ -37,6 +38,7 @@ std::unique_ptr<DepthPerception> DepthPerception::Create(const sim::WorldModel& 
     std::unique_ptr<DepthCamera> camera = DepthCamera::Create(model, c, why_not);
     if (!camera) return nullptr;
     p->cameras_.push_back(std::move(camera));
+    p->ranges_.emplace_back(c.min_range, c.max_range);
   }
   p->images_.resize(p->cameras_.size());
   p->camera_points_.resize(p->cameras_.size());
@@ -47,9 +49,10 @@ std::unique_ptr<DepthPerception> DepthPerception::Create(const sim::WorldModel& 
 
 void DepthPerception::Reset(const sim::World& world) {
   cloud_.Reset();
+  memory_.Reset();
   next_time_ = world.time();
   updates_ = 0;
-  update_us_ = points_ = obstacles_ = 0.0;
+  update_us_ = points_ = obstacles_ = remembered_ = hidden_ = 0.0;
   velocity_errors_.clear();
   tracked_errors_.clear();
 }
@@ -65,8 +68,10 @@ void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
       counts_[k] = DepthToWorldPoints(images_[k], options_.stride, &camera_points_[k]);
       total += counts_[k];
     }
+    // what the new images see, or see through, is forgotten; what they cannot see is added to their cloud
+    memory_.Forget(images_, ranges_, time);
     if (cameras_.size() == 1) {
-      cloud_.Update(camera_points_[0].leftCols(counts_[0]), time, world.q());
+      cloud_.Update(camera_points_[0].leftCols(counts_[0]), time, world.q(), memory_.points(), memory_.counts());
     } else {
       all_points_.resize(3, total);
       long at = 0;
@@ -74,8 +79,11 @@ void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
         all_points_.middleCols(at, counts_[k]) = camera_points_[k].leftCols(counts_[k]);
         at += counts_[k];
       }
-      cloud_.Update(all_points_, time, world.q());
+      cloud_.Update(all_points_, time, world.q(), memory_.points(), memory_.counts());
     }
+    hidden_ += static_cast<double>(memory_.size());
+    memory_.Remember(cloud_, time);
+    remembered_ += static_cast<double>(memory_.size());
     // the next frame on the camera's own clock (a late call does not shift the clock)
     while (next_time_ <= time + 1e-9) next_time_ += period_;
     ++updates_;
@@ -114,6 +122,8 @@ sim::SensorSummary DepthPerception::Summary() const {
     s.update_mean_us = update_us_ / updates_;
     s.points_mean = points_ / updates_;
     s.obstacles_mean = obstacles_ / updates_;
+    s.remembered_mean = remembered_ / updates_;
+    s.hidden_mean = hidden_ / updates_;
   }
   s.velocity_samples = static_cast<long>(velocity_errors_.size());
   if (!velocity_errors_.empty()) {

@@ -103,6 +103,12 @@ class CloudObstacles {
   /// wrong size or not finite.
   const CloudUpdateStats& Update(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, double time,
                                  const Eigen::Ref<const Eigen::VectorXd>& q);
+  /// the same, with points of earlier frames the sensor cannot see now (OcclusionMemory): remembered_W.col(i) stands
+  /// for remembered_counts[i] points of the cloud (the points its voxel held when it was last seen), so an object
+  /// partly hidden keeps its centroid. They go through the same steps as the cloud's own points.
+  const CloudUpdateStats& Update(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, double time,
+                                 const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Matrix3Xd& remembered_W,
+                                 const std::vector<int>& remembered_counts);
   /// the same for a cloud in the robot's base frame (the root link's frame): p_W = X_WB p_B.
   const CloudUpdateStats& UpdateInBaseFrame(const Eigen::Ref<const Eigen::Matrix3Xd>& p_B, double time,
                                             const Eigen::Ref<const Eigen::VectorXd>& q);
@@ -114,6 +120,10 @@ class CloudObstacles {
   int num_obstacles() const { return static_cast<int>(clusters_.size()); }
   /// the kept points of the last update (voxel centroids off the robot, in kept clusters; 3 × N), for drawing.
   const Eigen::Matrix3Xd& points() const { return kept_; }
+  /// the points of obstacle k of the last update (voxel centroids, 3 × clusters()[k].voxels).
+  const Eigen::Matrix3Xd& cluster_points(int k) const { return slot_points_[k]; }
+  /// how many points of the cloud each of cluster_points(k) stands for.
+  const std::vector<int>& cluster_point_counts(int k) const { return slot_counts_[k]; }
   const CloudUpdateStats& stats() const { return stats_; }
   const CloudObstacleOptions& options() const { return options_; }
   const kinematics::Robot& robot() const { return robot_; }
@@ -130,7 +140,8 @@ class CloudObstacles {
     double t[kMaxWindow] = {};
     Eigen::Vector3d c[kMaxWindow];
   };
-  void Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W);
+  void Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, const Eigen::Matrix3Xd& remembered_W,
+                  const std::vector<int>& remembered_counts);
   void SelfFilter(const Eigen::Ref<const Eigen::VectorXd>& q);
   void Cluster();
   void UpdateTracks(double time);
@@ -154,6 +165,7 @@ class CloudObstacles {
   std::vector<CloudCluster> clusters_;
   std::vector<math::PointCloudIndex> indices_;  // one per obstacle slot
   std::vector<Eigen::Matrix3Xd> slot_points_;
+  std::vector<std::vector<int>> slot_counts_;
   Eigen::Matrix3Xd kept_;
   std::vector<Track> tracks_, next_tracks_;
   int next_track_id_ = 0;

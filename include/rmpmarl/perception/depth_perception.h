@@ -10,6 +10,7 @@
 
 #include "rmpmarl/perception/cloud_obstacles.h"
 #include "rmpmarl/perception/depth_camera.h"
+#include "rmpmarl/perception/occlusion_memory.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/world.h"
 
@@ -21,6 +22,8 @@ struct DepthPerceptionOptions {
   std::vector<DepthCameraOptions> cameras{DepthCameraOptions{}};
   int stride = 1;  ///< back-project every stride-th pixel in u and v, ≥ 1
   CloudObstacleOptions cloud{};
+  /// static obstacles remembered while the arm hides them from the cameras (OcclusionMemory)
+  OcclusionMemoryOptions memory{};
 };
 
 /// throws InputError naming the field unless the options are valid (cameras' own checks included).
@@ -39,6 +42,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   sim::SensorSummary Summary() const override;
 
   const CloudObstacles& cloud() const { return cloud_; }
+  const OcclusionMemory& memory() const { return memory_; }
   const DepthPerceptionOptions& options() const { return options_; }
   /// the last rendered image of camera k.
   const DepthImage& image(int k) const { return images_[k]; }
@@ -50,15 +54,17 @@ class DepthPerception final : public sim::ObstacleSensor {
   DepthPerceptionOptions options_;
   std::vector<std::unique_ptr<DepthCamera>> cameras_;
   std::vector<DepthImage> images_;
+  std::vector<Eigen::Vector2d> ranges_;  // each camera's [min_range, max_range]
   std::vector<Eigen::Matrix3Xd> camera_points_;
   std::vector<int> counts_;
   Eigen::Matrix3Xd all_points_;
   CloudObstacles cloud_;
+  OcclusionMemory memory_;
   double period_ = 1.0 / 30.0;
   double next_time_ = 0.0;
   // summary
   long updates_ = 0;
-  double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0;
+  double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0, remembered_ = 0.0, hidden_ = 0.0;
   std::vector<double> velocity_errors_, tracked_errors_;  // all matches; tracks followed ≥ 2 updates
 };
 
