@@ -53,6 +53,7 @@ test: build
 bench: build
 	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_report_aggregates_only=true; done
 	@echo "== bench/python_bench.py"; /usr/bin/python3 bench/python_bench.py $(BUILD_DIR)
+	@echo "== bench/train_scaling_bench.py"; /usr/bin/python3 bench/train_scaling_bench.py $(BUILD_DIR)
 
 test-sanitize: deps
 	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRMPMARL_SANITIZE=$(SANITIZE) \

@@ -1,9 +1,12 @@
 // The cost of point-cloud obstacles: nearest points of a robot's capsules to a 20 000-point cloud (the kd-tree index
 // against brute force, and the index's build), and a 320 × 240 depth image to obstacles (back-projection, then the
-// whole CloudObstacles update: crop, voxel grid, self filter, clustering, tracking).
+// whole CloudObstacles update: crop, voxel grid, self filter, clustering, tracking), with and without the memory of
+// hidden static obstacles (OcclusionMemory: every kept voxel of the static scene remembered, checked against each
+// new image and forgotten as seen, then remembered again).
 // Run: build/bench/perception_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <random>
 #include <vector>
 
@@ -12,6 +15,7 @@
 #include "rmpmarl/math/point_cloud.h"
 #include "rmpmarl/perception/cloud_obstacles.h"
 #include "rmpmarl/perception/depth_camera.h"
+#include "rmpmarl/perception/occlusion_memory.h"
 
 namespace rmpmarl::perception {
 namespace {
@@ -159,6 +163,36 @@ void BM_DepthToObstacles_320x240(benchmark::State& state) {
                  std::to_string(cloud.num_obstacles()) + " obstacles");
 }
 BENCHMARK(BM_DepthToObstacles_320x240)->Unit(benchmark::kMicrosecond);
+
+// the same with the memory, as DepthPerception runs it: Forget, Update with the remembered points, Remember
+void BM_DepthToObstaclesWithMemory_320x240(benchmark::State& state) {
+  const std::vector<DepthImage> images{SyntheticDepthImage()};
+  const DepthCameraOptions camera;
+  const std::vector<Eigen::Vector2d> ranges{Eigen::Vector2d(camera.min_range, camera.max_range)};
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  CloudObstacles cloud(robot, {});
+  OcclusionMemory memory(OcclusionMemoryOptions{}, cloud.options().voxel_size);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
+  Eigen::Matrix3Xd points;
+  double time = 0.0, memory_us = 0.0;
+  long remembered = 0;
+  for (auto _ : state) {
+    const int n = DepthToWorldPoints(images[0], 1, &points);
+    const auto t0 = std::chrono::steady_clock::now();
+    memory.Forget(images, ranges, time);
+    const auto t1 = std::chrono::steady_clock::now();
+    cloud.Update(points.leftCols(n), time, q, memory.points(), memory.counts());
+    const auto t2 = std::chrono::steady_clock::now();
+    memory.Remember(cloud, time);
+    const auto t3 = std::chrono::steady_clock::now();
+    memory_us += std::chrono::duration<double, std::micro>((t1 - t0) + (t3 - t2)).count();
+    remembered = memory.size();
+    time += 1.0 / 30.0;
+  }
+  state.counters["memory_us"] = memory_us / static_cast<double>(state.iterations());
+  state.SetLabel(std::to_string(remembered) + " voxels remembered");
+}
+BENCHMARK(BM_DepthToObstaclesWithMemory_320x240)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace rmpmarl::perception

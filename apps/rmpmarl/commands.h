@@ -75,7 +75,7 @@ void RegisterPolicy(CLI::App& app);
 
 #ifdef RMPMARL_HAS_TORCH
 /// `rmpmarl train CONFIG [--resume] [--seed N]`: PPO/MAPPO training (docs/learning.md).
-void RegisterTrain(CLI::App& app);
+void RegisterTrain(CLI::App& app, int argc, char** argv);
 /// `rmpmarl eval POLICY [--robot/--urdf/--scenario/--obstacle-speed] --episodes N`: success rate, tracking error, clearance, collisions.
 void RegisterEval(CLI::App& app);
 /// `rmpmarl export-policy CHECKPOINT OUTPUT`: the actor for the torch-free runtime.

@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterView(app);
   rmpmarl::apps::RegisterPolicy(app);
 #ifdef RMPMARL_HAS_TORCH
-  rmpmarl::apps::RegisterTrain(app);
+  rmpmarl::apps::RegisterTrain(app, argc, argv);
   rmpmarl::apps::RegisterEval(app);
   rmpmarl::apps::RegisterExportPolicy(app);
   rmpmarl::apps::RegisterUpgradeCheckpoint(app);

@@ -111,6 +111,41 @@ TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
   EXPECT_GE(successes, 2);
 }
 
+TEST(DepthPerceptionTest, MemoryHoldsOnlyTheClutterTheArmHides) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("cluttered", robot);
+  auto model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
+  std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, {});
+  if (!sensor) GTEST_SKIP() << "offscreen rendering is not available here";
+  sim::World world(model);
+  sim::ReactiveController controller(*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8));
+  long remembered = 0, hidden_frames = 0;
+  double worst = 0.0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::EpisodeOptions episode{.duration = 3.0, .seed = seed, .video_fps = 30.0};
+    episode.sensor = sensor.get();
+    sim::RunEpisode(episode, world, controller, *scenario, [&](const sim::FrameInfo& f) {
+      rmp::Scene truth;
+      f.scenario->FillScene(&truth);
+      const Eigen::Matrix3Xd& p = sensor->memory().points();
+      remembered += p.cols();
+      if (sensor->memory().stats().hidden > 0) ++hidden_frames;
+      // every remembered point lies on a true cube: within the voxel (a centroid is up to a half-diagonal off the
+      // surface) and the depth noise of its surface
+      for (Eigen::Index i = 0; i < p.cols(); ++i) {
+        double d = std::numeric_limits<double>::infinity();
+        for (const rmp::Obstacle& o : truth.obstacles) {
+          d = std::min(d, rmp::CapsuleObstacleDistance(math::Capsule{p.col(i), p.col(i), 0.0}, o).distance);
+        }
+        worst = std::max(worst, d);
+      }
+    });
+  }
+  EXPECT_GT(remembered, 0) << "the static cubes are remembered";
+  EXPECT_GT(hidden_frames, 0) << "the arm hides part of the clutter from the camera in some frames";
+  EXPECT_LT(worst, 0.02) << "a remembered point off every cube [m]";
+}
+
 TEST(DepthPerceptionTest, BadOptionsAreRefused) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   const sim::WorldModel model(robot);
@@ -124,6 +159,9 @@ TEST(DepthPerceptionTest, BadOptionsAreRefused) {
   stride.stride = 0;
   EXPECT_THROW(DepthPerception::Create(model, none, &why), InputError);
   EXPECT_THROW(DepthPerception::Create(model, stride, &why), InputError);
+  DepthPerceptionOptions hold;
+  hold.memory.hold_time = 0.0;
+  EXPECT_THROW(DepthPerception::Create(model, hold, &why), InputError);
   for (double margin : {-0.01, 0.25, std::numeric_limits<double>::quiet_NaN()}) {
     DepthPerceptionOptions o;
     o.cloud.point_margin = margin;

@@ -291,7 +291,8 @@ Ppo::Ppo(const tasks::EnvSpec& spec, const NetworkOptions& network, const PpoOpt
       obs_norm_(spec.local_obs_dim),
       state_norm_(spec.global_state_dim),
       value_norm_(1),
-      generator_(MakeGenerator(SplitMix64(seed ^ 0x5A3D1E))) {
+      generator_(MakeGenerator(SplitMix64(seed ^ 0x5A3D1E))),
+      seed_(seed) {
   if (spec.local_obs_dim < 1 || spec.global_state_dim < 1 || spec.num_agents < 1) {
     throw InputError(fmt::format("env spec of task {}: expected positive obs/state dims and agents, got {}/{}/{}",
                                  spec.task, spec.local_obs_dim, spec.global_state_dim, spec.num_agents));
@@ -312,14 +313,33 @@ Ppo::Ppo(const tasks::EnvSpec& spec, const NetworkOptions& network, const PpoOpt
   }
 }
 
+void Ppo::SetCollective(Collective* collective) {
+  collective_ = collective;
+  if (!Distributed()) return;
+  torch::NoGradGuard no_grad;
+  // one starting point: rank 0's networks and normaliser statistics (a pre-trained actor, a loaded checkpoint)
+  for (torch::Tensor p : actor_->parameters()) collective_->Broadcast(p);
+  for (torch::Tensor p : critic_->parameters()) collective_->Broadcast(p);
+  for (RunningMeanStd* n : {&obs_norm_, &state_norm_, &value_norm_}) {
+    torch::Tensor stats = torch::cat({n->mean(), n->var(), torch::tensor({n->count()}, torch::kDouble)});
+    collective_->Broadcast(stats);
+    const int d = n->dim();
+    n->Set(stats.slice(0, 0, d), stats.slice(0, d, 2 * d), stats[2 * d].item<double>());
+  }
+  // each rank samples its own actions; rank 0 keeps the generator a one-process run has
+  if (collective_->rank() > 0) {
+    generator_ = MakeGenerator(SplitMix64(SplitMix64(seed_ ^ 0x5A3D1E) + static_cast<std::uint64_t>(collective_->rank())));
+  }
+}
+
 ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_state, bool update_normalizers,
                    bool deterministic) {
   torch::NoGradGuard no_grad;
   ActResult r;
   if (options_.normalize_observations()) {
     if (update_normalizers) {
-      obs_norm_.Update(local_obs);
-      state_norm_.Update(global_state);
+      obs_norm_.Update(local_obs, collective_);
+      state_norm_.Update(global_state, collective_);
     }
     r.actor_obs = obs_norm_.Normalize(local_obs, options_.obs_clip());
     r.critic_state = state_norm_.Normalize(global_state, options_.obs_clip());
@@ -369,7 +389,7 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
     stats.explained_variance =
         var_returns > 0.0 ? 1.0 - (batch.returns - old_values).var().item<double>() / var_returns : 0.0;
     if (options_.normalize_value()) {
-      value_norm_.Update(batch.returns);
+      value_norm_.Update(batch.returns, collective_);
       returns_n = value_norm_.Normalize(batch.returns);
       old_values_n = value_norm_.Normalize(old_values);
     } else {
@@ -378,7 +398,24 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
     }
   }
   torch::Tensor advantages = batch.advantages;
-  if (options_.normalize_advantage()) advantages = NormalizeAdvantages(advantages, options_.advantage_eps());
+  if (options_.normalize_advantage()) {
+    if (Distributed()) {
+      // the union's mean and unbiased standard deviation, as NormalizeAdvantages takes them of one batch
+      torch::Tensor sums = torch::stack({torch::tensor(static_cast<double>(M), torch::kDouble),
+                                         advantages.sum().to(torch::kDouble)});
+      collective_->AllReduceSum(sums);
+      const double n = sums[0].item<double>(), mean = sums[1].item<double>() / n;
+      torch::Tensor squares = (advantages.to(torch::kDouble) - mean).square().sum().reshape({1});
+      collective_->AllReduceSum(squares);
+      const double std = std::sqrt(squares.item<double>() / std::max(n - 1.0, 1.0));
+      advantages = (advantages - mean) / (std + options_.advantage_eps());
+    } else {
+      advantages = NormalizeAdvantages(advantages, options_.advantage_eps());
+    }
+  }
+  const int world = Distributed() ? collective_->world_size() : 1;
+  std::vector<torch::Tensor> parameters = actor_->parameters();
+  for (const torch::Tensor& p : critic_->parameters()) parameters.push_back(p);
   const torch::Tensor agent_offsets = torch::arange(A, torch::kLong);
 
   const int nb = options_.minibatches();
@@ -408,9 +445,33 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       in.advantages = advantages.index_select(0, idx).repeat_interleave(A);
       in.old_values = old_values_n.index_select(0, idx);
       in.returns = returns_n.index_select(0, idx);
+      if (world > 1) {
+        // the entropies' masked means over the union of the ranks' minibatches
+        torch::Tensor totals = torch::stack({in.option_mask.sum(), in.termination_mask.sum()}).to(torch::kDouble);
+        collective_->AllReduceSum(totals);
+        in.option_mask_total = std::max(totals[0].item<double>(), 1.0) / world;
+        in.termination_mask_total = std::max(totals[1].item<double>(), 1.0) / world;
+      }
       const LossTerms terms = ComputePpoLoss(in, options_);
       optimizer_->zero_grad();
       terms.total.backward();
+      if (world > 1) {
+        // the gradient of the union's loss: every rank's, summed in one all-reduce and divided by the ranks
+        std::vector<torch::Tensor> grads;
+        grads.reserve(parameters.size());
+        for (const torch::Tensor& p : parameters) {
+          grads.push_back(p.grad().defined() ? p.grad().reshape({-1}) : torch::zeros({p.numel()}, p.options()));
+        }
+        torch::Tensor flat = torch::cat(grads);
+        collective_->AllReduceSum(flat);
+        flat.div_(world);
+        int64_t at = 0;
+        for (torch::Tensor& p : parameters) {
+          if (!p.grad().defined()) p.mutable_grad() = torch::zeros_like(p);
+          p.mutable_grad().copy_(flat.slice(0, at, at + p.numel()).view_as(p));
+          at += p.numel();
+        }
+      }
       const double max_norm = options_.max_grad_norm() > 0.0 ? options_.max_grad_norm() : 1e30;
       stats.actor_grad_norm += torch::nn::utils::clip_grad_norm_(actor_->parameters(), max_norm);
       stats.critic_grad_norm += torch::nn::utils::clip_grad_norm_(critic_->parameters(), max_norm);
@@ -426,6 +487,12 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       ++minibatches_run;
     }
     ++stats.epochs;
+    if (options_.target_kl() > 0.0 && world > 1) {
+      // every rank stops at the same epoch: on the ranks' mean KL
+      torch::Tensor kl = torch::tensor({epoch_kl}, torch::kDouble);
+      collective_->AllReduceSum(kl);
+      epoch_kl = kl.item<double>() / world;
+    }
     if (options_.target_kl() > 0.0 && epoch_kl > 1.5 * options_.target_kl()) break;
   }
   const double n = std::max(minibatches_run, 1);

@@ -91,6 +91,33 @@ void RunningMeanStd::Update(const torch::Tensor& batch) {
   count_ = total;
 }
 
+void RunningMeanStd::Set(const torch::Tensor& mean, const torch::Tensor& var, double count) {
+  TORCH_CHECK(mean.numel() == dim_ && var.numel() == dim_, "Expected normaliser statistics of size ", dim_, ", but got ",
+              mean.numel(), " and ", var.numel());
+  mean_ = mean.to(torch::kDouble).reshape({dim_}).clone();
+  var_ = var.to(torch::kDouble).reshape({dim_}).clone();
+  count_ = count;
+}
+
+void RunningMeanStd::Update(const torch::Tensor& batch, Collective* collective) {
+  if (collective == nullptr || collective->world_size() == 1) return Update(batch);
+  const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
+  // the union's count and mean, then its squared deviations from that mean (exact where sums of squares are not)
+  torch::Tensor sums = torch::cat({torch::tensor({static_cast<double>(x.size(0))}, torch::kDouble), x.sum(0)});
+  collective->AllReduceSum(sums);
+  const double n = sums[0].item<double>();
+  if (n == 0) return;
+  const torch::Tensor batch_mean = sums.slice(0, 1) / n;
+  torch::Tensor squares = (x - batch_mean).square().sum(0).contiguous();
+  collective->AllReduceSum(squares);
+  const torch::Tensor batch_var = squares / n;
+  const torch::Tensor delta = batch_mean - mean_;
+  const double total = count_ + n;
+  mean_ = mean_ + delta * (n / total);
+  var_ = (var_ * count_ + batch_var * n + delta * delta * (count_ * n / total)) / total;
+  count_ = total;
+}
+
 torch::Tensor RunningMeanStd::Normalize(const torch::Tensor& x, double clip) const {
   const torch::Tensor mean = mean_.to(torch::kFloat), std = torch::sqrt(var_ + kNormalizerEps).to(torch::kFloat);
   torch::Tensor y = (x.to(torch::kFloat) - mean) / std;
@@ -147,9 +174,13 @@ LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {
   terms.policy = ClippedSurrogateLoss(joint, old_joint, in.advantages, options.clip());
   terms.value = ClippedValueLoss(in.values, in.old_values, in.returns, options.value_clip());
   const HeadEntropies h = Entropies(in.head, in.layout);
-  const torch::Tensor h_option = MaskedMean(h.option, in.option_mask);
+  // data-parallel: the denominators of every rank's minibatch (see LossInputs)
+  const torch::Tensor h_option = in.option_mask_total > 0.0 ? (h.option * in.option_mask).sum() / in.option_mask_total
+                                                             : MaskedMean(h.option, in.option_mask);
   const torch::Tensor h_continuous = h.continuous.mean();
-  const torch::Tensor h_termination = MaskedMean(h.termination, in.termination_mask);
+  const torch::Tensor h_termination = in.termination_mask_total > 0.0
+                                          ? (h.termination * in.termination_mask).sum() / in.termination_mask_total
+                                          : MaskedMean(h.termination, in.termination_mask);
   terms.entropy = options.entropy_option() * h_option + options.entropy_continuous() * h_continuous +
                   options.entropy_termination() * h_termination;
   terms.total = terms.policy + options.value_coef() * terms.value - terms.entropy;

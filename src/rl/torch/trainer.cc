@@ -204,6 +204,8 @@ void SetTorchThreads(int threads) {
 
 // ------------------------------------------------------------------------------------------------- Trainer
 struct Trainer::Impl {
+  Collective* collective = nullptr;
+  int rank = 0, world = 1;
   TrainConfig config;
   tasks::EnvFactory factory;
   tasks::EnvSpec spec;
@@ -218,7 +220,8 @@ struct Trainer::Impl {
   // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
   void ResetEnvs(int u) {
     if (!env || env_built_for != u) {
-      const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs;
+      const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs * world +
+                                 static_cast<std::uint64_t>(rank) * config.num_envs;
       env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
       env_built_for = u;
     }
@@ -229,12 +232,20 @@ struct Trainer::Impl {
   UpdateSummary RunUpdate();
 };
 
-Trainer::Trainer(const TrainConfig& config, tasks::EnvFactory factory) : impl_(std::make_unique<Impl>()) {
+Trainer::Trainer(const TrainConfig& config, tasks::EnvFactory factory, Collective* collective)
+    : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
+  if (collective != nullptr) {
+    m.collective = collective;
+    m.rank = collective->rank();
+    m.world = collective->world_size();
+  }
   m.config = config;
   m.factory = std::move(factory);
   SetTorchThreads(config.torch_threads);
-  m.env = std::make_unique<VecEnv>(m.factory, VecEnvOptions{config.num_envs, config.seed, config.env_threads});
+  m.env = std::make_unique<VecEnv>(
+      m.factory, VecEnvOptions{config.num_envs, config.seed + static_cast<std::uint64_t>(m.rank) * config.num_envs,
+                               config.env_threads});
   m.spec = m.env->spec();
   if (config.algorithm == "ppo" && m.spec.num_agents != 1) {
     throw InputError(fmt::format("algorithm \"ppo\" is single-agent, but task {} has {} agents (use \"mappo\", or a "
@@ -255,12 +266,15 @@ Trainer::Trainer(const TrainConfig& config, tasks::EnvFactory factory) : impl_(s
       throw InputError(fmt::format("init_actor_from {}: {}", config.init_actor_from, e.what()));
     }
   }
+  m.ppo->SetCollective(collective);
 }
 
 Trainer::~Trainer() = default;
 
 bool Trainer::finished() const { return impl_->update >= impl_->config.total_updates; }
 int Trainer::update() const { return impl_->update; }
+int Trainer::rank() const { return impl_->rank; }
+int Trainer::world_size() const { return impl_->world; }
 std::int64_t Trainer::env_steps() const { return impl_->env_steps; }
 const TrainConfig& Trainer::config() const { return impl_->config; }
 const tasks::EnvSpec& Trainer::spec() const { return impl_->spec; }
@@ -351,10 +365,29 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   }
   const UpdateStats learn = ppo->Update(batch, lr_scale);
   ++update;
-  env_steps += static_cast<std::int64_t>(T) * N;
+  env_steps += static_cast<std::int64_t>(T) * N * world;
 
   EpisodeStats episodes;
   for (const tasks::EpisodeMetrics& m : recent) episodes.Add(m);
+  if (world > 1) {
+    // the logs' episode statistics over every rank's window
+    torch::Tensor sums = torch::tensor(
+        {double(episodes.episodes), double(episodes.successes), double(episodes.collisions),
+         double(episodes.clearance_count), episodes.return_sum, episodes.track_sum, episodes.final_track_sum,
+         episodes.clearance_sum, episodes.length_sum, double(finished)}, torch::kDouble);
+    collective->AllReduceSum(sums);
+    const double* v = sums.data_ptr<double>();
+    episodes.episodes = static_cast<int>(v[0]);
+    episodes.successes = static_cast<int>(v[1]);
+    episodes.collisions = static_cast<int>(v[2]);
+    episodes.clearance_count = static_cast<int>(v[3]);
+    episodes.return_sum = v[4];
+    episodes.track_sum = v[5];
+    episodes.final_track_sum = v[6];
+    episodes.clearance_sum = v[7];
+    episodes.length_sum = v[8];
+    finished = static_cast<int>(v[9]);
+  }
   UpdateSummary s;
   s.update = update;
   s.env_steps = env_steps;
@@ -382,7 +415,7 @@ UpdateSummary Trainer::Impl::RunUpdate() {
   s.seconds = std::chrono::duration<double>(end - start).count();
   s.rollout_seconds = std::chrono::duration<double>(rollout_end - start).count();
   s.learn_seconds = std::chrono::duration<double>(end - rollout_end).count();
-  s.fps = static_cast<double>(T) * N / std::max(s.seconds, 1e-9);
+  s.fps = static_cast<double>(T) * N * world / std::max(s.seconds, 1e-9);
   return s;
 }
 
@@ -402,8 +435,16 @@ torch::Tensor RecentEpisodesTensor(const std::deque<tasks::EpisodeMetrics>& rece
 
 // the payload of a format-2 checkpoint
 std::string CheckpointArchiveBytes(const TrainConfig& config, const tasks::EnvSpec& spec, std::int64_t update,
-                                   std::int64_t env_steps, const torch::Tensor& recent, const Ppo& ppo) {
+                                   std::int64_t env_steps, const torch::Tensor& recent, const Ppo& ppo,
+                                   const std::vector<torch::Tensor>& rank_generators = {}) {
   TensorArchive archive;
+  // a data-parallel run: its world size, and the sampling generators of ranks 1.. (rank 0's is the learner's)
+  if (!rank_generators.empty()) {
+    archive.Put("meta/world_size", static_cast<std::int64_t>(rank_generators.size() + 1));
+    for (size_t r = 0; r < rank_generators.size(); ++r) {
+      archive.Put(fmt::format("meta/generator_rank{}", r + 1), rank_generators[r]);
+    }
+  }
   archive.Put("meta/format", std::string("rmpmarl-checkpoint"));
   archive.Put("meta/config", ToYaml(config));
   archive.Put("meta/fingerprint", SpecFingerprint(spec));
@@ -419,8 +460,44 @@ std::string CheckpointArchiveBytes(const TrainConfig& config, const tasks::EnvSp
 
 void Trainer::SaveCheckpoint(const std::string& path) const {
   const Impl& m = *impl_;
+  std::vector<torch::Tensor> rank_generators;
+  if (m.world > 1) {
+    // every rank's generator state to every rank (rows of zeros but one, summed), rank 0 writes ranks 1..
+    const torch::Tensor own = m.ppo->generator().get_state();
+    torch::Tensor all = torch::zeros({m.world, own.numel()}, torch::kDouble);
+    all[m.rank].copy_(own.to(torch::kDouble));
+    m.collective->AllReduceSum(all);
+    if (m.rank != 0) return;
+    for (int r = 1; r < m.world; ++r) rank_generators.push_back(all[r].to(own.scalar_type()).contiguous());
+  }
   WriteFileAtomically(path, WrapPayload(CheckpointArchiveBytes(m.config, m.spec, m.update, m.env_steps,
-                                                               RecentEpisodesTensor(m.recent), *m.ppo)));
+                                                               RecentEpisodesTensor(m.recent), *m.ppo,
+                                                               rank_generators)));
+}
+
+std::uint32_t Trainer::LearnerChecksum() const {
+  Ppo& ppo = *impl_->ppo;
+  std::uint32_t crc = 0;
+  auto add = [&](const torch::Tensor& t) {
+    const torch::Tensor c = t.detach().contiguous();
+    crc = Crc32c(c.data_ptr(), c.numel() * c.element_size(), crc);
+  };
+  std::vector<torch::Tensor> params = ppo.actor()->parameters();
+  for (const torch::Tensor& p : ppo.critic()->parameters()) params.push_back(p);
+  auto& state = ppo.optimizer().state();
+  for (const torch::Tensor& p : params) {
+    add(p);
+    auto it = state.find(c10::guts::to_string(p.unsafeGetTensorImpl()));
+    if (it == state.end()) continue;
+    const auto& adam = static_cast<const torch::optim::AdamParamState&>(*it->second);
+    add(adam.exp_avg());
+    add(adam.exp_avg_sq());
+  }
+  for (RunningMeanStd* n : {&ppo.obs_norm(), &ppo.state_norm(), &ppo.value_norm()}) {
+    add(n->mean());
+    add(n->var());
+  }
+  return crc;
 }
 
 void Trainer::Resume(const std::string& path) {
@@ -447,13 +524,25 @@ void Trainer::Resume(const std::string& path) {
       fmt::print(stderr, "rmpmarl: warning: torch_threads {} differs from the checkpoint's {}; results may differ in "
                          "the last bits\n", m.config.torch_threads, stored.torch_threads);
     }
+    const std::int64_t stored_world = archive.Has("meta/world_size") ? archive.Int("meta/world_size") : 1;
+    if (stored_world != m.world) {
+      throw InputError(fmt::format("checkpoint {} was written by a run of {} rank{}; this run has {}: resume with "
+                                   "--nproc {} (or that many ranks), or start a new run", path, stored_world,
+                                   stored_world == 1 ? "" : "s", m.world, stored_world));
+    }
     m.ppo->Load(archive);
+    if (m.rank > 0) {
+      const torch::Tensor current = m.ppo->generator().get_state();
+      m.ppo->generator().set_state(archive.Tensor(fmt::format("meta/generator_rank{}", m.rank),
+                                                  current.scalar_type(), current.sizes()));
+    }
     const torch::Tensor recent = archive.Tensor("meta/recent_episodes");
     if (recent.scalar_type() != torch::kDouble || recent.dim() != 2 || recent.size(1) != 8) {
       throw InputError(fmt::format("checkpoint {}: meta/recent_episodes: expected a double tensor of N x 8", path));
     }
     m.recent.clear();
-    const torch::Tensor r = recent.contiguous();
+    // the window of finished episodes is rank 0's; the other ranks start theirs anew
+    const torch::Tensor r = m.rank == 0 ? recent.contiguous() : recent.slice(0, 0, 0).contiguous();
     for (int64_t i = 0; i < r.size(0); ++i) {
       const double* row = r.data_ptr<double>() + i * 8;
       tasks::EpisodeMetrics e;

@@ -88,18 +88,23 @@ void TruncateCsv(const std::string& path, int update) {
 
 UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& factory, const RunOptions& options) {
   namespace fs = std::filesystem;
-  const bool files = !config.output_dir.empty();
+  // a data-parallel run: every rank trains, rank 0 alone prints and writes (its checkpoints hold every rank's state)
+  const int rank = options.collective != nullptr ? options.collective->rank() : 0;
+  const int world = options.collective != nullptr ? options.collective->world_size() : 1;
+  const bool checkpoints = !config.output_dir.empty();
+  const bool files = checkpoints && rank == 0;
+  const bool progress = config.progress && rank == 0;
   const std::string out = config.output_dir;
   const std::string checkpoint = out + "/checkpoint.ckpt";
-  if (options.resume && !files) throw InputError("--resume needs output_dir in the training config");
+  if (options.resume && !checkpoints) throw InputError("--resume needs output_dir in the training config");
   if (options.resume && !fs::exists(checkpoint)) {
     throw InputError(fmt::format("--resume: no checkpoint at {} (train without --resume to start)", checkpoint));
   }
-  Trainer trainer(config, factory);
+  Trainer trainer(config, factory, options.collective);
   if (options.resume) trainer.Resume(checkpoint);
   UpdateSummary last;
   if (trainer.finished()) {
-    if (config.progress) {
+    if (progress) {
       fmt::print("{}: training already complete ({} of {} updates)\n", config.name, trainer.update(),
                  config.total_updates);
     }
@@ -126,11 +131,11 @@ UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& fa
   const bool tty = isatty(fileno(stderr));
   const int first = trainer.update();
   const auto start = std::chrono::steady_clock::now();
-  if (config.progress) {
-    fmt::print("{}: task {} (agents {}, local obs {}, global state {}), {} envs × {} steps per update, updates {}..{}\n",
+  if (progress) {
+    fmt::print("{}: task {} (agents {}, local obs {}, global state {}), {}{} envs × {} steps per update, updates {}..{}\n",
                config.name, trainer.spec().task, trainer.spec().num_agents, trainer.spec().local_obs_dim,
-               trainer.spec().global_state_dim, config.num_envs, config.ppo.rollout_steps(), first + 1,
-               config.total_updates);
+               trainer.spec().global_state_dim, world > 1 ? fmt::format("{} ranks × ", world) : "", config.num_envs,
+               config.ppo.rollout_steps(), first + 1, config.total_updates);
     if (config.ppo.bf16_autocast() && !CpuHasFastBf16()) {
       fmt::print("{}: bf16_autocast stays off on this CPU (no AMX-BF16 or AVX512-BF16: fp32 is faster here)\n",
                  config.name);
@@ -158,9 +163,9 @@ UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& fa
                      config.snapshot_updates.end()) {
       trainer.ExportPolicy(fmt::format("{}/policy-u{}.rmpp", out, u));
     }
-    if (files && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
+    if (checkpoints && (u % config.checkpoint_every == 0 || trainer.finished())) trainer.SaveCheckpoint(checkpoint);
     if (options.on_update) options.on_update(last);
-    if (config.progress) {
+    if (progress) {
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const double eta = elapsed / (u - first) * (config.total_updates - u);
       if (tty) fmt::print(stderr, "\r\033[K");
@@ -180,11 +185,17 @@ UpdateSummary RunTraining(const TrainConfig& config, const tasks::EnvFactory& fa
       }
     }
   }
-  if (config.progress && tty) fmt::print(stderr, "\r\033[K");
+  if (progress && tty) fmt::print(stderr, "\r\033[K");
+  if (checkpoints) trainer.SaveCheckpoint(out + "/final.ckpt");
+  if (world > 1) {
+    // every rank holds the same learner: the check a user (and the tests) can read off the log
+    fmt::print("{}: rank {} of {}: learner checksum {:08x} after {} updates\n", config.name, rank, world,
+               trainer.LearnerChecksum(), trainer.update());
+    std::fflush(stdout);
+  }
   if (files) {
-    trainer.SaveCheckpoint(out + "/final.ckpt");
     trainer.ExportPolicy(out + "/policy.rmpp");
-    if (config.progress) {
+    if (progress) {
       fmt::print("{}: wrote {}/checkpoint.ckpt, final.ckpt, policy.rmpp{}{}\n", config.name, out,
                  config.write_csv ? ", metrics.csv" : "", tb ? ", tb/" : "");
     }

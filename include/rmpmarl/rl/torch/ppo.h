@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "rmpmarl/tasks/env.h"
+#include "rmpmarl/rl/torch/distributed.h"
 #include "rmpmarl/rl/torch/networks.h"
 #include "rmpmarl/rl/torch/ppo_options.h"
 
@@ -64,6 +65,9 @@ class RunningMeanStd {
   explicit RunningMeanStd(int dim = 1);
   /// folds a batch (B × dim, or B when dim == 1) into the statistics.
   void Update(const torch::Tensor& batch);
+  /// the same for the union of every rank's batch (two all-reduces: the mean, then the squared deviations from it);
+  /// every rank then holds the same statistics. A null or one-rank collective is Update(batch).
+  void Update(const torch::Tensor& batch, Collective* collective);
   /// clamp((x − mean) / sqrt(var + 1e-8), ±clip) as float; clip <= 0: no clamp.
   torch::Tensor Normalize(const torch::Tensor& x, double clip = 0.0) const;
   /// x · sqrt(var + 1e-8) + mean, as float.
@@ -72,6 +76,8 @@ class RunningMeanStd {
   const torch::Tensor& mean() const { return mean_; }
   const torch::Tensor& var() const { return var_; }
   double count() const { return count_; }
+  /// replaces the statistics (sizes checked).
+  void Set(const torch::Tensor& mean, const torch::Tensor& var, double count);
   void Save(TensorArchive& archive, const std::string& key) const;
   /// InputError when the stored statistics are not of this normaliser's size.
   void Load(const TensorArchive& archive, const std::string& key);
@@ -109,6 +115,10 @@ struct LossInputs {
   torch::Tensor values;           ///< M, current critic output (normalised units)
   torch::Tensor old_values;       ///< M, critic output at collection (normalised with the current statistics)
   torch::Tensor returns;          ///< M, normalised with the current statistics
+  /// data-parallel training: the option and termination entropies' mask sums over every rank's minibatch divided
+  /// by the number of ranks, as their denominators (so that the averaged gradient is the union's); 0: this
+  /// minibatch's own sums
+  double option_mask_total = 0.0, termination_mask_total = 0.0;
 };
 
 /// the PPO loss: clipped surrogate on the joint (masked) log-probability, clipped value loss, entropy bonus per
@@ -164,6 +174,13 @@ class Ppo {
   /// epochs of minibatch updates on `batch`; lr_scale multiplies the learning rates (the schedule).
   UpdateStats Update(const RolloutBatch& batch, double lr_scale);
 
+  /// trains data-parallel with the other ranks of `collective` (null: alone): rank 0's parameters and normaliser
+  /// statistics are broadcast now, ranks other than 0 sample from their own generator, and from here on every
+  /// normaliser update, advantage normalisation and gradient step uses every rank's samples. Call after
+  /// InitActorFrom / Load, before Act.
+  void SetCollective(Collective* collective);
+  Collective* collective() const { return collective_; }
+
   /// copies the actor parameters and observation normaliser of `other` (pre-trained initialisation). Throws
   /// InputError when the observation size or head layout differ.
   void InitActorFrom(Ppo& other);
@@ -200,6 +217,9 @@ class Ppo {
   RunningMeanStd obs_norm_, state_norm_, value_norm_;
   torch::Generator generator_;
   std::unique_ptr<torch::optim::Adam> optimizer_;
+  std::uint64_t seed_ = 0;
+  Collective* collective_ = nullptr;  // null or one rank: no communication
+  bool Distributed() const { return collective_ != nullptr && collective_->world_size() > 1; }
 };
 
 }  // namespace rmpmarl::rl

@@ -19,6 +19,10 @@
 #include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl {
+class Collective;
+}
+
+namespace rmpmarl::rl {
 
 /// Which environment to train on (resolved by MakeTaskFactory).
 struct TaskSelection {
@@ -84,7 +88,7 @@ struct UpdateSummary {
   double approx_kl = 0.0, clip_fraction = 0.0, explained_variance = 0.0;
   double actor_grad_norm = 0.0, critic_grad_norm = 0.0;
   double lr = 0.0;
-  double fps = 0.0;             ///< env steps per second of this update (rollout + learning)
+  double fps = 0.0;             ///< env steps per second of this update (rollout + learning), all ranks
   double seconds = 0.0;         ///< wall clock of this update
   double rollout_seconds = 0.0; ///< of which collecting the rollout (env steps + acting)
   double learn_seconds = 0.0;   ///< of which GAE and the PPO epochs
@@ -94,7 +98,11 @@ struct UpdateSummary {
 class Trainer {
  public:
   /// builds fresh networks (initialised from config.init_actor_from when set) and the envs. Throws InputError.
-  Trainer(const TrainConfig& config, tasks::EnvFactory factory);
+  /// With a collective of W > 1 ranks (distributed.h) this is rank r of a data-parallel run: its envs are
+  /// seeded apart from every other rank's (env k of rank r in segment s: seed + s·N·W + r·N + k, so W ranks of N envs
+  /// see the episodes one process of W·N envs would), rank 0's networks are broadcast, and every update learns from
+  /// every rank's rollout.
+  Trainer(const TrainConfig& config, tasks::EnvFactory factory, Collective* collective = nullptr);
   ~Trainer();
   Trainer(const Trainer&) = delete;
   Trainer& operator=(const Trainer&) = delete;
@@ -110,8 +118,13 @@ class Trainer {
   const TrainConfig& config() const;
   const tasks::EnvSpec& spec() const;
 
-  /// writes the full state (networks, optimiser, normalisers, RNG states, counters, config) atomically.
+  /// writes the full state (networks, optimiser, normalisers, RNG states, counters, config) atomically. In a
+  /// data-parallel run every rank calls it (their sampling generators are gathered) and rank 0 alone writes.
   void SaveCheckpoint(const std::string& path) const;
+  /// a CRC-32C of the parameters, Adam moments and normaliser statistics: equal on every rank of a data-parallel run.
+  std::uint32_t LearnerChecksum() const;
+  int rank() const;
+  int world_size() const;
   /// writes the actor for the torch-free runtime (policy_runtime.h).
   void ExportPolicy(const std::string& path) const;
   /// every parameter, optimiser moment and normaliser statistic, flattened (for exactness tests).
@@ -127,6 +140,9 @@ struct RunOptions {
   bool resume = false;  ///< continue from <output_dir>/checkpoint.ckpt
   /// called after every update (e.g. tests); may be empty.
   std::function<void(const UpdateSummary&)> on_update;
+  /// a data-parallel run's process group (null: one process): rank 0 alone prints progress and writes the
+  /// checkpoints, metrics, TensorBoard events and policy files.
+  Collective* collective = nullptr;
 };
 
 /// trains `config` to total_updates with progress output, CSV/TensorBoard metrics, periodic and final checkpoints

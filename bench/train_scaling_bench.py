@@ -1,0 +1,86 @@
+#!/usr/bin/env python3
+"""Data-parallel training on this machine, in one run (`make bench` runs it; docs/learning.md):
+  - throughput: env steps per second of `rmpmarl train CONFIG --nproc 2` (2 ranks x num_envs) against one process of
+    num_envs and one process of 2 x num_envs, the same config otherwise; goal: 2 ranks >= 1.7x one process of
+    num_envs (each rank does one process's work, so the ideal on 2 cores is 2x);
+  - with --curve: the learning curve of 2 ranks x num_envs against 1 process x 2 num_envs (the same batch per update),
+    windowed success and return every 10 % of the run.
+The fps of a run is the median over its updates after the first (metrics.csv).
+usage: train_scaling_bench.py BUILD_DIR [--config configs/train/mappo-reach-avoid.yaml] [--updates 12] [--curve N]"""
+import argparse
+import csv
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def machine():
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            return f"{line.split(':', 1)[1].strip()}, {os.cpu_count()} hardware threads"
+    return platform.machine()
+
+
+def run(cli, config, out, updates, nproc, num_envs):
+    """trains CONFIG with num_envs per rank; returns (wall seconds, metrics rows)."""
+    # the config with this run's output and env count (the CLI overrides updates; env count goes through a copy)
+    text = open(config).read()
+    lines = [line for line in text.splitlines() if not line.startswith(("num_envs:", "output_dir:"))]
+    lines += [f"num_envs: {num_envs}", f"output_dir: {out}"]
+    path = os.path.join(out + ".yaml")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    start = time.monotonic()
+    subprocess.run([cli, "train", path, "--updates", str(updates), "--nproc", str(nproc), "--quiet"], check=True)
+    wall = time.monotonic() - start
+    with open(os.path.join(out, "metrics.csv")) as f:
+        rows = list(csv.DictReader(f))
+    return wall, rows
+
+
+def fps(rows):
+    return statistics.median(float(r["fps"]) for r in rows[1:])
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("build", nargs="?", default="build")
+    p.add_argument("--config", default="configs/train/mappo-reach-avoid.yaml")
+    p.add_argument("--updates", type=int, default=12)
+    p.add_argument("--curve", type=int, default=0, help="also compare learning curves over this many updates")
+    a = p.parse_args()
+    cli = os.path.join(a.build, "rmpmarl")
+    n = next(int(line.split(":")[1]) for line in open(a.config) if line.startswith("num_envs:"))
+    print(f"train_scaling_bench: {a.config}, {a.updates} updates, {machine()}")
+    with tempfile.TemporaryDirectory() as tmp:
+        results = {}
+        for name, nproc, envs in (("1 process x N", 1, n), ("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n)):
+            wall, rows = run(cli, a.config, os.path.join(tmp, name.replace(" ", "")), a.updates, nproc, envs)
+            results[name] = fps(rows)
+            print(f"  {name:<16} N = {n}: {results[name]:8.0f} env steps/s (median over updates), wall {wall:.1f} s")
+        ratio = results["2 ranks x N"] / results["1 process x N"]
+        print(f"  2 ranks / 1 process of N: {ratio:.2f}x (goal >= 1.7x); "
+              f"2 ranks / 1 process of 2N: {results['2 ranks x N'] / results['1 process x 2N']:.2f}x")
+        if a.curve > 0:
+            curves = {}
+            for name, nproc, envs in (("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n)):
+                _, rows = run(cli, a.config, os.path.join(tmp, "curve" + str(nproc)), a.curve, nproc, envs)
+                curves[name] = rows
+            print("  learning curve (windowed success %, return):")
+            print(f"  {'update':>7} | {'2 ranks x N':>22} | {'1 process x 2N':>22}")
+            for k in range(1, 11):
+                u = max(1, a.curve * k // 10)
+                cells = []
+                for name in ("2 ranks x N", "1 process x 2N"):
+                    r = curves[name][u - 1]
+                    cells.append(f"{100 * float(r['success_rate']):6.1f} % {float(r['mean_return']):10.1f}")
+                print(f"  {u:>7} | {cells[0]:>22} | {cells[1]:>22}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
