@@ -193,6 +193,26 @@ TEST(DistributedTest, NormalisersMergeToTheUnionsStatistics) {
     EXPECT_LT((ranks[r].mean() - one.mean()).abs().max().item<double>(), 1e-9);
     EXPECT_LT((ranks[r].var() - one.var()).abs().max().item<double>(), 1e-9);
   }
+  // a rollout: each rank folds its own batches without communicating, then one synchronisation gives every rank
+  // the statistics of all of them
+  const torch::Tensor y = torch::randn({60, 4}, torch::kDouble) * 2.0 - 30.0;
+  for (int step = 0; step < 3; ++step) one.Update(y.slice(0, 20 * step, 20 * step + 20));
+  threads.clear();
+  for (int r = 0; r < 3; ++r) {
+    threads.emplace_back([&, r] {
+      ThreadGroup::Rank rank(&group, r);
+      // step k: rank r holds rows [20 k + [0, 5, 12][r], ...): unequal shares of every step
+      const int64_t cut[4] = {0, 5, 12, 20};
+      for (int step = 0; step < 3; ++step) ranks[r].Accumulate(y.slice(0, 20 * step + cut[r], 20 * step + cut[r + 1]));
+      RunningMeanStd::Synchronize({&ranks[r]}, &rank);
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_NEAR(ranks[r].count(), one.count(), 1e-9);
+    EXPECT_LT((ranks[r].mean() - one.mean()).abs().max().item<double>(), 1e-9);
+    EXPECT_LT((ranks[r].var() - one.var()).abs().max().item<double>(), 1e-9);
+  }
 }
 
 TrainConfig ToyConfig() {

@@ -337,9 +337,13 @@ ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_s
   torch::NoGradGuard no_grad;
   ActResult r;
   if (options_.normalize_observations()) {
-    if (update_normalizers) {
-      obs_norm_.Update(local_obs, collective_);
-      state_norm_.Update(global_state, collective_);
+    if (update_normalizers && Distributed()) {
+      // each rank folds its own samples; Update merges every rank's before it learns (no communication per step)
+      obs_norm_.Accumulate(local_obs);
+      state_norm_.Accumulate(global_state);
+    } else if (update_normalizers) {
+      obs_norm_.Update(local_obs);
+      state_norm_.Update(global_state);
     }
     r.actor_obs = obs_norm_.Normalize(local_obs, options_.obs_clip());
     r.critic_state = state_norm_.Normalize(global_state, options_.obs_clip());
@@ -379,6 +383,8 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
   static_cast<torch::optim::AdamOptions&>(groups[0].options()).lr(options_.lr() * lr_scale);
   static_cast<torch::optim::AdamOptions&>(groups[1].options()).lr(critic_lr * lr_scale);
 
+  // data-parallel: the observation normalisers of every rank become those of all the rollout's samples
+  if (Distributed()) RunningMeanStd::Synchronize({&obs_norm_, &state_norm_}, collective_);
   UpdateStats stats;
   torch::Tensor returns_n, old_values_n;
   {
@@ -423,6 +429,20 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
   for (int epoch = 0; epoch < options_.epochs(); ++epoch) {
     const torch::Tensor perm = torch::randperm(M, generator_, torch::kLong);
     double epoch_kl = 0.0;
+    auto minibatch_rows = [&](int b) {
+      const torch::Tensor idx = perm.slice(0, M * b / nb, M * (b + 1) / nb);
+      return (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
+    };
+    torch::Tensor mask_totals;  // data-parallel: each minibatch's option and termination mask sums over the ranks
+    if (world > 1) {
+      mask_totals = torch::zeros({nb, 2}, torch::kDouble);
+      for (int b = 0; b < nb; ++b) {
+        const torch::Tensor rows = minibatch_rows(b);
+        mask_totals[b][0] = batch.option_mask.index_select(0, rows).sum().item<double>();
+        mask_totals[b][1] = batch.termination_mask.index_select(0, rows).sum().item<double>();
+      }
+      collective_->AllReduceSum(mask_totals);
+    }
     for (int b = 0; b < nb; ++b) {
       const int64_t begin = M * b / nb, end = M * (b + 1) / nb;
       if (end <= begin) continue;
@@ -447,10 +467,8 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       in.returns = returns_n.index_select(0, idx);
       if (world > 1) {
         // the entropies' masked means over the union of the ranks' minibatches
-        torch::Tensor totals = torch::stack({in.option_mask.sum(), in.termination_mask.sum()}).to(torch::kDouble);
-        collective_->AllReduceSum(totals);
-        in.option_mask_total = std::max(totals[0].item<double>(), 1.0) / world;
-        in.termination_mask_total = std::max(totals[1].item<double>(), 1.0) / world;
+        in.option_mask_total = std::max(mask_totals[b][0].item<double>(), 1.0) / world;
+        in.termination_mask_total = std::max(mask_totals[b][1].item<double>(), 1.0) / world;
       }
       const LossTerms terms = ComputePpoLoss(in, options_);
       optimizer_->zero_grad();

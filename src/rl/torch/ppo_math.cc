@@ -76,9 +76,82 @@ torch::Tensor ClippedValueLoss(const torch::Tensor& values, const torch::Tensor&
 }
 
 RunningMeanStd::RunningMeanStd(int dim)
-    : dim_(dim), mean_(torch::zeros({dim}, torch::kDouble)), var_(torch::ones({dim}, torch::kDouble)) {}
+    : dim_(dim), mean_(torch::zeros({dim}, torch::kDouble)), var_(torch::ones({dim}, torch::kDouble)) {
+  MarkSynchronized();
+}
+
+void RunningMeanStd::MarkSynchronized() {
+  base_mean_ = mean_;
+  base_var_ = var_;
+  base_count_ = count_;
+  share_mean_ = torch::zeros({dim_}, torch::kDouble);
+  share_m2_ = torch::zeros({dim_}, torch::kDouble);
+  share_count_ = 0.0;
+}
 
 void RunningMeanStd::Update(const torch::Tensor& batch) {
+  Fold(batch);
+  MarkSynchronized();
+}
+
+void RunningMeanStd::Accumulate(const torch::Tensor& batch) {
+  Fold(batch);
+  const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
+  const double n = static_cast<double>(x.size(0));
+  if (n == 0) return;
+  const torch::Tensor delta = x.mean(0) - share_mean_;
+  const double total = share_count_ + n;
+  share_mean_ = share_mean_ + delta * (n / total);
+  share_m2_ = share_m2_ + x.var(0, /*unbiased=*/false) * n + delta * delta * (share_count_ * n / total);
+  share_count_ = total;
+}
+
+void RunningMeanStd::Synchronize(const std::vector<RunningMeanStd*>& normalizers, Collective* collective) {
+  if (collective == nullptr || collective->world_size() == 1) {
+    for (RunningMeanStd* n : normalizers) n->MarkSynchronized();
+    return;
+  }
+  // the union's count and mean, then its squared deviations from that mean: one all-reduce each for them all
+  std::vector<torch::Tensor> parts;
+  for (RunningMeanStd* n : normalizers) {
+    parts.push_back(torch::tensor({n->share_count_}, torch::kDouble));
+    parts.push_back(n->share_mean_ * n->share_count_);
+  }
+  torch::Tensor sums = torch::cat(parts);
+  collective->AllReduceSum(sums);
+  std::vector<double> counts;
+  std::vector<torch::Tensor> means;
+  parts.clear();
+  int64_t at = 0;
+  for (RunningMeanStd* n : normalizers) {
+    const double count = sums[at].item<double>();
+    const torch::Tensor mean = count > 0 ? sums.slice(0, at + 1, at + 1 + n->dim_) / count
+                                         : torch::zeros({n->dim_}, torch::kDouble);
+    at += 1 + n->dim_;
+    counts.push_back(count);
+    means.push_back(mean);
+    parts.push_back(n->share_m2_ + (n->share_mean_ - mean).square() * n->share_count_);
+  }
+  torch::Tensor m2 = torch::cat(parts);
+  collective->AllReduceSum(m2);
+  at = 0;
+  for (size_t k = 0; k < normalizers.size(); ++k) {
+    RunningMeanStd& n = *normalizers[k];
+    const torch::Tensor share_m2 = m2.slice(0, at, at + n.dim_);
+    at += n.dim_;
+    if (counts[k] > 0) {
+      // the statistics of the last synchronisation with every rank's share folded in (as Fold folds one batch)
+      const torch::Tensor delta = means[k] - n.base_mean_;
+      const double total = n.base_count_ + counts[k];
+      n.mean_ = n.base_mean_ + delta * (counts[k] / total);
+      n.var_ = (n.base_var_ * n.base_count_ + share_m2 + delta * delta * (n.base_count_ * counts[k] / total)) / total;
+      n.count_ = total;
+    }
+    n.MarkSynchronized();
+  }
+}
+
+void RunningMeanStd::Fold(const torch::Tensor& batch) {
   const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
   const double n = static_cast<double>(x.size(0));
   if (n == 0) return;
@@ -97,6 +170,7 @@ void RunningMeanStd::Set(const torch::Tensor& mean, const torch::Tensor& var, do
   mean_ = mean.to(torch::kDouble).reshape({dim_}).clone();
   var_ = var.to(torch::kDouble).reshape({dim_}).clone();
   count_ = count;
+  MarkSynchronized();
 }
 
 void RunningMeanStd::Update(const torch::Tensor& batch, Collective* collective) {
@@ -116,6 +190,7 @@ void RunningMeanStd::Update(const torch::Tensor& batch, Collective* collective) 
   mean_ = mean_ + delta * (n / total);
   var_ = (var_ * count_ + batch_var * n + delta * delta * (count_ * n / total)) / total;
   count_ = total;
+  MarkSynchronized();
 }
 
 torch::Tensor RunningMeanStd::Normalize(const torch::Tensor& x, double clip) const {
@@ -146,6 +221,7 @@ void RunningMeanStd::Load(const TensorArchive& archive, const std::string& key) 
       !(var_ >= 0.0).all().item<bool>()) {
     throw InputError(fmt::format("normaliser {}: expected finite statistics with var >= 0 and count >= 0", key));
   }
+  MarkSynchronized();
 }
 
 void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::string& key) {
@@ -157,7 +233,7 @@ void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::st
               ", but got ", mean.numel());
   mean_ = mean.to(torch::kDouble).reshape({dim_});
   var_ = var.to(torch::kDouble).reshape({dim_});
-  count_ = count.item<double>();
+  count_ = count.item<double>();  MarkSynchronized();
 }
 
 LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {

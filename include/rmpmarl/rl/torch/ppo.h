@@ -68,6 +68,13 @@ class RunningMeanStd {
   /// the same for the union of every rank's batch (two all-reduces: the mean, then the squared deviations from it);
   /// every rank then holds the same statistics. A null or one-rank collective is Update(batch).
   void Update(const torch::Tensor& batch, Collective* collective);
+  /// data-parallel rollouts: folds a batch into the statistics and into this rank's share since the last
+  /// synchronisation, without communicating (until then each rank's statistics include only its own new samples).
+  void Accumulate(const torch::Tensor& batch);
+  /// merges every rank's share accumulated since the last synchronisation into the statistics of that moment, so
+  /// that every rank holds what one process folding all the samples would, and starts new shares; two all-reduces
+  /// for all the normalisers given.
+  static void Synchronize(const std::vector<RunningMeanStd*>& normalizers, Collective* collective);
   /// clamp((x − mean) / sqrt(var + 1e-8), ±clip) as float; clip <= 0: no clamp.
   torch::Tensor Normalize(const torch::Tensor& x, double clip = 0.0) const;
   /// x · sqrt(var + 1e-8) + mean, as float.
@@ -85,9 +92,15 @@ class RunningMeanStd {
   void Load(torch::serialize::InputArchive& archive, const std::string& key);
 
  private:
+  void Fold(const torch::Tensor& batch);
+  void MarkSynchronized();
+
   int dim_;
   torch::Tensor mean_, var_;  // double
   double count_ = 1e-4;
+  // data-parallel: the statistics at the last synchronisation, and this rank's samples since (count, mean, M2)
+  torch::Tensor base_mean_, base_var_, share_mean_, share_m2_;
+  double base_count_ = 1e-4, share_count_ = 0.0;
 };
 
 /// The loss of one minibatch, as named terms.
