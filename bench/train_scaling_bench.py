@@ -7,7 +7,8 @@
     windowed success and return every 10 % of the run.
 The fps of a run is the median over its updates after the first (metrics.csv); the config's init_actor_from is left
 out (the bench needs no earlier run; a pre-trained start changes no step's cost).
-usage: train_scaling_bench.py BUILD_DIR [--config configs/train/mappo-reach-avoid.yaml] [--updates 12] [--curve N]"""
+usage: train_scaling_bench.py BUILD_DIR [--config configs/train/mappo-reach-avoid.yaml] [--updates 12] [--rounds 3]
+       [--curve N]"""
 import argparse
 import csv
 import os
@@ -54,20 +55,32 @@ def main():
     p.add_argument("build", nargs="?", default="build")
     p.add_argument("--config", default="configs/train/mappo-reach-avoid.yaml")
     p.add_argument("--updates", type=int, default=12)
+    p.add_argument("--rounds", type=int, default=3, help="interleaved repetitions of the three runs")
     p.add_argument("--curve", type=int, default=0, help="also compare learning curves over this many updates")
     a = p.parse_args()
     cli = os.path.join(a.build, "rmpmarl")
     n = next(int(line.split(":")[1]) for line in open(a.config) if line.startswith("num_envs:"))
     print(f"train_scaling_bench: {a.config}, {a.updates} updates, {machine()}")
     with tempfile.TemporaryDirectory() as tmp:
-        results = {}
-        for name, nproc, envs in (("1 process x N", 1, n), ("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n)):
-            wall, rows = run(cli, a.config, os.path.join(tmp, name.replace(" ", "")), a.updates, nproc, envs)
-            results[name] = fps(rows)
-            print(f"  {name:<16} N = {n}: {results[name]:8.0f} env steps/s (median over updates), wall {wall:.1f} s")
-        ratio = results["2 ranks x N"] / results["1 process x N"]
-        print(f"  2 ranks / 1 process of N: {ratio:.2f}x (goal >= 1.7x); "
-              f"2 ranks / 1 process of 2N: {results['2 ranks x N'] / results['1 process x 2N']:.2f}x")
+        runs = (("1 process x N", 1, n), ("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n))
+        results = {name: [] for name, _, _ in runs}
+        split = {name: [] for name, _, _ in runs}
+        ratios = []
+        for round_ in range(a.rounds):
+            for name, nproc, envs in runs:
+                _, rows = run(cli, a.config, os.path.join(tmp, name.replace(" ", "")), a.updates, nproc, envs)
+                results[name].append(fps(rows))
+                split[name].append((statistics.median(float(r["rollout_seconds"]) for r in rows[1:]),
+                                    statistics.median(float(r["learn_seconds"]) for r in rows[1:])))
+            ratios.append(results["2 ranks x N"][-1] / results["1 process x N"][-1])
+        for name, _, _ in runs:
+            rollout = statistics.median(r for r, _ in split[name])
+            learn = statistics.median(l for _, l in split[name])
+            print(f"  {name:<16} N = {n}: {statistics.median(results[name]):8.0f} env steps/s (median of {a.rounds} "
+                  f"runs of the per-update medians; rollout {rollout:.3f} s + learning {learn:.3f} s per update)")
+        print(f"  2 ranks / 1 process of N: {statistics.median(ratios):.2f}x, median of {a.rounds} interleaved rounds "
+              f"({', '.join(f'{r:.2f}' for r in ratios)}; goal >= 1.7x); 2 ranks / 1 process of 2N: "
+              f"{statistics.median(results['2 ranks x N']) / statistics.median(results['1 process x 2N']):.2f}x")
         if a.curve > 0:
             curves = {}
             for name, nproc, envs in (("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n)):
