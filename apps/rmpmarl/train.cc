@@ -5,8 +5,11 @@
 #ifdef RMPMARL_HAS_TORCH
 #include <fmt/core.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+extern char** environ;
 
 #include <chrono>
 #include <cstdlib>
@@ -25,59 +28,95 @@ namespace {
 
 // `--nproc N`: this process starts N copies of itself as the ranks of a local group (torchrun's variables, a free
 // loopback port) and waits for them. When one fails, the others end on their own (a collective with a dead peer
-// fails at once, one with a hung peer after the timeout); any still running `timeout` + 10 s later are killed.
+// fails at once, one with a hung peer after the timeout); any still running `timeout` + 10 s later are killed and
+// named as hung. A rank dies with this process (PR_SET_PDEATHSIG).
 [[noreturn]] void LaunchLocalRanks(int nproc, int timeout_s, char** argv) {
   const int port = rl::FreeLocalPort();
-  std::vector<pid_t> pids;
+  // each rank's environment, made before forking (a child only calls async-signal-safe functions until execve)
+  std::vector<std::vector<std::string>> envs(nproc);
+  std::vector<std::vector<char*>> envps(nproc);
+  for (int r = 0; r < nproc; ++r) {
+    for (char** e = environ; *e != nullptr; ++e) {
+      const std::string kv = *e;
+      const std::string key = kv.substr(0, kv.find('='));
+      if (key == "RANK" || key == "LOCAL_RANK" || key == "WORLD_SIZE" || key == "MASTER_ADDR" ||
+          key == "MASTER_PORT" || key == "RMPMARL_DIST_TIMEOUT") {
+        continue;
+      }
+      envs[r].push_back(kv);
+    }
+    envs[r].push_back(fmt::format("RANK={}", r));
+    envs[r].push_back(fmt::format("LOCAL_RANK={}", r));
+    envs[r].push_back(fmt::format("WORLD_SIZE={}", nproc));
+    envs[r].push_back("MASTER_ADDR=127.0.0.1");
+    envs[r].push_back(fmt::format("MASTER_PORT={}", port));
+    envs[r].push_back(fmt::format("RMPMARL_DIST_TIMEOUT={}", timeout_s));
+    for (std::string& kv : envs[r]) envps[r].push_back(kv.data());
+    envps[r].push_back(nullptr);
+  }
+  const pid_t launcher = getpid();
+  std::vector<pid_t> pids(nproc, 0);
   for (int r = 0; r < nproc; ++r) {
     const pid_t pid = fork();
-    if (pid < 0) throw std::runtime_error("train --nproc: fork failed");
+    if (pid < 0) {
+      for (pid_t p : pids) {
+        if (p > 0) kill(p, SIGKILL);
+      }
+      throw std::runtime_error(fmt::format("train --nproc: cannot start rank {}: fork failed", r));
+    }
     if (pid == 0) {
-      setenv("RANK", std::to_string(r).c_str(), 1);
-      setenv("LOCAL_RANK", std::to_string(r).c_str(), 1);
-      setenv("WORLD_SIZE", std::to_string(nproc).c_str(), 1);
-      setenv("MASTER_ADDR", "127.0.0.1", 1);
-      setenv("MASTER_PORT", std::to_string(port).c_str(), 1);
-      setenv("RMPMARL_DIST_TIMEOUT", std::to_string(timeout_s).c_str(), 1);
-      execv("/proc/self/exe", argv);
-      std::perror("train --nproc: cannot start a rank");
+      prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (getppid() != launcher) _exit(125);  // the launcher died before prctl
+      execve("/proc/self/exe", argv, envps[r].data());
       _exit(127);
     }
-    pids.push_back(pid);
+    pids[r] = pid;
   }
-  int failed_rank = -1, failed_status = 0, running = nproc;
-  std::chrono::steady_clock::time_point deadline;
+  std::vector<int> status(nproc, -1);
+  std::vector<bool> killed(nproc, false);
+  int failed_rank = -1, running = nproc;
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
   while (running > 0) {
-    int status = 0;
-    const pid_t pid = waitpid(-1, &status, failed_rank >= 0 ? WNOHANG : 0);
+    int st = 0;
+    const pid_t pid = waitpid(-1, &st, failed_rank >= 0 ? WNOHANG : 0);
     if (pid > 0) {
-      --running;
       int r = 0;
       while (r < nproc && pids[r] != pid) ++r;
-      if (r < nproc) pids[r] = 0;
-      const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      if (r == nproc) continue;
+      --running;
+      status[r] = st;
+      const bool ok = WIFEXITED(st) && WEXITSTATUS(st) == 0;
       if (!ok && failed_rank < 0) {
         failed_rank = r;
-        failed_status = status;
         deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeout_s + 10);
       }
       continue;
     }
-    if (failed_rank >= 0 && std::chrono::steady_clock::now() > deadline) {
-      for (pid_t p : pids) {
-        if (p > 0) kill(p, SIGKILL);
+    if (std::chrono::steady_clock::now() > deadline) {
+      for (int r = 0; r < nproc; ++r) {
+        if (status[r] == -1) {
+          kill(pids[r], SIGKILL);
+          killed[r] = true;
+        }
       }
       deadline = std::chrono::steady_clock::time_point::max();
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
-  if (failed_rank >= 0) {
-    fmt::print(stderr, "rmpmarl train: rank {} of {} {} {}; the run stopped (resume it from its last checkpoint with "
-                       "--resume)\n", failed_rank, nproc, WIFSIGNALED(failed_status) ? "was killed by signal" : "exited with status",
-               WIFSIGNALED(failed_status) ? WTERMSIG(failed_status) : WEXITSTATUS(failed_status));
-    std::exit(1);
+  if (failed_rank < 0) std::exit(0);
+  // what each rank did: a rank still running past the timeout hung (the others timed out waiting for it)
+  std::string report;
+  for (int r = 0; r < nproc; ++r) {
+    const int st = status[r];
+    std::string what = killed[r]                ? "hung: killed after the timeout"
+                       : WIFSIGNALED(st)         ? fmt::format("killed by signal {}", WTERMSIG(st))
+                       : WEXITSTATUS(st) == 0    ? "finished"
+                                                 : fmt::format("exited with status {}", WEXITSTATUS(st));
+    report += fmt::format("{}rank {}: {}", report.empty() ? "" : "; ", r, what);
   }
-  std::exit(0);
+  fmt::print(stderr, "rmpmarl train: the run of {} ranks stopped ({}); resume it from its last checkpoint with "
+                     "--resume\n", nproc, report);
+  std::exit(1);
 }
 
 }  // namespace
@@ -138,7 +177,7 @@ void RegisterTrain(CLI::App& app, int, char** argv) {
       collective = rl::JoinProcessGroup(*group);
     }
     rl::RunTraining(config, rl::MakeTaskFactory(config.task),
-                    rl::RunOptions{.resume = args->resume, .collective = collective.get()});
+                    rl::RunOptions{.resume = args->resume, .on_update = {}, .collective = collective.get()});
   });
 }
 

@@ -69,7 +69,7 @@ void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
       total += counts_[k];
     }
     // what the new images see, or see through, is forgotten; what they cannot see is added to their cloud
-    memory_.Forget(images_, ranges_, time);
+    memory_.Forget(images_, ranges_, time, options_.stride);
     if (cameras_.size() == 1) {
       cloud_.Update(camera_points_[0].leftCols(counts_[0]), time, world.q(), memory_.points(), memory_.counts());
     } else {

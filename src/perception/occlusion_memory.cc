@@ -24,13 +24,22 @@ void ValidateOcclusionMemoryOptions(const OcclusionMemoryOptions& o) {
 }
 
 PointVisibility ClassifyPoint(const DepthImage& image, const Eigen::Vector3d& p_W, double tolerance, int window,
-                              double min_range, double max_range) {
+                              double min_range, double max_range, int stride) {
   const CameraIntrinsics& k = image.intrinsics;
+  if (k.width < 1 || k.height < 1 || image.depth.size() != static_cast<size_t>(k.width) * k.height) {
+    throw InputError(fmt::format("ClassifyPoint image: expected {} x {} = {} depths, got {}", k.width, k.height,
+                                 static_cast<long>(k.width) * k.height, image.depth.size()));
+  }
+  if (stride < 1) throw InputError(fmt::format("ClassifyPoint stride: expected an integer >= 1, got {}", stride));
   const Eigen::Vector3d p_C = image.X_WC.inverse() * p_W;
   const double z = p_C.z();
   if (!(z >= min_range && z <= max_range)) return PointVisibility::kOutside;
-  const long u = std::lround(k.fx * p_C.x() / z + k.cx), v = std::lround(k.fy * p_C.y() / z + k.cy);
-  if (u < 0 || u >= k.width || v < 0 || v >= k.height) return PointVisibility::kOutside;
+  const double pu = k.fx * p_C.x() / z + k.cx, pv = k.fy * p_C.y() / z + k.cy;
+  if (!(pu > -0.5 && pu < k.width - 0.5 && pv > -0.5 && pv < k.height - 0.5)) return PointVisibility::kOutside;
+  // the nearest pixel the cloud was made of
+  const long last_u = (k.width - 1) / stride * stride, last_v = (k.height - 1) / stride * stride;
+  const long u = std::clamp(std::lround(pu / stride) * stride, 0L, last_u);
+  const long v = std::clamp(std::lround(pv / stride) * stride, 0L, last_v);
   const float* depth = image.depth.data();
   const double d = depth[v * k.width + u];
   if (d > 0.0 && d < z - tolerance) return PointVisibility::kHidden;
@@ -40,7 +49,7 @@ PointVisibility ClassifyPoint(const DepthImage& image, const Eigen::Vector3d& p_
   bool near_surface = false, in_front = false;
   for (long dv = -window; dv <= window; ++dv) {
     for (long du = -window; du <= window; ++du) {
-      const long uu = u + du, vv = v + dv;
+      const long uu = u + du * stride, vv = v + dv * stride;
       if (uu < 0 || uu >= k.width || vv < 0 || vv >= k.height) continue;
       const double dd = depth[vv * k.width + uu];
       if (!(dd > 0.0)) continue;
@@ -82,7 +91,7 @@ std::int64_t OcclusionMemory::KeyOf(const Eigen::Vector3d& p_W) const {
 }
 
 void OcclusionMemory::Forget(const std::vector<DepthImage>& images, const std::vector<Eigen::Vector2d>& ranges,
-                             double time) {
+                             double time, int stride) {
   if (images.size() != ranges.size()) {
     throw InputError(fmt::format("OcclusionMemory::Forget: expected one range per image ({}), got {}", images.size(),
                                  ranges.size()));
@@ -98,7 +107,7 @@ void OcclusionMemory::Forget(const std::vector<DepthImage>& images, const std::v
     bool seen = false, free = false;
     for (size_t c = 0; c < images.size(); ++c) {
       const PointVisibility v = ClassifyPoint(images[c], e.p_W, options_.depth_tolerance, options_.window,
-                                              ranges[c].x(), ranges[c].y());
+                                              ranges[c].x(), ranges[c].y(), stride);
       seen = seen || v == PointVisibility::kSeen;
       free = free || v == PointVisibility::kFree;
     }

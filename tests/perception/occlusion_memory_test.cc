@@ -79,6 +79,23 @@ TEST(OcclusionMemoryTest, ClassifiesPointsAgainstTheImage) {
   EXPECT_EQ(ClassifyPoint(image, {0.96, 1.0, 0.5}, 0.02, 0, lo, hi), PointVisibility::kSeen);
   EXPECT_EQ(ClassifyPoint(image, {0.98, 1.0, 0.5}, 0.02, 0, lo, hi), PointVisibility::kFree);
   EXPECT_EQ(ClassifyPoint(image, {0.92, 1.0, 0.5}, 0.02, 0, lo, hi), PointVisibility::kHidden);
+  // with a pixel stride, only the pixels the cloud was made of see a point: a stride-4 image whose other pixels are
+  // blanked classifies like the full one
+  DepthImage strided = image;
+  for (int v = 0; v < strided.intrinsics.height; ++v) {
+    for (int u = 0; u < strided.intrinsics.width; ++u) {
+      if (u % 4 != 0 || v % 4 != 0) strided.depth[static_cast<size_t>(v) * strided.intrinsics.width + u] = 0.0f;
+    }
+  }
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.95, 1.0, 0.5), Eigen::Vector3d(0.34, 1.0, 0.5),
+                                   Eigen::Vector3d(-0.28, 1.6, 0.5), Eigen::Vector3d(0.3, 1.45, 0.5)}) {
+    EXPECT_EQ(ClassifyPoint(strided, p, tol, 1, lo, hi, 4), ClassifyPoint(image, p, tol, 1, lo, hi)) << p.transpose();
+  }
+  // an image whose depths do not match its size, a stride below 1
+  DepthImage broken = image;
+  broken.depth.pop_back();
+  EXPECT_THROW(ClassifyPoint(broken, {0.95, 1.0, 0.5}, tol, 1, lo, hi), InputError);
+  EXPECT_THROW(ClassifyPoint(image, {0.95, 1.0, 0.5}, tol, 1, lo, hi, 0), InputError);
 }
 
 // the least distance from p to the update's obstacle points (infinity when there are none)
@@ -138,7 +155,9 @@ TEST(OcclusionMemoryTest, KeepsAHiddenCubeUntilTheCameraSeesThroughItsPlace) {
     // the cube is taken away and the occluder with it: the camera sees the wall through its place
     p.Frame({kWall}, t);
     EXPECT_GT(Nearest(p.cloud(), face), 0.1) << "a cube seen through is forgotten";
-    if (on) EXPECT_GT(p.memory().stats().forgotten_free, 10);
+    if (on) {
+      EXPECT_GT(p.memory().stats().forgotten_free, 10);
+    }
   }
 }
 
@@ -162,7 +181,9 @@ TEST(OcclusionMemoryTest, AHalfHiddenCubeKeepsItsCentroidAndStaysAtRest) {
     for (int k = 0; k < 10; ++k, t += 1.0 / 30.0) {
       p.Frame({kWall, kCube, half_occluder}, t);
       shift = std::max(shift, (cube().centroid_W - before).norm());
-      if (on) EXPECT_TRUE(cube().v_WO.isZero(0.0)) << "frame " << k << ": v " << cube().v_WO.transpose();
+      if (on) {
+        EXPECT_TRUE(cube().v_WO.isZero(0.0)) << "frame " << k << ": v " << cube().v_WO.transpose();
+      }
     }
     // with memory the hidden half weighs as it did when seen; without, the centroid jumps to the visible half
     if (on) {

@@ -337,6 +337,15 @@ TEST(DistributedTest, LocalRanksHoldOneLearnerAndRankZeroWritesTheRun) {
   const std::map<int, std::string> sums = Checksums(full.output);
   ASSERT_EQ(sums.size(), 2u) << full.output;
   EXPECT_EQ(sums.at(0), sums.at(1)) << "every rank holds the same learner after 4 updates";
+  // three ranks: Gloo's ring adds in a different order on each rank, rank 0's sums are everyone's
+  const std::string three_dir = TempDir("nproc3");
+  const ShellRun three = Shell(fmt::format("{} train {} --nproc 3 --quiet", cli, WriteConfig(three_dir, 4)));
+  ASSERT_EQ(three.status, 0) << three.output;
+  const std::map<int, std::string> three_sums = Checksums(three.output);
+  ASSERT_EQ(three_sums.size(), 3u) << three.output;
+  EXPECT_EQ(three_sums.at(0), three_sums.at(1));
+  EXPECT_EQ(three_sums.at(0), three_sums.at(2));
+  fs::remove_all(three_dir);
   // rank 0 alone wrote the run's files; each update counted both ranks' env steps (4 envs × 16 steps × 2 ranks)
   EXPECT_TRUE(fs::exists(dir + "/out/policy.rmpp"));
   std::ifstream csv(dir + "/out/metrics.csv");
@@ -428,6 +437,58 @@ TEST(DistributedTest, AHungRankEndsTheOtherAfterTheTimeout) {
   const double s = RankZeroSurvives("hang", 4, [](pid_t p) { kill(p, SIGSTOP); });
   std::printf("rank 0 ended %.2f s after rank 1 stopped (timeout 4 s)\n", s);
   EXPECT_GT(s, 3.0);
+}
+
+TEST(DistributedTest, TheLauncherNamesTheRankThatHung) {
+  const std::string dir = TempDir("launcher");
+  const std::string config = WriteConfig(dir, 100000);
+  const std::string log = dir + "/launcher.log";
+  const pid_t launcher = fork();
+  if (launcher == 0) {
+    if (freopen(log.c_str(), "w", stdout) == nullptr) _exit(126);
+    dup2(fileno(stdout), 2);
+    execl(RMPMARL_CLI_PATH, RMPMARL_CLI_PATH, "train", config.c_str(), "--nproc", "2", "--dist-timeout", "2",
+          nullptr);
+    _exit(127);
+  }
+  auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  const auto begin = std::chrono::steady_clock::now();
+  while (read(log).find("3/100000]") == std::string::npos) {
+    if (std::chrono::steady_clock::now() - begin > std::chrono::seconds(120)) {
+      kill(-launcher, SIGKILL);
+      kill(launcher, SIGKILL);
+      FAIL() << read(log);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  // the launcher's children, in the order it started them: rank 0, rank 1
+  std::ifstream children(fmt::format("/proc/{}/task/{}/children", launcher, launcher));
+  pid_t rank0 = 0, rank1 = 0;
+  children >> rank0 >> rank1;
+  ASSERT_GT(rank1, 0);
+  kill(rank1, SIGSTOP);
+  int status = 0;
+  const auto stopped = std::chrono::steady_clock::now();
+  while (waitpid(launcher, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() - stopped > std::chrono::seconds(40)) {
+      kill(rank0, SIGKILL);
+      kill(rank1, SIGKILL);
+      kill(launcher, SIGKILL);
+      FAIL() << "the launcher still ran 40 s after rank 1 hung (timeout 2 s)";
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1);
+  const std::string out = read(log);
+  EXPECT_NE(out.find("rank 1: hung: killed after the timeout"), std::string::npos) << out;
+  EXPECT_NE(out.find("rank 0: exited with status 1"), std::string::npos) << out;
+  EXPECT_NE(kill(rank1, 0), 0) << "the hung rank is gone";
+  fs::remove_all(dir);
 }
 
 }  // namespace

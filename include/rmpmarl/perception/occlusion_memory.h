@@ -51,10 +51,12 @@ enum class PointVisibility {
   kOutside,  ///< behind the camera, outside the image, or outside the camera's range
 };
 
-/// classifies p_W against `image` (see the file comment), with the image's depth at the nearest pixel to the point's
-/// projection and, for kFree, every valid pixel within `window` pixels of it.
+/// classifies p_W against `image` (see the file comment), with the image's depth at the pixel nearest to the point's
+/// projection among those the cloud was made of (every `stride`-th in u and v, DepthToWorldPoints) and, for kFree,
+/// every valid one of those within `window` of it. Throws InputError for an image whose depths do not match its
+/// intrinsics or a stride < 1.
 PointVisibility ClassifyPoint(const DepthImage& image, const Eigen::Vector3d& p_W, double depth_tolerance, int window,
-                              double min_range, double max_range);
+                              double min_range, double max_range, int stride = 1);
 
 /// What the last Forget and Remember did.
 struct OcclusionMemoryStats {
@@ -76,7 +78,9 @@ class OcclusionMemory {
   void Reset();
   /// forgets the remembered points that a camera of the new frame sees or sees through, and those not seen for
   /// hold_time. `ranges` gives each image's camera range [min, max] (depth outside it is no depth).
-  void Forget(const std::vector<DepthImage>& images, const std::vector<Eigen::Vector2d>& ranges, double time);
+  /// `stride`: the pixel stride the cloud was back-projected with (a point is seen only by a pixel of the cloud).
+  void Forget(const std::vector<DepthImage>& images, const std::vector<Eigen::Vector2d>& ranges, double time,
+              int stride = 1);
   /// the remembered points (3 × size()), to add to the new frame's cloud.
   const Eigen::Matrix3Xd& points() const { return points_; }
   /// how many points of the cloud each remembered point stands for (its voxel's when last seen).

@@ -61,9 +61,16 @@ class GlooCollective final : public Collective {
       store.waitWorkers = true;
       store.timeout = o.timeout;
       store_ = c10::make_intrusive<c10d::TCPStore>(o.master_addr, store);
-      // the interface that reaches the master: loopback for a local group, the host's address across machines
+      // the interface the other ranks reach this one on: GLOO_SOCKET_IFNAME's (as torch.distributed), else loopback
+      // for a local group, else the address the host's name resolves to
+      gloo::transport::tcp::attr attr;
       const bool local = o.master_addr == "127.0.0.1" || o.master_addr == "localhost";
-      auto device = gloo::transport::tcp::CreateDevice(gloo::transport::tcp::attr(local ? "127.0.0.1" : Hostname().c_str()));
+      if (const char* iface = std::getenv("GLOO_SOCKET_IFNAME"); iface != nullptr && *iface != '\0') {
+        attr.iface = iface;
+      } else {
+        attr.hostname = local ? "127.0.0.1" : Hostname();
+      }
+      auto device = gloo::transport::tcp::CreateDevice(attr);
       context_ = std::make_shared<gloo::rendezvous::Context>(o.rank, o.world_size);
       context_->setTimeout(o.timeout);
       c10d::ProcessGroupGloo::GlooStore gloo_store(store_);
@@ -108,16 +115,32 @@ class GlooCollective final : public Collective {
     Slot& slot = slots_[{op, static_cast<int>(type), n}];
     if (!slot.algorithm) {
       slot.buffer = torch::zeros({n}, torch::TensorOptions().dtype(type));
-      Run(what, [&] {
-        const int count = static_cast<int>(n);
-        if (type == torch::kFloat) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<float>(), count);
-        if (type == torch::kDouble) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<double>(), count);
-        if (type == torch::kLong) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<int64_t>(), count);
-      });
+      MakeAlgorithm(op, what, &slot, type, n);
     }
     slot.buffer.copy_(tensor.reshape({-1}));
     Run(what, [&] { slot.algorithm->run(); });
+    // the ring adds the ranks' buffers in a different order on each rank: with two the sums are the same bits
+    // (a + b = b + a), with more they may differ in the last bits, so every rank takes rank 0's
+    if (op == kAllReduce && options_.world_size > 2) {
+      Slot& same = slots_[{kBroadcast, static_cast<int>(type), n}];
+      if (!same.algorithm) {
+        same.buffer = torch::zeros({n}, torch::TensorOptions().dtype(type));
+        MakeAlgorithm(kBroadcast, what, &same, type, n);
+      }
+      same.buffer.copy_(slot.buffer);
+      Run(what, [&] { same.algorithm->run(); });
+      slot.buffer.copy_(same.buffer);
+    }
     tensor.copy_(slot.buffer.view(tensor.sizes()));
+  }
+
+  void MakeAlgorithm(Op op, const char* what, Slot* slot, torch::ScalarType type, int64_t n) {
+    Run(what, [&] {
+      const int count = static_cast<int>(n);
+      if (type == torch::kFloat) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<float>(), count);
+      if (type == torch::kDouble) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<double>(), count);
+      if (type == torch::kLong) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<int64_t>(), count);
+    });
   }
 
   template <typename F>

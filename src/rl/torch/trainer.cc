@@ -564,6 +564,17 @@ void Trainer::Resume(const std::string& path) {
   }
   m.envs_reset_at = -1;  // the next update seeds and resets the envs for its segment
   m.env_built_for = -1;
+  if (m.world > 1) {
+    // every rank must have read the same checkpoint (a copy per machine may be stale): rank 0's learner is the run's
+    torch::Tensor sum = torch::tensor({static_cast<std::int64_t>(LearnerChecksum())}, torch::kLong);
+    const std::int64_t own = sum.item<std::int64_t>();
+    m.collective->Broadcast(sum);
+    if (sum.item<std::int64_t>() != own) {
+      throw InputError(fmt::format("rank {} of {}: checkpoint {} holds another learner than rank 0's (checksum {:08x} "
+                                   "against {:08x}): every rank must resume from the same file", m.rank, m.world, path,
+                                   own, sum.item<std::int64_t>()));
+    }
+  }
 }
 
 namespace {

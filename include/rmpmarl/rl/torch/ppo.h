@@ -190,7 +190,8 @@ class Ppo {
   /// trains data-parallel with the other ranks of `collective` (null: alone): rank 0's parameters and normaliser
   /// statistics are broadcast now, ranks other than 0 sample from their own generator, and from here on every
   /// normaliser update, advantage normalisation and gradient step uses every rank's samples. Call after
-  /// InitActorFrom / Load, before Act.
+  /// InitActorFrom, before Act. The Adam moments are not broadcast: every rank starts from a fresh optimiser or
+  /// loads the same checkpoint (Trainer::Resume checks that they did).
   void SetCollective(Collective* collective);
   Collective* collective() const { return collective_; }
 
