@@ -89,19 +89,25 @@ TEST(DepthPerceptionTest, SensedClearancesFollowTheTrueShapesThroughACrossingEpi
   EXPECT_LT(r.sensor.velocity_error_mean, 0.15) << "mean |v_sensed − v_true| [m/s]";
 }
 
-TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
-  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+// the cluttered scene on the Panda, RMPflow, and the default depth sensor (null where offscreen rendering is not)
+struct ClutteredRig {
+  kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("cluttered", robot);
-  auto model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
+  std::shared_ptr<const sim::WorldModel> model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, {});
-  if (!sensor) GTEST_SKIP() << "offscreen rendering is not available here";
-  sim::World world(model);
-  sim::ReactiveController controller(*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8));
+  sim::World world{model};
+  sim::ReactiveController controller{*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8)};
+};
+
+TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
+  ClutteredRig rig;
+  if (!rig.sensor) GTEST_SKIP() << "offscreen rendering is not available here";
+  DepthPerception* sensor = rig.sensor.get();
   int successes = 0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     sim::EpisodeOptions episode{.duration = 3.0, .seed = seed};
-    episode.sensor = sensor.get();
-    const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario);
+    episode.sensor = sensor;
+    const sim::EpisodeResult r = sim::RunEpisode(episode, rig.world, rig.controller, *rig.scenario);
     EXPECT_EQ(r.nonfinite_policy_outputs, 0);
     EXPECT_GT(r.sensor.obstacles_mean, 2.0) << "the camera sees the clutter";
     // static clutter is at rest: its centroids jitter below min_speed, but for a cube the arm occludes in part
@@ -112,19 +118,15 @@ TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
 }
 
 TEST(DepthPerceptionTest, MemoryHoldsOnlyTheClutterTheArmHides) {
-  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("cluttered", robot);
-  auto model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
-  std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, {});
-  if (!sensor) GTEST_SKIP() << "offscreen rendering is not available here";
-  sim::World world(model);
-  sim::ReactiveController controller(*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8));
+  ClutteredRig rig;
+  if (!rig.sensor) GTEST_SKIP() << "offscreen rendering is not available here";
+  DepthPerception* sensor = rig.sensor.get();
   long remembered = 0, hidden_frames = 0;
   double worst = 0.0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     sim::EpisodeOptions episode{.duration = 3.0, .seed = seed, .video_fps = 30.0};
-    episode.sensor = sensor.get();
-    sim::RunEpisode(episode, world, controller, *scenario, [&](const sim::FrameInfo& f) {
+    episode.sensor = sensor;
+    sim::RunEpisode(episode, rig.world, rig.controller, *rig.scenario, [&](const sim::FrameInfo& f) {
       rmp::Scene truth;
       f.scenario->FillScene(&truth);
       const Eigen::Matrix3Xd& p = sensor->memory().points();

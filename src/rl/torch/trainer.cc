@@ -20,6 +20,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <sstream>
 
@@ -191,6 +192,29 @@ void CheckNetworkFitsArchive(const TrainConfig& config, const tasks::EnvSpec& sp
 
 
 
+
+// the learner's state every rank of a run shares, in a fixed order: each parameter with its Adam moments and step,
+// then each normaliser's mean, variance and count (tensors to on_tensor, numbers to on_scalar)
+void ForEachLearnerValue(Ppo& ppo, const std::function<void(const torch::Tensor&)>& on_tensor,
+                         const std::function<void(double)>& on_scalar) {
+  std::vector<torch::Tensor> params = ppo.actor()->parameters();
+  for (const torch::Tensor& p : ppo.critic()->parameters()) params.push_back(p);
+  auto& state = ppo.optimizer().state();
+  for (const torch::Tensor& p : params) {
+    on_tensor(p);
+    auto it = state.find(c10::guts::to_string(p.unsafeGetTensorImpl()));
+    if (it == state.end()) continue;
+    const auto& adam = static_cast<const torch::optim::AdamParamState&>(*it->second);
+    on_tensor(adam.exp_avg());
+    on_tensor(adam.exp_avg_sq());
+    on_scalar(static_cast<double>(adam.step()));
+  }
+  for (RunningMeanStd* n : {&ppo.obs_norm(), &ppo.state_norm(), &ppo.value_norm()}) {
+    on_tensor(n->mean());
+    on_tensor(n->var());
+    on_scalar(n->count());
+  }
+}
 
 }  // namespace
 
@@ -476,27 +500,14 @@ void Trainer::SaveCheckpoint(const std::string& path) const {
 }
 
 std::uint32_t Trainer::LearnerChecksum() const {
-  Ppo& ppo = *impl_->ppo;
   std::uint32_t crc = 0;
-  auto add = [&](const torch::Tensor& t) {
-    const torch::Tensor c = t.detach().contiguous();
-    crc = Crc32c(c.data_ptr(), c.numel() * c.element_size(), crc);
-  };
-  std::vector<torch::Tensor> params = ppo.actor()->parameters();
-  for (const torch::Tensor& p : ppo.critic()->parameters()) params.push_back(p);
-  auto& state = ppo.optimizer().state();
-  for (const torch::Tensor& p : params) {
-    add(p);
-    auto it = state.find(c10::guts::to_string(p.unsafeGetTensorImpl()));
-    if (it == state.end()) continue;
-    const auto& adam = static_cast<const torch::optim::AdamParamState&>(*it->second);
-    add(adam.exp_avg());
-    add(adam.exp_avg_sq());
-  }
-  for (RunningMeanStd* n : {&ppo.obs_norm(), &ppo.state_norm(), &ppo.value_norm()}) {
-    add(n->mean());
-    add(n->var());
-  }
+  ForEachLearnerValue(
+      *impl_->ppo,
+      [&](const torch::Tensor& t) {
+        const torch::Tensor c = t.detach().contiguous();
+        crc = Crc32c(c.data_ptr(), c.numel() * c.element_size(), crc);
+      },
+      [&](double x) { crc = Crc32c(&x, sizeof(x), crc); });
   return crc;
 }
 
@@ -616,23 +627,7 @@ std::vector<double> Trainer::StateVector() const {
     const torch::Tensor d = t.detach().to(torch::kDouble).contiguous().reshape({-1});
     out.insert(out.end(), d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
   };
-  std::vector<torch::Tensor> params = ppo.actor()->parameters();
-  for (const torch::Tensor& p : ppo.critic()->parameters()) params.push_back(p);
-  auto& state = ppo.optimizer().state();
-  for (const torch::Tensor& p : params) {
-    append(p);
-    auto it = state.find(c10::guts::to_string(p.unsafeGetTensorImpl()));
-    if (it == state.end()) continue;
-    const auto& adam = static_cast<const torch::optim::AdamParamState&>(*it->second);
-    append(adam.exp_avg());
-    append(adam.exp_avg_sq());
-    out.push_back(static_cast<double>(adam.step()));
-  }
-  for (RunningMeanStd* n : {&ppo.obs_norm(), &ppo.state_norm(), &ppo.value_norm()}) {
-    append(n->mean());
-    append(n->var());
-    out.push_back(n->count());
-  }
+  ForEachLearnerValue(ppo, append, [&](double x) { out.push_back(x); });
   append(ppo.generator().get_state());
   out.push_back(impl_->update);
   out.push_back(static_cast<double>(impl_->env_steps));
