@@ -6,10 +6,14 @@
 #include <benchmark/benchmark.h>
 #include <mujoco/mujoco.h>
 
+#include <fmt/format.h>
+
 #include <memory>
 #include <random>
 #include <vector>
 
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/vec_env.h"
 
@@ -29,6 +33,21 @@ tasks::TaskConfig BenchConfig(tasks::InterfaceMode mode, tasks::ScenarioUpdate u
   return c;
 }
 
+// 4096 random joint actions of `spec`'s interface, drawn before timing and cycled
+std::vector<float> RandomActions(const tasks::EnvSpec& spec, std::mt19937_64& rng) {
+  const int action_size = spec.num_agents * spec.action.size();
+  std::vector<float> actions(4096 * static_cast<size_t>(action_size));
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), flag(0.0f, 1.0f);
+  for (size_t k = 0; k < actions.size(); ++k) actions[k] = u(rng);
+  if (spec.action.num_options > 0) {
+    for (size_t k = 0; k < actions.size(); k += spec.action.size()) {
+      actions[k] = static_cast<float>(std::uniform_int_distribution<int>(0, 2)(rng));
+      if (spec.action.has_termination) actions[k + spec.action.termination_offset()] = flag(rng) < 0.1f ? 1.0f : 0.0f;
+    }
+  }
+  return actions;
+}
+
 // one env, random actions drawn before timing, auto-reset at episode ends (resets are included in the time).
 void BM_EnvStep(benchmark::State& state) {
   const auto mode = static_cast<tasks::InterfaceMode>(state.range(0));
@@ -41,17 +60,8 @@ void BM_EnvStep(benchmark::State& state) {
   tasks::StepBuffers buffers(spec);
   const tasks::StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
-  // draw the actions up front: 4096 random joint actions, cycled
   const int action_size = spec.num_agents * spec.action.size();
-  std::vector<float> actions(4096 * static_cast<size_t>(action_size));
-  std::uniform_real_distribution<float> u(-1.0f, 1.0f), flag(0.0f, 1.0f);
-  for (size_t k = 0; k < actions.size(); ++k) actions[k] = u(rng);
-  if (spec.action.num_options > 0) {
-    for (size_t k = 0; k < actions.size(); k += spec.action.size()) {
-      actions[k] = static_cast<float>(std::uniform_int_distribution<int>(0, 2)(rng));
-      if (spec.action.has_termination) actions[k + spec.action.termination_offset()] = flag(rng) < 0.1f ? 1.0f : 0.0f;
-    }
-  }
+  const std::vector<float> actions = RandomActions(spec, rng);
   for (int r = 0; r < 3 * context->num_variants(); ++r) env.Reset(rng, out);  // make every variant's scenario
   env.Reset(rng, out);
   long k = 0, warnings = 0;
@@ -73,6 +83,34 @@ BENCHMARK(BM_EnvStep)
     ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointDirect), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 5, 0})
     ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointDirect), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 1, 0})
     ->Unit(benchmark::kMicrosecond);
+
+// the shipped learned default's own task, as its controller file carries it (the coupled basic layer, the hand gate,
+// the look-ahead block and observation; reach-avoid with its crossing cubes, obstacles moved per physics step as
+// the file says), one env stepped with random actions of its interface: the env step the default is trained on
+void BM_EnvStepLearnedDefault(benchmark::State& state) {
+  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+  const tasks::TaskConfig config = PolicyTaskConfig(LoadPolicyFile(path), path);
+  auto context = tasks::MakeTaskContext(config);
+  tasks::ManipulatorEnv env(context);
+  const tasks::EnvSpec& spec = env.spec();
+  tasks::StepBuffers buffers(spec);
+  const tasks::StepOutput out = buffers.out();
+  std::mt19937_64 rng(7);
+  const int action_size = spec.num_agents * spec.action.size();
+  const std::vector<float> actions = RandomActions(spec, rng);
+  for (int r = 0; r < 3 * context->num_variants(); ++r) env.Reset(rng, out);
+  env.Reset(rng, out);
+  long k = 0;
+  for (auto _ : state) {
+    env.Step(actions.data() + (k++ % 4096) * action_size, rng, out);
+    if (buffers.terminated || buffers.truncated) env.Reset(rng, out);
+  }
+  state.counters["env_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                     benchmark::Counter::kIsRate);
+  state.SetLabel(fmt::format("{} agents, local obs {}, lookahead {} s", spec.num_agents, spec.local_obs_dim,
+                             config.observation.lookahead));
+}
+BENCHMARK(BM_EnvStepLearnedDefault)->Unit(benchmark::kMicrosecond);
 
 // the batched engine: 32 envs (per-joint RMP agents, 1 physics step per env step) on 1 or 2 worker threads;
 // wall-clock rate, so the thread scaling is visible (goal: 2 threads ≥ 1.8× one).
