@@ -48,13 +48,10 @@ std::vector<float> RandomActions(const tasks::EnvSpec& spec, std::mt19937_64& rn
   return actions;
 }
 
-// one env, random actions drawn before timing, auto-reset at episode ends (resets are included in the time).
-void BM_EnvStep(benchmark::State& state) {
-  const auto mode = static_cast<tasks::InterfaceMode>(state.range(0));
-  const auto update = static_cast<tasks::ScenarioUpdate>(state.range(1));
-  const int physics_steps = static_cast<int>(state.range(2));
-  const double lookahead = static_cast<double>(state.range(3));  // [s]: the look-ahead block (0: off)
-  auto context = tasks::MakeTaskContext(BenchConfig(mode, update, physics_steps, lookahead));
+// one env of `config`, random actions drawn before timing, auto-reset at episode ends (resets are included in the
+// time)
+void RunEnvSteps(benchmark::State& state, const tasks::TaskConfig& config) {
+  auto context = tasks::MakeTaskContext(config);
   tasks::ManipulatorEnv env(context);
   const tasks::EnvSpec& spec = env.spec();
   tasks::StepBuffers buffers(spec);
@@ -74,6 +71,14 @@ void BM_EnvStep(benchmark::State& state) {
                                                      benchmark::Counter::kIsRate);
   state.counters["contacts"] = benchmark::Counter(static_cast<double>(warnings) / state.iterations());
 }
+
+void BM_EnvStep(benchmark::State& state) {
+  const auto mode = static_cast<tasks::InterfaceMode>(state.range(0));
+  const auto update = static_cast<tasks::ScenarioUpdate>(state.range(1));
+  const int physics_steps = static_cast<int>(state.range(2));
+  const double lookahead = static_cast<double>(state.range(3));  // [s]: the look-ahead block (0: off)
+  RunEnvSteps(state, BenchConfig(mode, update, physics_steps, lookahead));
+}
 BENCHMARK(BM_EnvStep)
     ->ArgNames({"mode", "update", "physics", "lookahead"})
     ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointRmp), static_cast<int>(tasks::ScenarioUpdate::kPhysicsStep), 5, 0})
@@ -84,31 +89,15 @@ BENCHMARK(BM_EnvStep)
     ->Args({static_cast<int>(tasks::InterfaceMode::kPerJointDirect), static_cast<int>(tasks::ScenarioUpdate::kControlStep), 1, 0})
     ->Unit(benchmark::kMicrosecond);
 
-// the shipped learned default's own task, as its controller file carries it (the coupled basic layer, the hand gate,
-// the look-ahead block and observation; reach-avoid with its crossing cubes, obstacles moved per physics step as
-// the file says), one env stepped with random actions of its interface: the env step the default is trained on
+// the shipped learned default's own task as its controller file carries it (the coupled basic layer, the hand gate,
+// the look-ahead block and observation of the reach-avoid scene it was trained in): the env step it is trained on
 void BM_EnvStepLearnedDefault(benchmark::State& state) {
   const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
   const tasks::TaskConfig config = PolicyTaskConfig(LoadPolicyFile(path), path);
-  auto context = tasks::MakeTaskContext(config);
-  tasks::ManipulatorEnv env(context);
-  const tasks::EnvSpec& spec = env.spec();
-  tasks::StepBuffers buffers(spec);
-  const tasks::StepOutput out = buffers.out();
-  std::mt19937_64 rng(7);
-  const int action_size = spec.num_agents * spec.action.size();
-  const std::vector<float> actions = RandomActions(spec, rng);
-  for (int r = 0; r < 3 * context->num_variants(); ++r) env.Reset(rng, out);
-  env.Reset(rng, out);
-  long k = 0;
-  for (auto _ : state) {
-    env.Step(actions.data() + (k++ % 4096) * action_size, rng, out);
-    if (buffers.terminated || buffers.truncated) env.Reset(rng, out);
-  }
-  state.counters["env_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()),
-                                                     benchmark::Counter::kIsRate);
-  state.SetLabel(fmt::format("{} agents, local obs {}, lookahead {} s", spec.num_agents, spec.local_obs_dim,
-                             config.observation.lookahead));
+  RunEnvSteps(state, config);
+  state.SetLabel(fmt::format("{}, lookahead {} s, scenario update per {}", config.robot, config.observation.lookahead,
+                             config.episode.scenario_update == tasks::ScenarioUpdate::kPhysicsStep ? "physics step"
+                                                                                                   : "control step"));
 }
 BENCHMARK(BM_EnvStepLearnedDefault)->Unit(benchmark::kMicrosecond);
 
