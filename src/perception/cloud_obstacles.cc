@@ -30,6 +30,12 @@ std::string Vec(const Eigen::Vector3d& v) { return fmt::format("[{:g}, {:g}, {:g
 
 }  // namespace
 
+std::int64_t VoxelKey(const Eigen::Vector3d& p_W, double inv_voxel_size) {
+  return PackKey(static_cast<std::int64_t>(std::floor(p_W.x() * inv_voxel_size)),
+                 static_cast<std::int64_t>(std::floor(p_W.y() * inv_voxel_size)),
+                 static_cast<std::int64_t>(std::floor(p_W.z() * inv_voxel_size)));
+}
+
 void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
   auto fail = [](std::string_view field, std::string_view expected, const std::string& got) {
     throw InputError(fmt::format("CloudObstacleOptions.{}: expected {}, got {}", field, expected, got));
@@ -188,9 +194,7 @@ void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, c
       ++stats_.outside_points;
       return;
     }
-    const std::int64_t key = PackKey(static_cast<std::int64_t>(std::floor(p.x() * inv)),
-                                     static_cast<std::int64_t>(std::floor(p.y() * inv)),
-                                     static_cast<std::int64_t>(std::floor(p.z() * inv)));
+    const std::int64_t key = VoxelKey(p, inv);
     size_t slot = HashSlot(key, mask);
     while (table_keys_[slot] != kEmpty && table_keys_[slot] != key) slot = (slot + 1) & mask;
     if (table_keys_[slot] == kEmpty) {

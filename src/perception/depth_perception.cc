@@ -52,7 +52,7 @@ void DepthPerception::Reset(const sim::World& world) {
   memory_.Reset();
   next_time_ = world.time();
   updates_ = 0;
-  update_us_ = points_ = obstacles_ = remembered_ = hidden_ = 0.0;
+  update_us_ = points_ = obstacles_ = hidden_ = 0.0;
   velocity_errors_.clear();
   tracked_errors_.clear();
 }
@@ -81,9 +81,8 @@ void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
       }
       cloud_.Update(all_points_, time, world.q(), memory_.points(), memory_.counts());
     }
-    hidden_ += static_cast<double>(memory_.size());
+    hidden_ += static_cast<double>(memory_.stats().hidden);
     memory_.Remember(cloud_, time);
-    remembered_ += static_cast<double>(memory_.size());
     // the next frame on the camera's own clock (a late call does not shift the clock)
     while (next_time_ <= time + 1e-9) next_time_ += period_;
     ++updates_;
@@ -122,7 +121,6 @@ sim::SensorSummary DepthPerception::Summary() const {
     s.update_mean_us = update_us_ / updates_;
     s.points_mean = points_ / updates_;
     s.obstacles_mean = obstacles_ / updates_;
-    s.remembered_mean = remembered_ / updates_;
     s.hidden_mean = hidden_ / updates_;
   }
   s.velocity_samples = static_cast<long>(velocity_errors_.size());

@@ -82,14 +82,6 @@ void OcclusionMemory::Reset() {
   stats_ = {};
 }
 
-std::int64_t OcclusionMemory::KeyOf(const Eigen::Vector3d& p_W) const {
-  // 21 bits per axis: ±10 km at 1 cm voxels; CloudObstacles' workspace check keeps points far inside that
-  constexpr std::int64_t kOffset = std::int64_t{1} << 20;
-  const double inv = 1.0 / voxel_size_;
-  auto axis = [&](double x) { return static_cast<std::int64_t>(std::floor(x * inv)) + kOffset; };
-  return (axis(p_W.x()) << 42) | (axis(p_W.y()) << 21) | axis(p_W.z());
-}
-
 void OcclusionMemory::Forget(const std::vector<DepthImage>& images, const std::vector<Eigen::Vector2d>& ranges,
                              double time, int stride) {
   if (images.size() != ranges.size()) {
@@ -136,7 +128,7 @@ void OcclusionMemory::Remember(const CloudObstacles& cloud, double time) {
     for (Eigen::Index i = 0; i < p.cols(); ++i) {
       Entry e;
       e.p_W = p.col(i);
-      e.key = KeyOf(e.p_W);
+      e.key = VoxelKey(e.p_W, 1.0 / voxel_size_);
       e.count = counts[i];
       e.seen = time;
       // a voxel still in memory is hidden now: it stays as it was last seen (its count does not take in this frame's
@@ -155,7 +147,6 @@ void OcclusionMemory::Remember(const CloudObstacles& cloud, double time) {
   std::sort(next_.begin(), next_.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
   std::swap(entries_, next_);
   RebuildPoints();
-  stats_.remembered = static_cast<long>(entries_.size());
 }
 
 void OcclusionMemory::RebuildPoints() {

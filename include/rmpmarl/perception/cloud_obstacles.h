@@ -60,6 +60,10 @@ struct CloudObstacleOptions {
 /// throws InputError naming the field unless the options are valid.
 void ValidateCloudObstacleOptions(const CloudObstacleOptions& options);
 
+/// the key of the voxel (cube of side 1 / inv_voxel_size, corners on multiples of it) that holds p_W: its three
+/// integer indices packed in 21 bits each. ValidateCloudObstacleOptions keeps the workspace within that range.
+std::int64_t VoxelKey(const Eigen::Vector3d& p_W, double inv_voxel_size);
+
 /// What one update did, in points / voxels / clusters.
 struct CloudUpdateStats {
   long input_points = 0;

@@ -64,7 +64,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   double next_time_ = 0.0;
   // summary
   long updates_ = 0;
-  double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0, remembered_ = 0.0, hidden_ = 0.0;
+  double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0, hidden_ = 0.0;
   std::vector<double> velocity_errors_, tracked_errors_;  // all matches; tracks followed ≥ 2 updates
 };
 

@@ -65,7 +65,6 @@ struct OcclusionMemoryStats {
   long forgotten_full = 0;  ///< past max_points
   long forgotten_seen = 0;  ///< seen again (the new cloud has them)
   long hidden = 0;          ///< kept: no camera sees them
-  long remembered = 0;      ///< points in memory after Remember
 };
 
 /// The points of static obstacles, remembered while the cameras cannot see them.
@@ -100,7 +99,6 @@ class OcclusionMemory {
     int count = 1;         // points of the cloud in its voxel when last seen
     double seen = 0.0;     // time it was last seen [s]
   };
-  std::int64_t KeyOf(const Eigen::Vector3d& p_W) const;
   void RebuildPoints();
 
   OcclusionMemoryOptions options_;

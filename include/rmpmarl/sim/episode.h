@@ -19,8 +19,9 @@ struct SensorSummary {
   double update_mean_us = 0.0;       ///< wall time per frame: rendering, back-projection and the cloud pipeline [µs]
   double points_mean = 0.0;          ///< kept points per frame (after filtering and downsampling)
   double obstacles_mean = 0.0;       ///< obstacles per frame
-  double remembered_mean = 0.0;      ///< points remembered from earlier frames per frame (perception::OcclusionMemory)
-  double hidden_mean = 0.0;          ///< of which the cameras could not see at that frame (hidden, no depth, outside)
+  /// points remembered from earlier frames that the cameras could not see (hidden, no depth, outside), per frame
+  /// (perception::OcclusionMemory)
+  double hidden_mean = 0.0;
   long velocity_samples = 0;         ///< sensed obstacles matched to a true one (centre within 0.15 m)
   double velocity_error_mean = 0.0;  ///< mean |v_sensed − v_true| over the matched ones [m/s]
   double velocity_error_p90 = 0.0;   ///< its 90th percentile [m/s]
