@@ -112,21 +112,13 @@ class GlooCollective final : public Collective {
     }
     const int64_t n = tensor.numel();
     if (n == 0) return;
-    Slot& slot = slots_[{op, static_cast<int>(type), n}];
-    if (!slot.algorithm) {
-      slot.buffer = torch::zeros({n}, torch::TensorOptions().dtype(type));
-      MakeAlgorithm(op, what, &slot, type, n);
-    }
+    Slot& slot = SlotFor(op, what, type, n);
     slot.buffer.copy_(tensor.reshape({-1}));
     Run(what, [&] { slot.algorithm->run(); });
     // the ring adds the ranks' buffers in a different order on each rank: with two the sums are the same bits
     // (a + b = b + a), with more they may differ in the last bits, so every rank takes rank 0's
     if (op == kAllReduce && options_.world_size > 2) {
-      Slot& same = slots_[{kBroadcast, static_cast<int>(type), n}];
-      if (!same.algorithm) {
-        same.buffer = torch::zeros({n}, torch::TensorOptions().dtype(type));
-        MakeAlgorithm(kBroadcast, what, &same, type, n);
-      }
+      Slot& same = SlotFor(kBroadcast, what, type, n);
       same.buffer.copy_(slot.buffer);
       Run(what, [&] { same.algorithm->run(); });
       slot.buffer.copy_(same.buffer);
@@ -134,13 +126,18 @@ class GlooCollective final : public Collective {
     tensor.copy_(slot.buffer.view(tensor.sizes()));
   }
 
-  void MakeAlgorithm(Op op, const char* what, Slot* slot, torch::ScalarType type, int64_t n) {
+  // the slot of (op, type, size), its buffer and algorithm made on first use
+  Slot& SlotFor(Op op, const char* what, torch::ScalarType type, int64_t n) {
+    Slot& slot = slots_[{op, static_cast<int>(type), n}];
+    if (slot.algorithm) return slot;
+    slot.buffer = torch::zeros({n}, torch::TensorOptions().dtype(type));
     Run(what, [&] {
       const int count = static_cast<int>(n);
-      if (type == torch::kFloat) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<float>(), count);
-      if (type == torch::kDouble) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<double>(), count);
-      if (type == torch::kLong) slot->algorithm = Make(op, context_, slot->buffer.data_ptr<int64_t>(), count);
+      if (type == torch::kFloat) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<float>(), count);
+      if (type == torch::kDouble) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<double>(), count);
+      if (type == torch::kLong) slot.algorithm = Make(op, context_, slot.buffer.data_ptr<int64_t>(), count);
     });
+    return slot;
   }
 
   template <typename F>

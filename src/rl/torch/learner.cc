@@ -56,6 +56,12 @@ namespace {
 
 at::Generator MakeGenerator(std::uint64_t seed) { return at::make_generator<at::CPUGeneratorImpl>(seed); }
 
+// the seed of the action-sampling generator: a one-process run's for rank 0, one of its own for every other rank
+std::uint64_t SamplerSeed(std::uint64_t seed, int rank) {
+  const std::uint64_t base = SplitMix64(seed ^ 0x5A3D1E);
+  return rank == 0 ? base : SplitMix64(base + static_cast<std::uint64_t>(rank));
+}
+
 // PpoOptions::bf16_autocast where it pays: requested, and the CPU has native bf16 matmuls
 bool Bf16Active(const PpoOptions& options) {
   static const bool fast = CpuHasFastBf16();
@@ -291,7 +297,7 @@ Ppo::Ppo(const tasks::EnvSpec& spec, const NetworkOptions& network, const PpoOpt
       obs_norm_(spec.local_obs_dim),
       state_norm_(spec.global_state_dim),
       value_norm_(1),
-      generator_(MakeGenerator(SplitMix64(seed ^ 0x5A3D1E))),
+      generator_(MakeGenerator(SamplerSeed(seed, 0))),
       seed_(seed) {
   if (spec.local_obs_dim < 1 || spec.global_state_dim < 1 || spec.num_agents < 1) {
     throw InputError(fmt::format("env spec of task {}: expected positive obs/state dims and agents, got {}/{}/{}",
@@ -327,9 +333,7 @@ void Ppo::SetCollective(Collective* collective) {
     n->Set(stats.slice(0, 0, d), stats.slice(0, d, 2 * d), stats[2 * d].item<double>());
   }
   // each rank samples its own actions; rank 0 keeps the generator a one-process run has
-  if (collective_->rank() > 0) {
-    generator_ = MakeGenerator(SplitMix64(SplitMix64(seed_ ^ 0x5A3D1E) + static_cast<std::uint64_t>(collective_->rank())));
-  }
+  if (collective_->rank() > 0) generator_ = MakeGenerator(SamplerSeed(seed_, collective_->rank()));
 }
 
 ActResult Ppo::Act(const torch::Tensor& local_obs, const torch::Tensor& global_state, bool update_normalizers,
@@ -423,21 +427,21 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
   std::vector<torch::Tensor> parameters = actor_->parameters();
   for (const torch::Tensor& p : critic_->parameters()) parameters.push_back(p);
   const torch::Tensor agent_offsets = torch::arange(A, torch::kLong);
+  // the actor rows of env-steps idx: A agents each, env-step major
+  auto agent_rows = [&](const torch::Tensor& idx) {
+    return (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
+  };
 
   const int nb = options_.minibatches();
   int minibatches_run = 0;
   for (int epoch = 0; epoch < options_.epochs(); ++epoch) {
     const torch::Tensor perm = torch::randperm(M, generator_, torch::kLong);
     double epoch_kl = 0.0;
-    auto minibatch_rows = [&](int b) {
-      const torch::Tensor idx = perm.slice(0, M * b / nb, M * (b + 1) / nb);
-      return (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
-    };
     torch::Tensor mask_totals;  // data-parallel: each minibatch's option and termination mask sums over the ranks
     if (world > 1) {
       mask_totals = torch::zeros({nb, 2}, torch::kDouble);
       for (int b = 0; b < nb; ++b) {
-        const torch::Tensor rows = minibatch_rows(b);
+        const torch::Tensor rows = agent_rows(perm.slice(0, M * b / nb, M * (b + 1) / nb));
         mask_totals[b][0] = batch.option_mask.index_select(0, rows).sum().item<double>();
         mask_totals[b][1] = batch.termination_mask.index_select(0, rows).sum().item<double>();
       }
@@ -447,7 +451,7 @@ UpdateStats Ppo::Update(const RolloutBatch& batch, double lr_scale) {
       const int64_t begin = M * b / nb, end = M * (b + 1) / nb;
       if (end <= begin) continue;
       const torch::Tensor idx = perm.slice(0, begin, end);
-      const torch::Tensor rows = (idx.unsqueeze(1) * A + agent_offsets.unsqueeze(0)).reshape({-1});
+      const torch::Tensor rows = agent_rows(idx);
       LossInputs in;
       in.layout = layout_;
       {

@@ -75,6 +75,21 @@ torch::Tensor ClippedValueLoss(const torch::Tensor& values, const torch::Tensor&
   return 0.5 * torch::max(error, (clipped - returns).pow(2)).mean();
 }
 
+namespace {
+
+// the parallel update of the statistics (mean, var, count) of a set with those of n more samples: their mean b_mean
+// and their summed squared deviations from it b_m2 (Chan, Golub & LeVeque)
+void MergeMoments(torch::Tensor& mean, torch::Tensor& var, double& count, double n, const torch::Tensor& b_mean,
+                  const torch::Tensor& b_m2) {
+  const torch::Tensor delta = b_mean - mean;
+  const double total = count + n;
+  mean = mean + delta * (n / total);
+  var = (var * count + b_m2 + delta * delta * (count * n / total)) / total;
+  count = total;
+}
+
+}  // namespace
+
 RunningMeanStd::RunningMeanStd(int dim)
     : dim_(dim), mean_(torch::zeros({dim}, torch::kDouble)), var_(torch::ones({dim}, torch::kDouble)) {
   MarkSynchronized();
@@ -85,7 +100,7 @@ void RunningMeanStd::MarkSynchronized() {
   base_var_ = var_;
   base_count_ = count_;
   share_mean_ = torch::zeros({dim_}, torch::kDouble);
-  share_m2_ = torch::zeros({dim_}, torch::kDouble);
+  share_var_ = torch::zeros({dim_}, torch::kDouble);
   share_count_ = 0.0;
 }
 
@@ -99,11 +114,7 @@ void RunningMeanStd::Accumulate(const torch::Tensor& batch) {
   const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
   const double n = static_cast<double>(x.size(0));
   if (n == 0) return;
-  const torch::Tensor delta = x.mean(0) - share_mean_;
-  const double total = share_count_ + n;
-  share_mean_ = share_mean_ + delta * (n / total);
-  share_m2_ = share_m2_ + x.var(0, /*unbiased=*/false) * n + delta * delta * (share_count_ * n / total);
-  share_count_ = total;
+  MergeMoments(share_mean_, share_var_, share_count_, n, x.mean(0), x.var(0, /*unbiased=*/false) * n);
 }
 
 void RunningMeanStd::Synchronize(const std::vector<RunningMeanStd*>& normalizers, Collective* collective) {
@@ -130,7 +141,7 @@ void RunningMeanStd::Synchronize(const std::vector<RunningMeanStd*>& normalizers
     at += 1 + n->dim_;
     counts.push_back(count);
     means.push_back(mean);
-    parts.push_back(n->share_m2_ + (n->share_mean_ - mean).square() * n->share_count_);
+    parts.push_back((n->share_var_ + (n->share_mean_ - mean).square()) * n->share_count_);
   }
   torch::Tensor m2 = torch::cat(parts);
   collective->AllReduceSum(m2);
@@ -140,12 +151,11 @@ void RunningMeanStd::Synchronize(const std::vector<RunningMeanStd*>& normalizers
     const torch::Tensor share_m2 = m2.slice(0, at, at + n.dim_);
     at += n.dim_;
     if (counts[k] > 0) {
-      // the statistics of the last synchronisation with every rank's share folded in (as Fold folds one batch)
-      const torch::Tensor delta = means[k] - n.base_mean_;
-      const double total = n.base_count_ + counts[k];
-      n.mean_ = n.base_mean_ + delta * (counts[k] / total);
-      n.var_ = (n.base_var_ * n.base_count_ + share_m2 + delta * delta * (n.base_count_ * counts[k] / total)) / total;
-      n.count_ = total;
+      // the statistics of the last synchronisation with every rank's share folded in
+      n.mean_ = n.base_mean_;
+      n.var_ = n.base_var_;
+      n.count_ = n.base_count_;
+      MergeMoments(n.mean_, n.var_, n.count_, counts[k], means[k], share_m2);
     }
     n.MarkSynchronized();
   }
@@ -155,13 +165,7 @@ void RunningMeanStd::Fold(const torch::Tensor& batch) {
   const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
   const double n = static_cast<double>(x.size(0));
   if (n == 0) return;
-  const torch::Tensor batch_mean = x.mean(0);
-  const torch::Tensor batch_var = x.var(0, /*unbiased=*/false);
-  const torch::Tensor delta = batch_mean - mean_;
-  const double total = count_ + n;
-  mean_ = mean_ + delta * (n / total);
-  var_ = (var_ * count_ + batch_var * n + delta * delta * (count_ * n / total)) / total;
-  count_ = total;
+  MergeMoments(mean_, var_, count_, n, x.mean(0), x.var(0, /*unbiased=*/false) * n);
 }
 
 void RunningMeanStd::Set(const torch::Tensor& mean, const torch::Tensor& var, double count) {
@@ -175,22 +179,8 @@ void RunningMeanStd::Set(const torch::Tensor& mean, const torch::Tensor& var, do
 
 void RunningMeanStd::Update(const torch::Tensor& batch, Collective* collective) {
   if (collective == nullptr || collective->world_size() == 1) return Update(batch);
-  const torch::Tensor x = batch.reshape({-1, dim_}).to(torch::kDouble);
-  // the union's count and mean, then its squared deviations from that mean (exact where sums of squares are not)
-  torch::Tensor sums = torch::cat({torch::tensor({static_cast<double>(x.size(0))}, torch::kDouble), x.sum(0)});
-  collective->AllReduceSum(sums);
-  const double n = sums[0].item<double>();
-  if (n == 0) return;
-  const torch::Tensor batch_mean = sums.slice(0, 1) / n;
-  torch::Tensor squares = (x - batch_mean).square().sum(0).contiguous();
-  collective->AllReduceSum(squares);
-  const torch::Tensor batch_var = squares / n;
-  const torch::Tensor delta = batch_mean - mean_;
-  const double total = count_ + n;
-  mean_ = mean_ + delta * (n / total);
-  var_ = (var_ * count_ + batch_var * n + delta * delta * (count_ * n / total)) / total;
-  count_ = total;
-  MarkSynchronized();
+  Accumulate(batch);
+  Synchronize({this}, collective);
 }
 
 torch::Tensor RunningMeanStd::Normalize(const torch::Tensor& x, double clip) const {
@@ -233,7 +223,8 @@ void RunningMeanStd::Load(torch::serialize::InputArchive& archive, const std::st
               ", but got ", mean.numel());
   mean_ = mean.to(torch::kDouble).reshape({dim_});
   var_ = var.to(torch::kDouble).reshape({dim_});
-  count_ = count.item<double>();  MarkSynchronized();
+  count_ = count.item<double>();
+  MarkSynchronized();
 }
 
 LossTerms ComputePpoLoss(const LossInputs& in, const PpoOptions& options) {

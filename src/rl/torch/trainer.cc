@@ -553,8 +553,8 @@ void Trainer::Resume(const std::string& path) {
     }
     m.recent.clear();
     // the window of finished episodes is rank 0's; the other ranks start theirs anew
-    const torch::Tensor r = m.rank == 0 ? recent.contiguous() : recent.slice(0, 0, 0).contiguous();
-    for (int64_t i = 0; i < r.size(0); ++i) {
+    const torch::Tensor r = recent.contiguous();
+    for (int64_t i = 0; m.rank == 0 && i < r.size(0); ++i) {
       const double* row = r.data_ptr<double>() + i * 8;
       tasks::EpisodeMetrics e;
       e.success = row[0] != 0.0;

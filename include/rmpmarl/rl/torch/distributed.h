@@ -2,8 +2,8 @@
 /// Data-parallel training across processes (docs/learning.md), as rsl_rl and Isaac Lab scale PPO: one process per
 /// rank, each with its own environments; rank 0's initial parameters are broadcast, gradients are summed over the
 /// ranks and divided by their number before every optimiser step, normalisers and advantage statistics are computed
-/// over every rank's samples, and rank 0 alone writes files. The transport is libtorch's c10d: a TCPStore for the
-/// rendezvous and ProcessGroupGloo for the collectives.
+/// over every rank's samples, and rank 0 alone writes files. The transport: c10d's TCPStore (libtorch) for the
+/// rendezvous and Gloo's collectives, the library under ProcessGroupGloo (distributed.cc says why directly).
 #include <torch/types.h>
 
 #include <chrono>

@@ -65,8 +65,8 @@ class RunningMeanStd {
   explicit RunningMeanStd(int dim = 1);
   /// folds a batch (B × dim, or B when dim == 1) into the statistics.
   void Update(const torch::Tensor& batch);
-  /// the same for the union of every rank's batch (two all-reduces: the mean, then the squared deviations from it);
-  /// every rank then holds the same statistics. A null or one-rank collective is Update(batch).
+  /// the same for the union of every rank's batch (Accumulate, then Synchronize); every rank then holds the same
+  /// statistics. A null or one-rank collective is Update(batch).
   void Update(const torch::Tensor& batch, Collective* collective);
   /// data-parallel rollouts: folds a batch into the statistics and into this rank's share since the last
   /// synchronisation, without communicating (until then each rank's statistics include only its own new samples).
@@ -98,8 +98,8 @@ class RunningMeanStd {
   int dim_;
   torch::Tensor mean_, var_;  // double
   double count_ = 1e-4;
-  // data-parallel: the statistics at the last synchronisation, and this rank's samples since (count, mean, M2)
-  torch::Tensor base_mean_, base_var_, share_mean_, share_m2_;
+  // data-parallel: the statistics at the last synchronisation, and those of this rank's samples since
+  torch::Tensor base_mean_, base_var_, share_mean_, share_var_;
   double base_count_ = 1e-4, share_count_ = 0.0;
 };
 
