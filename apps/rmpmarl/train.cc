@@ -39,8 +39,8 @@ namespace {
     for (char** e = environ; *e != nullptr; ++e) {
       const std::string kv = *e;
       const std::string key = kv.substr(0, kv.find('='));
-      if (key == "RANK" || key == "LOCAL_RANK" || key == "WORLD_SIZE" || key == "MASTER_ADDR" ||
-          key == "MASTER_PORT" || key == "RMPMARL_DIST_TIMEOUT") {
+      if (key == "RANK" || key == "LOCAL_RANK" || key == "WORLD_SIZE" || key == "LOCAL_WORLD_SIZE" ||
+          key == "MASTER_ADDR" || key == "MASTER_PORT" || key == "RMPMARL_DIST_TIMEOUT") {
         continue;
       }
       envs[r].push_back(kv);
@@ -48,6 +48,7 @@ namespace {
     envs[r].push_back(fmt::format("RANK={}", r));
     envs[r].push_back(fmt::format("LOCAL_RANK={}", r));
     envs[r].push_back(fmt::format("WORLD_SIZE={}", nproc));
+    envs[r].push_back(fmt::format("LOCAL_WORLD_SIZE={}", nproc));
     envs[r].push_back("MASTER_ADDR=127.0.0.1");
     envs[r].push_back(fmt::format("MASTER_PORT={}", port));
     envs[r].push_back(fmt::format("RMPMARL_DIST_TIMEOUT={}", timeout_s));

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <thread>
@@ -282,6 +283,125 @@ TEST(DistributedTest, ResumesExactlyAtTheSameWorldSizeAndRefusesAnother) {
   std::remove(path.c_str());
 }
 
+// ---- Gloo's collectives on loopback, ranks as threads
+
+// each rank's tensor of n elements: small integers, so every sum is exact whatever the order of the additions
+torch::Tensor RankValues(int rank, int64_t n, torch::ScalarType type) {
+  return (torch::arange(n, torch::kLong).remainder(1000) * (rank + 1) + rank).to(type);
+}
+
+// every rank of a `world`-rank group joins on loopback, all-reduces and broadcasts n elements of each type; returns
+// each rank's results, in the order all-reduce float, double, int64, then broadcast float
+std::vector<std::vector<torch::Tensor>> OnLoopback(int world, CollectiveWait wait, int64_t n) {
+  const int port = FreeLocalPort();
+  std::vector<std::vector<torch::Tensor>> out(world);
+  std::vector<std::string> errors(world);
+  std::vector<std::thread> threads;
+  for (int r = 0; r < world; ++r) {
+    threads.emplace_back([&, r] {
+      try {
+        ProcessGroupOptions o;
+        o.rank = r;
+        o.world_size = world;
+        o.master_port = port;
+        o.timeout = std::chrono::seconds(10);
+        o.wait = wait;
+        const std::unique_ptr<Collective> group = JoinProcessGroup(o);
+        for (torch::ScalarType type : {torch::kFloat, torch::kDouble, torch::kLong}) {
+          torch::Tensor t = RankValues(r, n, type);
+          group->AllReduceSum(t);
+          out[r].push_back(t);
+        }
+        torch::Tensor b = RankValues(r, n, torch::kFloat).reshape({-1, 1});
+        group->Broadcast(b);
+        out[r].push_back(b);
+      } catch (const std::exception& e) {
+        errors[r] = e.what();
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  for (int r = 0; r < world; ++r) EXPECT_EQ(errors[r], "") << "rank " << r;
+  return out;
+}
+
+TEST(DistributedTest, GlooCollectivesInPiecesGiveTheSumsWhetherRanksPollOrBlock) {
+  // 1 500 001 elements: more than a socket buffer holds (a whole message in one synchronous write would block both
+  // ranks), sent in pieces of a socket buffer's size, the last one short
+  const int64_t n = 1'500'001;
+  for (auto [world, wait] : {std::pair{2, CollectiveWait::kPoll}, std::pair{2, CollectiveWait::kBlock},
+                             std::pair{3, CollectiveWait::kBlock}}) {
+    SCOPED_TRACE(fmt::format("{} ranks, {}", world, wait == CollectiveWait::kPoll ? "poll" : "block"));
+    const std::vector<std::vector<torch::Tensor>> got = OnLoopback(world, wait, n);
+    for (int r = 0; r < world; ++r) {
+      ASSERT_EQ(got[r].size(), 4u);
+      int k = 0;
+      for (torch::ScalarType type : {torch::kFloat, torch::kDouble, torch::kLong}) {
+        torch::Tensor expected = torch::zeros({n}, type);
+        for (int q = 0; q < world; ++q) expected += RankValues(q, n, type);
+        EXPECT_TRUE(torch::equal(got[r][k], expected)) << "rank " << r << ", " << c10::toString(type);
+        ++k;
+      }
+      EXPECT_TRUE(torch::equal(got[r][3], RankValues(0, n, torch::kFloat).reshape({-1, 1}))) << "rank " << r;
+    }
+  }
+}
+
+// sets environment variables for one scope and restores them after
+class ScopedEnv {
+ public:
+  explicit ScopedEnv(std::map<std::string, std::string> vars) {
+    for (const auto& [k, v] : vars) {
+      const char* old = std::getenv(k.c_str());
+      saved_.emplace_back(k, old ? std::optional<std::string>(old) : std::nullopt);
+      if (v.empty()) unsetenv(k.c_str());
+      else setenv(k.c_str(), v.c_str(), 1);
+    }
+  }
+  ~ScopedEnv() {
+    for (const auto& [k, v] : saved_) {
+      if (v) setenv(k.c_str(), v->c_str(), 1);
+      else unsetenv(k.c_str());
+    }
+  }
+
+ private:
+  std::vector<std::pair<std::string, std::optional<std::string>>> saved_;
+};
+
+TEST(DistributedTest, TheEnvironmentChoosesHowRanksWait) {
+  const long cpus = static_cast<long>(std::thread::hardware_concurrency());
+  {
+    ScopedEnv env({{"WORLD_SIZE", "2"}, {"RANK", "1"}, {"MASTER_ADDR", "127.0.0.1"}, {"LOCAL_WORLD_SIZE", "1"},
+                   {"RMPMARL_DIST_WAIT", ""}});
+    const std::optional<ProcessGroupOptions> o = ProcessGroupFromEnvironment();
+    ASSERT_TRUE(o.has_value());
+    EXPECT_EQ(o->rank, 1);
+    EXPECT_EQ(o->wait, CollectiveWait::kPoll) << "one rank on this machine: it may spin";
+  }
+  {
+    // more ranks on this machine than it has CPUs: a spinning rank would take its peer's core
+    ScopedEnv env({{"WORLD_SIZE", "2"}, {"RANK", "0"}, {"MASTER_ADDR", "127.0.0.1"},
+                   {"LOCAL_WORLD_SIZE", std::to_string(cpus + 1)}, {"RMPMARL_DIST_WAIT", ""}});
+    EXPECT_EQ(ProcessGroupFromEnvironment()->wait, CollectiveWait::kBlock);
+  }
+  {
+    ScopedEnv env({{"WORLD_SIZE", "2"}, {"RANK", "0"}, {"MASTER_ADDR", "127.0.0.1"}, {"LOCAL_WORLD_SIZE", "1"},
+                   {"RMPMARL_DIST_WAIT", "block"}});
+    EXPECT_EQ(ProcessGroupFromEnvironment()->wait, CollectiveWait::kBlock);
+  }
+  {
+    ScopedEnv env({{"WORLD_SIZE", "2"}, {"RANK", "0"}, {"MASTER_ADDR", "127.0.0.1"}, {"RMPMARL_DIST_WAIT", "spin"}});
+    try {
+      ProcessGroupFromEnvironment();
+      ADD_FAILURE() << "RMPMARL_DIST_WAIT=spin was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("RMPMARL_DIST_WAIT: expected 'poll' or 'block', got 'spin'"),
+                std::string::npos) << e.what();
+    }
+  }
+}
+
 // ---- processes: the CLI on loopback
 
 std::string TempDir(const std::string& name) {
@@ -359,7 +479,8 @@ TEST(DistributedTest, LocalRanksHoldOneLearnerAndRankZeroWritesTheRun) {
 
 // starts two ranks as torchrun would (timeout `timeout_s`), lets them train, then does `fault` to rank 1; returns how
 // long rank 0 ran on, and checks that it failed saying why
-double RankZeroSurvives(const std::string& name, int timeout_s, const std::function<void(pid_t)>& fault) {
+double RankZeroSurvives(const std::string& name, int timeout_s, const std::function<void(pid_t)>& fault,
+                        const char* wait = "poll") {
   const std::string dir = TempDir(name);
   const std::string config = WriteConfig(dir, 100000);
   const int port = FreeLocalPort();
@@ -372,6 +493,7 @@ double RankZeroSurvives(const std::string& name, int timeout_s, const std::funct
       setenv("MASTER_ADDR", "127.0.0.1", 1);
       setenv("MASTER_PORT", std::to_string(port).c_str(), 1);
       setenv("RMPMARL_DIST_TIMEOUT", std::to_string(timeout_s).c_str(), 1);
+      setenv("RMPMARL_DIST_WAIT", wait, 1);
       if (freopen(log.c_str(), "w", stdout) == nullptr) _exit(126);
       dup2(fileno(stdout), 2);
       execl(RMPMARL_CLI_PATH, RMPMARL_CLI_PATH, "train", config.c_str(), nullptr);
@@ -434,9 +556,12 @@ TEST(DistributedTest, AKilledRankEndsTheOtherAtOnce) {
 }
 
 TEST(DistributedTest, AHungRankEndsTheOtherAfterTheTimeout) {
-  const double s = RankZeroSurvives("hang", 4, [](pid_t p) { kill(p, SIGSTOP); });
-  std::printf("rank 0 ended %.2f s after rank 1 stopped (timeout 4 s)\n", s);
-  EXPECT_GT(s, 3.0);
+  // a spinning rank checks the clock between reads; a blocked one is woken by its socket's receive timeout
+  for (const char* wait : {"poll", "block"}) {
+    const double s = RankZeroSurvives(std::string("hang-") + wait, 4, [](pid_t p) { kill(p, SIGSTOP); }, wait);
+    std::printf("rank 0 (%s) ended %.2f s after rank 1 stopped (timeout 4 s)\n", wait, s);
+    EXPECT_GT(s, 3.0) << wait;
+  }
 }
 
 TEST(DistributedTest, TheLauncherNamesTheRankThatHung) {

@@ -26,6 +26,14 @@ class Collective {
   virtual void Broadcast(torch::Tensor& tensor) = 0;
 };
 
+/// How a rank waits for its peers' data inside a collective. Either way the calling thread reads its sockets itself
+/// (Gloo's synchronous pairs), without a hand-off to a network thread.
+enum class CollectiveWait {
+  kPoll,   ///< spin on the socket: the lowest latency, for no more ranks on a machine than it has cores
+  kBlock,  ///< sleep in the socket read: for more ranks on a machine than cores, where a spinning rank would take the
+           ///< core of the rank it waits for
+};
+
 /// Where a rank finds its group: torchrun's environment variables.
 struct ProcessGroupOptions {
   int rank = 0;                       ///< RANK, in [0, world_size)
@@ -35,10 +43,13 @@ struct ProcessGroupOptions {
   int master_port = 29500;            ///< MASTER_PORT
   /// a collective or the rendezvous that waits longer than this throws: a rank that died or hangs ends the others
   std::chrono::milliseconds timeout{60'000};
+  CollectiveWait wait = CollectiveWait::kBlock;
 };
 
-/// the options from RANK, WORLD_SIZE, LOCAL_RANK, MASTER_ADDR, MASTER_PORT and RMPMARL_DIST_TIMEOUT (seconds);
-/// nullopt when WORLD_SIZE is unset. InputError naming the variable for a malformed or inconsistent value.
+/// the options from RANK, WORLD_SIZE, LOCAL_RANK, MASTER_ADDR, MASTER_PORT, RMPMARL_DIST_TIMEOUT (seconds) and
+/// RMPMARL_DIST_WAIT (`poll` or `block`; by default poll when LOCAL_WORLD_SIZE — WORLD_SIZE when unset — is at most
+/// the CPUs this process may run on); nullopt when WORLD_SIZE is unset. InputError naming the variable for a
+/// malformed or inconsistent value.
 std::optional<ProcessGroupOptions> ProcessGroupFromEnvironment();
 
 /// joins the group (blocks until every rank has joined, at most `timeout`). InputError saying what failed.
