@@ -51,9 +51,11 @@ test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
 
 bench: build
-	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_report_aggregates_only=true; done
+	@mkdir -p $(BUILD_DIR)/bench-results
+	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_report_aggregates_only=true --benchmark_out=$(BUILD_DIR)/bench-results/$$(basename $$b).json --benchmark_out_format=json; done
 	@echo "== bench/python_bench.py"; /usr/bin/python3 bench/python_bench.py $(BUILD_DIR)
-	@echo "== bench/train_scaling_bench.py"; /usr/bin/python3 bench/train_scaling_bench.py $(BUILD_DIR)
+	@echo "== bench/train_scaling_bench.py"; /usr/bin/python3 bench/train_scaling_bench.py $(BUILD_DIR) --json $(BUILD_DIR)/bench-results/train_scaling.json
+	@echo "== bench/speed_table.py"; /usr/bin/python3 bench/speed_table.py $(BUILD_DIR)
 
 test-sanitize: deps
 	cmake -S . -B $(SANITIZE_DIR) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRMPMARL_SANITIZE=$(SANITIZE) \

@@ -11,6 +11,7 @@ usage: train_scaling_bench.py BUILD_DIR [--config configs/train/mappo-reach-avoi
        [--curve N]"""
 import argparse
 import csv
+import json
 import os
 import platform
 import statistics
@@ -57,6 +58,7 @@ def main():
     p.add_argument("--updates", type=int, default=12)
     p.add_argument("--rounds", type=int, default=3, help="interleaved repetitions of the three runs")
     p.add_argument("--curve", type=int, default=0, help="also compare learning curves over this many updates")
+    p.add_argument("--json", help="also write the medians here (speed_table.py reads them)")
     a = p.parse_args()
     cli = os.path.join(a.build, "rmpmarl")
     n = next(int(line.split(":")[1]) for line in open(a.config) if line.startswith("num_envs:"))
@@ -73,14 +75,21 @@ def main():
                 split[name].append((statistics.median(float(r["rollout_seconds"]) for r in rows[1:]),
                                     statistics.median(float(r["learn_seconds"]) for r in rows[1:])))
             ratios.append(results["2 ranks x N"][-1] / results["1 process x N"][-1])
-        for name, _, _ in runs:
+        summary = {"config": os.path.basename(a.config), "updates": a.updates, "machine": machine()}
+        for name, _, envs in runs:
             rollout = statistics.median(r for r, _ in split[name])
             learn = statistics.median(l for _, l in split[name])
+            summary[name] = {"env_steps_per_second": statistics.median(results[name]), "rollout_seconds": rollout,
+                             "learn_seconds": learn, "num_envs": envs,
+                             "seconds_per_update": statistics.median(r + l for r, l in split[name])}
             print(f"  {name:<16} N = {n}: {statistics.median(results[name]):8.0f} env steps/s (median of {a.rounds} "
                   f"runs of the per-update medians; rollout {rollout:.3f} s + learning {learn:.3f} s per update)")
         print(f"  2 ranks / 1 process of N: {statistics.median(ratios):.2f}x, median of {a.rounds} interleaved rounds "
               f"({', '.join(f'{r:.2f}' for r in ratios)}; goal >= 1.7x); 2 ranks / 1 process of 2N: "
               f"{statistics.median(results['2 ranks x N']) / statistics.median(results['1 process x 2N']):.2f}x")
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump(summary, f, indent=1)
         if a.curve > 0:
             curves = {}
             for name, nproc, envs in (("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n)):

@@ -1,0 +1,144 @@
+#!/usr/bin/env python3
+"""The speed table (docs/performance.md): each row's measurement beside its anchor and goal, in one run, on this
+machine. `make bench` runs it last, after the Google Benchmark binaries have written their JSON (medians of their
+repetitions) into BUILD_DIR/bench-results/ and train_scaling_bench.py its own JSON there. It measures itself:
+  - the control step of the shipped learned default against RMPflow and RMPflow-tuned: `rmpmarl experiment table4
+    --shipped` on the held-out episodes (evaluation seed 20231001), one thread, the experiments' own step column;
+  - the anchor of the VecEnv row: one env_bench process of BM_VecEnvStep/threads:1 alone, then two side by side.
+usage: speed_table.py BUILD_DIR [--episodes 10]"""
+import argparse
+import csv
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+
+def machine():
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            return f"{line.split(':', 1)[1].strip()}, {os.cpu_count()} hardware threads"
+    return "unknown machine"
+
+
+def medians(path):
+    """benchmark name -> (median real time in microseconds, counters) of a Google Benchmark JSON file."""
+    out = {}
+    if not os.path.exists(path):
+        return out
+    for b in json.load(open(path))["benchmarks"]:
+        if b.get("run_type") == "aggregate" and b.get("aggregate_name") != "median":
+            continue
+        scale = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}[b.get("time_unit", "ns")]
+        out[b.get("run_name", b["name"])] = (b["real_time"] * scale, b)
+    return out
+
+
+def find(results, prefix):
+    hits = [k for k in results if k.startswith(prefix)]
+    if not hits:
+        return None
+    return results[sorted(hits, key=len)[0]]
+
+
+def control_steps(build, episodes):
+    """method -> [step µs per speed] from a table4 run of the shipped policies on one thread."""
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run([os.path.join(build, "rmpmarl"), "experiment", "table4", "--shipped", "--methods",
+                        "marl-rmp-residual,rmpflow,rmpflow-tuned", "--episodes", str(episodes), "--jobs", "1",
+                        "--out", out, "--no-plots"], check=True, stdout=subprocess.DEVNULL)
+        steps = {}
+        for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
+            steps.setdefault(row["method"], []).append(float(row["control_step_us"]))
+        return steps
+
+
+def vecenv_processes(build):
+    """env steps/s of one process of BM_VecEnvStep/threads:1 alone, and of two such processes side by side."""
+    cmd = [os.path.join(build, "bench", "env_bench"), "--benchmark_filter=BM_VecEnvStep/threads:1/",
+           "--benchmark_format=json", "--benchmark_min_time=2"]
+
+    def rate(text):
+        b = json.loads(text)["benchmarks"][0]
+        return b["env_steps/s"]
+    alone = rate(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout)
+    procs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True) for _ in range(2)]
+    both = sum(rate(p.communicate()[0]) for p in procs)
+    return alone, both
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("build", nargs="?", default="build")
+    p.add_argument("--episodes", type=int, default=10, help="table4 episodes per speed for the control-step row")
+    a = p.parse_args()
+    res = os.path.join(a.build, "bench-results")
+    env = medians(os.path.join(res, "env_bench.json"))
+    rmp = medians(os.path.join(res, "rmp_bench.json"))
+    rows = []
+
+    steps = control_steps(a.build, a.episodes)
+    learned = steps.get("MARL-RMP residual (ours)", [])
+    flow = steps.get("RMPflow", [])
+    tuned = steps.get("RMPflow-tuned", [])
+    if learned and flow:
+        ratio = max(l / f for l, f in zip(learned, flow))
+        rows.append(("control step, shipped learned default (table4 held-out episodes, per speed)",
+                     f"{min(learned):.1f}–{max(learned):.1f} µs",
+                     f"RMPflow {min(flow):.1f}–{max(flow):.1f} µs, RMPflow-tuned {min(tuned):.1f}–{max(tuned):.1f} µs",
+                     f"{ratio:.2f}× RMPflow (worst speed)", "≤ 1.00×"))
+
+    flow_bench = find(rmp, "BM_RmpflowEvaluate/arm7_7caps_20boxes")
+    if flow_bench:
+        rows.append(("RMPflow evaluation, Panda 7 capsules × 20 boxes", f"{flow_bench[0]:.1f} µs",
+                     "the pairs' arithmetic ≈ 2 µs (not measured)", "–", "≤ 3 µs"))
+
+    bare = find(env, "BM_BareMjStep")
+    if bare:
+        physics = 5 * bare[0]
+        for label, name in (("env step, reach-avoid 100 Hz, obstacles per physics step, look-ahead on",
+                             "BM_EnvStep/mode:0/update:0/physics:5/lookahead:1"),
+                            ("env step, reach-avoid 100 Hz, obstacles per control step",
+                             "BM_EnvStep/mode:0/update:1/physics:5/lookahead:0"),
+                            ("env step, the learned default's own task (BM_EnvStepLearnedDefault)",
+                             "BM_EnvStepLearnedDefault")):
+            r = find(env, name)
+            if r:
+                rows.append((label, f"{r[0]:.1f} µs", f"5 × bare mj_step = {physics:.1f} µs",
+                             f"{r[0] / physics:.2f}× physics", "≤ 1.5×"))
+
+    one, two = find(env, "BM_VecEnvStep/threads:1"), find(env, "BM_VecEnvStep/threads:2")
+    if one and two:
+        alone, both = vecenv_processes(a.build)
+        anchor = f"two processes of 1 thread / one: {both / alone:.2f}×"
+        rows.append(("VecEnv, 32 envs (1 physics step each), 2 threads / 1 thread", f"{one[0] / two[0]:.2f}×", anchor,
+                     f"{(one[0] / two[0]) / (both / alone):.2f} of the anchor", "≥ 1.9×"))
+        one, two = find(env, "BM_VecEnvReachAvoid64/threads:1"), find(env, "BM_VecEnvReachAvoid64/threads:2")
+        if one and two:
+            rows.append(("VecEnv, 64 reach-avoid envs (5 physics steps each), 2 threads / 1 thread",
+                         f"{one[0] / two[0]:.2f}×", anchor, f"{(one[0] / two[0]) / (both / alone):.2f} of the anchor",
+                         "≥ 1.9×"))
+
+    scaling = os.path.join(res, "train_scaling.json")
+    if os.path.exists(scaling):
+        s = json.load(open(scaling))
+        per_update = s["1 process x N"]["seconds_per_update"]
+        two_ranks = s["2 ranks x N"]["seconds_per_update"]
+        rows.append((f"MARL-RMP training run, 600 updates ({s['config']}, 600 × the median update of a "
+                     f"{s['updates']}-update run)", f"{600 * per_update / 60:.1f} min",
+                     f"rollout {s['1 process x N']['rollout_seconds']:.3f} s + learning "
+                     f"{s['1 process x N']['learn_seconds']:.3f} s per update, one after the other",
+                     f"2 ranks: {600 * two_ranks / 60:.1f} min", "≤ 3 min"))
+
+    print(f"speed table: {machine()}; Google Benchmark medians (make bench: 5 repetitions)")
+    print("| what | now | anchor (this machine unless said) | ratio | goal |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        print("| " + " | ".join(r) + " |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
