@@ -116,6 +116,7 @@ struct CollisionLeaf {
   Eigen::Vector3d n;                       ///< ∂d/∂p_W1 (gradient_norm · n_W)
   double xd;                               ///< ḋ relative to the obstacle
   Rmp1 rmp;                                ///< the unscaled RMP
+  double sigma;                            ///< its velocity gate σ(ẋ), which no length scale changes
   double jdqd;                             ///< J̇q̇ of the distance
 };
 
@@ -140,23 +141,28 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
         on_distance(dofs, lower);
         continue;
       }
-      CollisionLeaf leaf{&lc, &dofs, CapsuleObstacleDistance(capsule, obstacle), {}, 0.0, {}, 0.0};
+      CollisionLeaf leaf{&lc, &dofs, CapsuleObstacleDistance(capsule, obstacle), {}, 0.0, {}, 0.0, 0.0};
       on_distance(dofs, leaf.distance.distance);
       if (leaf.distance.distance > r) continue;
       leaf.n = leaf.distance.gradient_norm * leaf.distance.n_W;
       leaf.xd = leaf.n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, leaf.distance.p_W1) - obstacle.v_WO);
-      leaf.rmp = EvalCollisionRmp(params.collision, leaf.distance.distance, leaf.xd);
+      leaf.sigma = CollisionVelocityGate(leaf.xd, params.collision.damping_velocity_gate_length_scale);
+      leaf.rmp.a = CollisionRmpAccel(params.collision, leaf.distance.distance, leaf.xd, leaf.sigma);
+      leaf.rmp.m = CollisionRmpMetric(params.collision, leaf.distance.distance, leaf.sigma);
       leaf.jdqd = leaf.n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, leaf.distance.p_W1));
       on_leaf(leaf);
     }
   }
 }
 
-/// the collision RMP's acceleration with joint w's length scale (rmp.a itself at scale 1)
+/// the collision RMP's acceleration with joint w's length scale (rmp.a itself at scale 1): EvalScaledCollisionRmp's
+/// acceleration, with the leaf's velocity gate
 double ScaledCollisionAccel(const BasicRmpParams& params, const CollisionLeaf& leaf, const JointLayerWeights& w) {
-  return w.collision_length_scale == 1.0
-             ? leaf.rmp.a
-             : EvalScaledCollisionRmp(params.collision, leaf.distance.distance, leaf.xd, w.collision_length_scale).a;
+  if (w.collision_length_scale == 1.0) return leaf.rmp.a;
+  CollisionRmpParams p = params.collision;
+  p.repulsion_std_dev *= w.collision_length_scale;
+  p.damping_std_dev *= w.collision_length_scale;
+  return CollisionRmpAccel(p, leaf.distance.distance, leaf.xd, leaf.sigma);
 }
 
 }  // namespace
@@ -272,9 +278,9 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   ForEachCollisionLeaf(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
       [&](const CollisionLeaf& leaf) {
-        ws.g.setZero();
         for (int dof : *leaf.dofs) {
           const JointLayerWeights& w = weights[dof];
+          ws.g[dof] = 0.0;
           if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
           const double a = ScaledCollisionAccel(params, leaf, w);
           const double j =
@@ -282,7 +288,12 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
           ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
           ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
         }
-        ws.A.noalias() += leaf.rmp.m * ws.g * ws.g.transpose();
+        // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
+        // forms it: g_j (m g_i))
+        for (int j : *leaf.dofs) {
+          const double g_j = ws.g[j];
+          for (int i : *leaf.dofs) ws.A(i, j) += g_j * (leaf.rmp.m * ws.g[i]);
+        }
       });
 
   const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);

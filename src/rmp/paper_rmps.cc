@@ -98,15 +98,21 @@ double CollisionDistanceGate(double x, double r) {
   return s * s;
 }
 
-Rmp1 EvalCollisionRmp(const CollisionRmpParams& p, double x, double xd) {
+double CollisionRmpAccel(const CollisionRmpParams& p, double x, double xd, double sigma) {
   const double xc = std::max(x, 0.0);  // penetration guard (see the header)
+  return p.repulsion_gain * std::exp(-xc / p.repulsion_std_dev) -
+         p.damping_gain * sigma * xd / (xc / p.damping_std_dev + p.damping_robustness_eps);
+}
+
+double CollisionRmpMetric(const CollisionRmpParams& p, double x, double sigma) {
+  const double xc = std::max(x, 0.0);
+  return sigma * CollisionDistanceGate(xc, p.metric_modulation_radius) * p.metric_scalar /
+         (xc / p.metric_exploder_std_dev + p.metric_exploder_eps);
+}
+
+Rmp1 EvalCollisionRmp(const CollisionRmpParams& p, double x, double xd) {
   const double sigma = CollisionVelocityGate(xd, p.damping_velocity_gate_length_scale);
-  Rmp1 rmp;
-  rmp.a = p.repulsion_gain * std::exp(-xc / p.repulsion_std_dev) -
-          p.damping_gain * sigma * xd / (xc / p.damping_std_dev + p.damping_robustness_eps);
-  rmp.m = sigma * CollisionDistanceGate(xc, p.metric_modulation_radius) * p.metric_scalar /
-          (xc / p.metric_exploder_std_dev + p.metric_exploder_eps);
-  return rmp;
+  return Rmp1{CollisionRmpAccel(p, x, xd, sigma), CollisionRmpMetric(p, x, sigma)};
 }
 
 }  // namespace rmpmarl::rmp

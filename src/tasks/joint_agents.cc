@@ -42,17 +42,19 @@ class JointAgents::Layer final : public sim::AccelerationPolicy {
 
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) override {
-    kinematics::CalcVelocityKinematics(robot_->model, q, qd, &kin_);
     if (config_.resolve == rmp::LayerResolve::kCoupled) {
-      // the agents' RMPs resolved together on the robot's RMPflow structure, capped as RMPflow caps
+      // the agents' RMPs resolved together on the robot's RMPflow structure, capped as RMPflow caps; the structure's
+      // push-forward computed the kinematics of (q, q̇), which the agents' leaves read too
       structure_->EvaluateStructure(q, qd);
-      rmp::EvaluateCoupledLayer(*robot_, kin_, scene, config_.params, weights, structure_->data().f_root,
-                                structure_->data().M_root, config_.relative_regularizer, &coupled_, qdd);
+      rmp::EvaluateCoupledLayer(*robot_, structure_->data().kinematics, scene, config_.params, weights,
+                                structure_->data().f_root, structure_->data().M_root, config_.relative_regularizer,
+                                &coupled_, qdd);
       const double norm = qdd.norm();
       const double cap = structure_->options().max_acceleration_norm;
       if (norm > cap) qdd *= cap / norm;
       return;
     }
+    kinematics::CalcVelocityKinematics(robot_->model, q, qd, &kin_);
     for (int i = 0; i < robot_->model.nq(); ++i) {
       qdd[i] = rmp::EvaluateJointLayer(*robot_, kin_, i, scene, config_.params, weights[i],
                                        config_.relative_regularizer)

@@ -11,6 +11,7 @@
 
 #include "rmp_test_util.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/rmp/joint_layer.h"
 
 namespace rmpmarl::rmp {
 namespace {
@@ -125,6 +126,24 @@ TEST(CollisionRmpTest, MatchesHandComputedValues) {
   rmp = EvalCollisionRmp(p, 0.6, -1.0);
   EXPECT_NEAR(rmp.a, 3.331112591605596, 1e-12);
   EXPECT_EQ(rmp.m, 0.0);
+}
+
+TEST(CollisionRmpTest, AccelAndMetricFromOneGateAreTheRmpsBits) {
+  // the coupled layer evaluates σ once per leaf and the acceleration once per length scale: the same bits as the
+  // whole RMP, also with the length scales multiplied as EvalScaledCollisionRmp multiplies them
+  CollisionRmpParams p;
+  std::mt19937_64 rng(11);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const double x = Uniform(rng, -0.05, 0.8), xd = Uniform(rng, -3.0, 3.0), scale = Uniform(rng, 0.2, 5.0);
+    const double sigma = CollisionVelocityGate(xd, p.damping_velocity_gate_length_scale);
+    const Rmp1 rmp = EvalCollisionRmp(p, x, xd);
+    EXPECT_EQ(CollisionRmpAccel(p, x, xd, sigma), rmp.a) << x << " " << xd;
+    EXPECT_EQ(CollisionRmpMetric(p, x, sigma), rmp.m) << x << " " << xd;
+    CollisionRmpParams scaled = p;
+    scaled.repulsion_std_dev *= scale;
+    scaled.damping_std_dev *= scale;
+    EXPECT_EQ(CollisionRmpAccel(scaled, x, xd, sigma), EvalScaledCollisionRmp(p, x, xd, scale).a);
+  }
 }
 
 TEST(CollisionRmpTest, GatesMatchEquationNine) {

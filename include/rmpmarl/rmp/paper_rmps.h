@@ -88,4 +88,11 @@ double CollisionDistanceGate(double x, double r);
 /// (a ≤ k_p + k_d |ẋ|/ε_d, m ≤ μ/ε_m) and nothing is NaN or Inf.
 Rmp1 EvalCollisionRmp(const CollisionRmpParams& params, double x, double xd);
 
+/// eq (8)'s acceleration alone, for a velocity gate σ = CollisionVelocityGate(ẋ, damping_velocity_gate_length_scale)
+/// already evaluated: the same bits as EvalCollisionRmp(params, x, xd).a, one exponential fewer.
+double CollisionRmpAccel(const CollisionRmpParams& params, double x, double xd, double sigma);
+
+/// eq (9)'s metric alone, for the same σ: the same bits as EvalCollisionRmp(params, x, xd).m.
+double CollisionRmpMetric(const CollisionRmpParams& params, double x, double sigma);
+
 }  // namespace rmpmarl::rmp
