@@ -1,9 +1,14 @@
-// The batched environment engine: a persistent thread pool steps contiguous blocks of envs; each env draws only
-// from its own RNG (seeded seed + env_id), so results do not depend on the thread count.
+// The batched environment engine: a persistent thread pool whose threads (the caller's included) take the envs of a
+// step one at a time from a shared counter, so a thread that drew cheap envs takes more; each env draws only from
+// its own RNG (seeded seed + env_id), so results depend neither on the thread count nor on which thread ran an env.
+// Between steps a thread first spins for a short while before it sleeps on a condition variable: the rollout's
+// steps follow each other within tens of microseconds, about what a sleeping thread takes to wake.
 #include "rmpmarl/rl/vec_env.h"
 
 #include <fmt/format.h>
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <exception>
 #include <mutex>
@@ -13,6 +18,27 @@
 
 namespace rmpmarl::rl {
 namespace {
+
+// how long a thread spins for the next step or for the other threads' envs before it sleeps
+constexpr std::chrono::microseconds kSpinFor{200};
+
+inline void CpuRelax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#endif
+}
+
+// spins until done() or kSpinFor has passed; true when done() became true
+template <class Done>
+bool SpinUntil(Done&& done) {
+  const auto until = std::chrono::steady_clock::now() + kSpinFor;
+  while (!done()) {
+    for (int i = 0; i < 64; ++i) CpuRelax();
+    if (done()) return true;
+    if (std::chrono::steady_clock::now() > until) return false;
+  }
+  return true;
+}
 
 // checks that two specs describe the same batch layout.
 void CheckSameLayout(const tasks::EnvSpec& a, const tasks::EnvSpec& b, int env_id) {
@@ -47,9 +73,10 @@ struct VecEnv::Impl {
   std::mutex mutex;
   std::condition_variable work_ready;
   std::condition_variable work_done;
-  std::uint64_t generation = 0;
-  int pending = 0;
-  bool stopping = false;
+  std::atomic<std::uint64_t> generation{0};  // one more per job
+  std::atomic<int> next_env{0};               // the next env of the current job to take
+  std::atomic<int> pending{0};                // workers still in the current job
+  std::atomic<bool> stopping{false};
   enum class Job { kReset, kStep } job = Job::kStep;
   std::exception_ptr error;  // first exception thrown by an env during the current job
   const float* actions = nullptr;
@@ -81,59 +108,59 @@ struct VecEnv::Impl {
     return out;
   }
 
-  // runs the current job on envs [begin, end).
-  void RunBlock(int begin, int end) {
+  // runs the current job on env k.
+  void RunOne(int k) {
     const int A = spec.num_agents;
     const size_t action_stride = static_cast<size_t>(A) * spec.action.size();
-    for (int k = begin; k < end; ++k) {
-      if (job == Job::kReset || reset_next[k]) {
-        reset_next[k] = 0;
-        envs[k]->Reset(rngs[k], OutputOf(k));
-        continue;
-      }
-      const tasks::StepOutput out = OutputOf(k);
-      envs[k]->Step(actions + k * action_stride, rngs[k], out);
-      if (options.autoreset == Autoreset::kNextStep) {
-        reset_next[k] = batch.terminated[k] || batch.truncated[k];
-      } else if (batch.terminated[k] || batch.truncated[k]) {
-        batch.final_global_state.row(k) = batch.global_state.row(k);
-        batch.final_local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A) =
-            batch.local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A);
-        envs[k]->Reset(rngs[k], ResetOutputOf(k));
-      }
+    if (job == Job::kReset || reset_next[k]) {
+      reset_next[k] = 0;
+      envs[k]->Reset(rngs[k], OutputOf(k));
+      return;
+    }
+    const tasks::StepOutput out = OutputOf(k);
+    envs[k]->Step(actions + k * action_stride, rngs[k], out);
+    if (options.autoreset == Autoreset::kNextStep) {
+      reset_next[k] = batch.terminated[k] || batch.truncated[k];
+    } else if (batch.terminated[k] || batch.truncated[k]) {
+      batch.final_global_state.row(k) = batch.global_state.row(k);
+      batch.final_local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A) =
+          batch.local_obs.middleRows(static_cast<Eigen::Index>(k) * A, A);
+      envs[k]->Reset(rngs[k], ResetOutputOf(k));
     }
   }
 
-  // runs a block, keeping the first exception for the calling thread (an exception must not end a worker).
-  void RunBlockCatching(int begin, int end) {
-    try {
-      RunBlock(begin, end);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (!error) error = std::current_exception();
-    }
-  }
-
-  // envs of block b when the envs are split into `blocks` contiguous blocks.
-  std::pair<int, int> Block(int b, int blocks) const {
+  // takes envs of the current job from the shared counter until none is left, keeping the first exception for the
+  // calling thread (an exception must not end a worker).
+  void RunShare() {
     const int n = static_cast<int>(envs.size());
-    return {static_cast<int>(static_cast<long>(n) * b / blocks), static_cast<int>(static_cast<long>(n) * (b + 1) / blocks)};
+    for (int k = next_env.fetch_add(1, std::memory_order_relaxed); k < n;
+         k = next_env.fetch_add(1, std::memory_order_relaxed)) {
+      try {
+        RunOne(k);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
   }
 
-  void WorkerLoop(int worker) {
+  void WorkerLoop() {
     std::uint64_t seen = 0;
+    auto woken = [&] {
+      return stopping.load(std::memory_order_acquire) || generation.load(std::memory_order_acquire) != seen;
+    };
     while (true) {
-      {
+      if (!SpinUntil(woken)) {
         std::unique_lock<std::mutex> lock(mutex);
-        work_ready.wait(lock, [&] { return stopping || generation != seen; });
-        if (stopping) return;
-        seen = generation;
+        work_ready.wait(lock, woken);
       }
-      const auto [begin, end] = Block(worker + 1, options.num_threads);
-      RunBlockCatching(begin, end);
-      {
+      if (stopping.load(std::memory_order_acquire)) return;
+      seen = generation.load(std::memory_order_acquire);
+      RunShare();
+      if (pending.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+        // under the lock: the caller may be between testing `pending` and sleeping
         std::lock_guard<std::mutex> lock(mutex);
-        if (--pending == 0) work_done.notify_one();
+        work_done.notify_one();
       }
     }
   }
@@ -142,20 +169,24 @@ struct VecEnv::Impl {
     job = new_job;
     actions = new_actions;
     error = nullptr;
+    next_env.store(0, std::memory_order_relaxed);
     if (workers.empty()) {
-      RunBlock(0, static_cast<int>(envs.size()));
+      RunShare();
+      if (error) std::rethrow_exception(error);
       return;
     }
     {
       std::lock_guard<std::mutex> lock(mutex);
-      pending = static_cast<int>(workers.size());
-      ++generation;
+      pending.store(static_cast<int>(workers.size()), std::memory_order_relaxed);
+      generation.fetch_add(1, std::memory_order_release);  // publishes the job, its actions and the counter
     }
     work_ready.notify_all();
-    const auto [begin, end] = Block(0, options.num_threads);
-    RunBlockCatching(begin, end);
-    std::unique_lock<std::mutex> lock(mutex);
-    work_done.wait(lock, [&] { return pending == 0; });
+    RunShare();
+    auto all_done = [&] { return pending.load(std::memory_order_acquire) == 0; };
+    if (!SpinUntil(all_done)) {
+      std::unique_lock<std::mutex> lock(mutex);
+      work_done.wait(lock, all_done);
+    }
     if (error) std::rethrow_exception(error);
   }
 };
@@ -197,14 +228,14 @@ VecEnv::VecEnv(const tasks::EnvFactory& factory, const VecEnvOptions& options) :
   impl.reset_metrics.assign(N, tasks::EpisodeMetrics{});
   impl.reset_next.assign(N, 0);
   for (int w = 0; w + 1 < impl.options.num_threads; ++w) {
-    impl.workers.emplace_back([&impl, w] { impl.WorkerLoop(w); });
+    impl.workers.emplace_back([&impl] { impl.WorkerLoop(); });
   }
 }
 
 VecEnv::~VecEnv() {
   {
     std::lock_guard<std::mutex> lock(impl_->mutex);
-    impl_->stopping = true;
+    impl_->stopping.store(true, std::memory_order_release);
   }
   impl_->work_ready.notify_all();
   for (std::thread& t : impl_->workers) t.join();

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <thread>
+
 #include <cmath>
 
 #include "rmpmarl/common/error.h"
@@ -90,6 +93,8 @@ TEST(VecEnvTest, ResultsDoNotDependOnTheThreadCount) {
     std::vector<float> trace;
     for (int t = 0; t < steps; ++t) {
       const auto actions = Actions(num_envs, t);
+      // now and then a pause longer than the threads spin, so that they also sleep and are woken
+      if (t % 10 == 5) std::this_thread::sleep_for(std::chrono::milliseconds(2));
       env.Step(actions.data());
       const Batch& b = env.batch();
       for (int k = 0; k < num_envs; ++k) {
