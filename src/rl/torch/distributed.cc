@@ -152,7 +152,7 @@ class GlooCollective final : public Collective {
     tensor.copy_(slot.buffer.view(tensor.sizes()));
   }
 
-  // the slot of (op, type, size), its buffer and algorithm made on first use
+  // the slot of (op, type, size), its buffer and algorithms made on first use
   Slot& SlotFor(Op op, const char* what, torch::ScalarType type, int64_t n) {
     Slot& slot = slots_[{op, static_cast<int>(type), n}];
     if (!slot.pieces.empty()) return slot;
@@ -161,13 +161,10 @@ class GlooCollective final : public Collective {
     Run(what, [&] {
       for (int64_t at = 0; at < n; at += per_piece) {
         const int count = static_cast<int>(std::min(per_piece, n - at));
-        if (type == torch::kFloat) slot.pieces.push_back(Make(op, context_, slot.buffer.data_ptr<float>() + at, count));
-        if (type == torch::kDouble) {
-          slot.pieces.push_back(Make(op, context_, slot.buffer.data_ptr<double>() + at, count));
-        }
-        if (type == torch::kLong) {
-          slot.pieces.push_back(Make(op, context_, slot.buffer.data_ptr<int64_t>() + at, count));
-        }
+        auto add = [&](auto* data) { slot.pieces.push_back(Make(op, context_, data + at, count)); };
+        if (type == torch::kFloat) add(slot.buffer.data_ptr<float>());
+        if (type == torch::kDouble) add(slot.buffer.data_ptr<double>());
+        if (type == torch::kLong) add(slot.buffer.data_ptr<int64_t>());
       }
     });
     return slot;
