@@ -146,10 +146,10 @@ void BM_VecEnvReachAvoid64(benchmark::State& state) {
 BENCHMARK(BM_VecEnvReachAvoid64)->ArgName("threads")->Arg(1)->Arg(2)->Iterations(1200)->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
-// bare mj_step (physics only: no servo targets change, no scenario, no observation) on the env's compiled model,
-// from a state of a reset episode (obstacles placed, arm at its start posture).
-void BM_BareMjStep(benchmark::State& state) {
-  auto context = tasks::MakeTaskContext(BenchConfig(tasks::InterfaceMode::kPerJointRmp, tasks::ScenarioUpdate::kPhysicsStep, 5));
+// bare mj_step (physics only: no servo targets change, no scenario, no observation) on the compiled model of
+// `config`'s env, from a state of a reset episode (obstacles placed, arm at its start posture).
+void RunBareMjSteps(benchmark::State& state, const tasks::TaskConfig& config) {
+  auto context = tasks::MakeTaskContext(config);
   tasks::ManipulatorEnv env(context);
   const tasks::EnvSpec& spec = env.spec();
   tasks::StepBuffers buffers(spec);
@@ -159,16 +159,29 @@ void BM_BareMjStep(benchmark::State& state) {
   const mjModel* m = env.world().mj_model();
   mjData* d = mj_makeData(m);
   mj_copyData(d, m, env.world().mj_data());
-  long k = 0;
+  long k = 0, contacts = 0;
   for (auto _ : state) {
     mj_step(m, d);
+    contacts += d->ncon;
     if (++k % 1000 == 0) mj_copyData(d, m, env.world().mj_data());  // stay near the start posture
   }
   state.counters["mj_steps/s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
-  state.counters["contacts"] = benchmark::Counter(d->ncon);
+  state.counters["contacts"] = benchmark::Counter(static_cast<double>(contacts) / state.iterations());
   mj_deleteData(d);
 }
+
+void BM_BareMjStep(benchmark::State& state) {
+  RunBareMjSteps(state, BenchConfig(tasks::InterfaceMode::kPerJointRmp, tasks::ScenarioUpdate::kPhysicsStep, 5));
+}
 BENCHMARK(BM_BareMjStep)->Unit(benchmark::kMicrosecond);
+
+// the same on the learned default's own model: its 0.5 m warning distance is the sensing margin of the arm's
+// capsules, so MuJoCo finds (and sorts out) every pair within it at every step
+void BM_BareMjStepLearnedDefault(benchmark::State& state) {
+  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+  RunBareMjSteps(state, PolicyTaskConfig(LoadPolicyFile(path), path));
+}
+BENCHMARK(BM_BareMjStepLearnedDefault)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace rmpmarl::rl
