@@ -3,7 +3,7 @@
   - throughput: env steps per second of `rmpmarl train CONFIG --nproc 2` (2 ranks x num_envs) against one process of
     num_envs and one process of 2 x num_envs, the same config otherwise; goal: 2 ranks >= 1.7x one process of
     num_envs (each rank does one process's work, so the ideal on 2 cores is 2x);
-  - one process of num_envs against two ranks of num_envs/2: the same batch and episodes per update, in less time;
+  - one process of num_envs against two ranks of num_envs/2 (an even num_envs): the same batch and episodes per update, in less time;
   - with --curve: the learning curve of 2 ranks x num_envs against 1 process x 2 num_envs (the same batch per update),
     windowed success and return every 10 % of the run.
 The fps of a run is the median over its updates after the first (metrics.csv); the config's init_actor_from is left
@@ -57,7 +57,7 @@ def main():
     p.add_argument("build", nargs="?", default="build")
     p.add_argument("--config", default="configs/train/mappo-reach-avoid.yaml")
     p.add_argument("--updates", type=int, default=12)
-    p.add_argument("--rounds", type=int, default=3, help="interleaved repetitions of the three runs")
+    p.add_argument("--rounds", type=int, default=3, help="interleaved repetitions of the runs")
     p.add_argument("--curve", type=int, default=0, help="also compare learning curves over this many updates")
     p.add_argument("--json", help="also write the medians here (speed_table.py reads them)")
     a = p.parse_args()
@@ -66,8 +66,9 @@ def main():
     print(f"train_scaling_bench: {a.config}, {a.updates} updates, {machine()}")
     with tempfile.TemporaryDirectory() as tmp:
         # the last: the same batch (and episodes) as one process of N, split over two ranks
-        runs = (("1 process x N", 1, n), ("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n),
-                ("2 ranks x N/2", 2, n // 2))
+        runs = (("1 process x N", 1, n), ("2 ranks x N", 2, n), ("1 process x 2N", 1, 2 * n))
+        if n % 2 == 0:
+            runs += (("2 ranks x N/2", 2, n // 2),)
         results = {name: [] for name, _, _ in runs}
         split = {name: [] for name, _, _ in runs}
         ratios = []
@@ -90,9 +91,10 @@ def main():
         print(f"  2 ranks / 1 process of N: {statistics.median(ratios):.2f}x, median of {a.rounds} interleaved rounds "
               f"({', '.join(f'{r:.2f}' for r in ratios)}; goal >= 1.7x); 2 ranks / 1 process of 2N: "
               f"{statistics.median(results['2 ranks x N']) / statistics.median(results['1 process x 2N']):.2f}x")
-        print(f"  the same batch on 2 ranks (N/2 envs each) / 1 process of N: "
-              f"{statistics.median(results['2 ranks x N/2']) / statistics.median(results['1 process x N']):.2f}x "
-              f"env steps per second")
+        if "2 ranks x N/2" in results:
+            print(f"  the same batch on 2 ranks (N/2 envs each) / 1 process of N: "
+                  f"{statistics.median(results['2 ranks x N/2']) / statistics.median(results['1 process x N']):.2f}x "
+                  f"env steps per second")
         if a.json:
             with open(a.json, "w") as f:
                 json.dump(summary, f, indent=1)
