@@ -131,6 +131,7 @@ void RegisterTrain(CLI::App& app, int, char** argv) {
     std::optional<int> updates;
     std::optional<int> torch_threads;
     std::optional<int> env_threads;
+    std::optional<int> envs;
     int nproc = 1;
     int dist_timeout = 60;
     bool quiet = false;
@@ -145,6 +146,10 @@ void RegisterTrain(CLI::App& app, int, char** argv) {
   cmd->add_option("--updates", args->updates, "override total_updates")->check(CLI::Range(1, 10000000));
   cmd->add_option("--torch-threads", args->torch_threads, "override torch_threads")->check(CLI::Range(1, 256));
   cmd->add_option("--env-threads", args->env_threads, "override env_threads")->check(CLI::Range(1, 256));
+  cmd->add_option("--envs", args->envs,
+                  "override num_envs, the environments of each rank (--nproc 2 --envs 8 learns from the batch and the "
+                  "episodes of one process of 16, in less time)")
+      ->check(CLI::Range(1, 4096));
   cmd->add_flag("--quiet", args->quiet, "no progress output");
   cmd->add_option("--nproc", args->nproc,
                   "data-parallel training over N local processes, each with the config's num_envs environments "
@@ -171,6 +176,15 @@ void RegisterTrain(CLI::App& app, int, char** argv) {
     if (args->updates) config.total_updates = *args->updates;
     if (args->torch_threads) config.torch_threads = *args->torch_threads;
     if (args->env_threads) config.env_threads = *args->env_threads;
+    if (args->envs) {
+      config.num_envs = *args->envs;
+      const int samples = config.ppo.rollout_steps() * config.num_envs;
+      if (config.ppo.minibatches() > samples) {
+        throw InputError(fmt::format("--envs {}: expected at least ppo.minibatches = {} env steps per rollout, got {} "
+                                     "(rollout_steps {} × {} envs)", *args->envs, config.ppo.minibatches(), samples,
+                                     config.ppo.rollout_steps(), config.num_envs));
+      }
+    }
     if (args->quiet) config.progress = false;
     std::unique_ptr<rl::Collective> collective;
     if (group && group->world_size > 1) {

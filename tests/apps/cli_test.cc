@@ -125,6 +125,7 @@ TEST(CliTest, TrainEvalAndRobotsRefuseUnreasonableSizesWithTheAllowedRange) {
   if (RunCli("train --help").exit_code == 0) {  // built with libtorch
     for (const char* c : {"train c.yaml --updates 0", "train c.yaml --updates 100000000",
                           "train c.yaml --env-threads 100000", "train c.yaml --torch-threads 0",
+                          "train c.yaml --envs 0", "train c.yaml --envs 5000",
                           "eval p.rmpp --episodes 0", "eval p.rmpp --episodes 1000000000",
                           "eval p.rmpp --envs 1000000", "eval p.rmpp --env-threads 0"}) {
       cases.push_back(c);

@@ -427,14 +427,14 @@ ShellRun Shell(const std::string& command) {
 }
 
 // a short toy-reach run: 2 updates per checkpoint
-std::string WriteConfig(const std::string& dir, int updates) {
+std::string WriteConfig(const std::string& dir, int updates, int minibatches = 2) {
   const std::string path = dir + "/toy.yaml";
   std::ofstream(path) << fmt::format(
       "name: toy\ntask: {{name: toy-reach, interface: options, overrides: {{agents: 3, horizon: 20}}}}\n"
       "algorithm: mappo\nseed: 4\nnum_envs: 4\ntotal_updates: {}\ncheckpoint_every: 2\noutput_dir: {}/out\n"
       "network: {{actor_hidden: [32, 32], critic_hidden: [32, 32]}}\n"
-      "ppo: {{rollout_steps: 16, epochs: 2, minibatches: 2, target_kl: 0.05}}\n",
-      updates, dir);
+      "ppo: {{rollout_steps: 16, epochs: 2, minibatches: {}, target_kl: 0.05}}\n",
+      updates, dir, minibatches);
   return path;
 }
 
@@ -474,6 +474,25 @@ TEST(DistributedTest, LocalRanksHoldOneLearnerAndRankZeroWritesTheRun) {
   std::getline(csv, first);
   EXPECT_EQ(first.substr(0, first.find(',', 2)), "1,128") << first;
 
+  fs::remove_all(dir);
+}
+
+TEST(DistributedTest, EnvsSetsEachRanksEnvironments) {
+  // --nproc 2 --envs 2 for a config of 4: every update counts 2 ranks × 2 envs × 16 steps
+  const std::string dir = TempDir("envs");
+  const ShellRun run = Shell(fmt::format("{} train {} --nproc 2 --envs 2 --quiet", RMPMARL_CLI_PATH, WriteConfig(dir, 2)));
+  ASSERT_EQ(run.status, 0) << run.output;
+  std::ifstream csv(dir + "/out/metrics.csv");
+  std::string header, first;
+  std::getline(csv, header);
+  std::getline(csv, first);
+  EXPECT_EQ(first.substr(0, first.find(',', 2)), "1,64") << first;
+  // fewer env steps per rollout than minibatches: refused, naming the option
+  const ShellRun tiny = Shell(fmt::format("{} train {} --envs 1 --quiet", RMPMARL_CLI_PATH,
+                                          WriteConfig(dir, 2, /*minibatches=*/32)));
+  EXPECT_NE(tiny.status, 0);
+  EXPECT_NE(tiny.output.find("--envs 1: expected at least ppo.minibatches = 32 env steps per rollout, got 16"),
+            std::string::npos) << tiny.output;
   fs::remove_all(dir);
 }
 
