@@ -48,14 +48,28 @@ std::vector<float> RandomActions(const tasks::EnvSpec& spec, std::mt19937_64& rn
   return actions;
 }
 
+// one env of `config` and its step buffers
+struct OneEnv {
+  explicit OneEnv(const tasks::TaskConfig& config)
+      : context(tasks::MakeTaskContext(config)), env(context), buffers(env.spec()), out(buffers.out()) {}
+  std::shared_ptr<const tasks::TaskContext> context;
+  tasks::ManipulatorEnv env;
+  tasks::StepBuffers buffers;
+  tasks::StepOutput out;
+};
+
+// the shipped learned default's own task, as its controller file carries it
+tasks::TaskConfig LearnedDefaultConfig() {
+  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
+  return PolicyTaskConfig(LoadPolicyFile(path), path);
+}
+
 // one env of `config`, random actions drawn before timing, auto-reset at episode ends (resets are included in the
 // time)
 void RunEnvSteps(benchmark::State& state, const tasks::TaskConfig& config) {
-  auto context = tasks::MakeTaskContext(config);
-  tasks::ManipulatorEnv env(context);
+  OneEnv one(config);
+  auto& [context, env, buffers, out] = one;
   const tasks::EnvSpec& spec = env.spec();
-  tasks::StepBuffers buffers(spec);
-  const tasks::StepOutput out = buffers.out();
   std::mt19937_64 rng(7);
   const int action_size = spec.num_agents * spec.action.size();
   const std::vector<float> actions = RandomActions(spec, rng);
@@ -92,8 +106,7 @@ BENCHMARK(BM_EnvStep)
 // the shipped learned default's own task as its controller file carries it (the coupled basic layer, the hand gate,
 // the look-ahead block and observation of the reach-avoid scene it was trained in): the env step it is trained on
 void BM_EnvStepLearnedDefault(benchmark::State& state) {
-  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  const tasks::TaskConfig config = PolicyTaskConfig(LoadPolicyFile(path), path);
+  const tasks::TaskConfig config = LearnedDefaultConfig();
   RunEnvSteps(state, config);
   state.SetLabel(fmt::format("{}, lookahead {} s, scenario update per {}", config.robot, config.observation.lookahead,
                              config.episode.scenario_update == tasks::ScenarioUpdate::kPhysicsStep ? "physics step"
@@ -149,11 +162,8 @@ BENCHMARK(BM_VecEnvReachAvoid64)->ArgName("threads")->Arg(1)->Arg(2)->Iterations
 // bare mj_step (physics only: no servo targets change, no scenario, no observation) on the compiled model of
 // `config`'s env, from a state of a reset episode (obstacles placed, arm at its start posture).
 void RunBareMjSteps(benchmark::State& state, const tasks::TaskConfig& config) {
-  auto context = tasks::MakeTaskContext(config);
-  tasks::ManipulatorEnv env(context);
-  const tasks::EnvSpec& spec = env.spec();
-  tasks::StepBuffers buffers(spec);
-  const tasks::StepOutput out = buffers.out();
+  OneEnv one(config);
+  auto& [context, env, buffers, out] = one;
   std::mt19937_64 rng(7);
   env.Reset(rng, out);
   const mjModel* m = env.world().mj_model();
@@ -177,10 +187,7 @@ BENCHMARK(BM_BareMjStep)->Unit(benchmark::kMicrosecond);
 
 // the same on the learned default's own model: its 0.5 m warning distance is the sensing margin of the arm's
 // capsules, so MuJoCo finds (and sorts out) every pair within it at every step
-void BM_BareMjStepLearnedDefault(benchmark::State& state) {
-  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  RunBareMjSteps(state, PolicyTaskConfig(LoadPolicyFile(path), path));
-}
+void BM_BareMjStepLearnedDefault(benchmark::State& state) { RunBareMjSteps(state, LearnedDefaultConfig()); }
 BENCHMARK(BM_BareMjStepLearnedDefault)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

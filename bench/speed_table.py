@@ -15,12 +15,7 @@ import subprocess
 import sys
 import tempfile
 
-
-def machine():
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return f"{line.split(':', 1)[1].strip()}, {os.cpu_count()} hardware threads"
-    return "unknown machine"
+from train_scaling_bench import machine  # this directory's: the machine's name, as that bench prints it
 
 
 def medians(path):

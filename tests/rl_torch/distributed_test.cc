@@ -426,6 +426,23 @@ ShellRun Shell(const std::string& command) {
   return r;
 }
 
+// a log file's text so far ("" before it exists)
+std::string ReadLog(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// "update,env_steps" of the first row of a run's metrics.csv
+std::string FirstUpdateAndEnvSteps(const std::string& dir) {
+  std::ifstream csv(dir + "/out/metrics.csv");
+  std::string header, first;
+  std::getline(csv, header);
+  std::getline(csv, first);
+  return first.substr(0, first.find(',', 2));
+}
+
 // a short toy-reach run: 2 updates per checkpoint
 std::string WriteConfig(const std::string& dir, int updates, int minibatches = 2) {
   const std::string path = dir + "/toy.yaml";
@@ -468,11 +485,7 @@ TEST(DistributedTest, LocalRanksHoldOneLearnerAndRankZeroWritesTheRun) {
   fs::remove_all(three_dir);
   // rank 0 alone wrote the run's files; each update counted both ranks' env steps (4 envs × 16 steps × 2 ranks)
   EXPECT_TRUE(fs::exists(dir + "/out/policy.rmpp"));
-  std::ifstream csv(dir + "/out/metrics.csv");
-  std::string header, first;
-  std::getline(csv, header);
-  std::getline(csv, first);
-  EXPECT_EQ(first.substr(0, first.find(',', 2)), "1,128") << first;
+  EXPECT_EQ(FirstUpdateAndEnvSteps(dir), "1,128");
 
   fs::remove_all(dir);
 }
@@ -482,11 +495,7 @@ TEST(DistributedTest, EnvsSetsEachRanksEnvironments) {
   const std::string dir = TempDir("envs");
   const ShellRun run = Shell(fmt::format("{} train {} --nproc 2 --envs 2 --quiet", RMPMARL_CLI_PATH, WriteConfig(dir, 2)));
   ASSERT_EQ(run.status, 0) << run.output;
-  std::ifstream csv(dir + "/out/metrics.csv");
-  std::string header, first;
-  std::getline(csv, header);
-  std::getline(csv, first);
-  EXPECT_EQ(first.substr(0, first.find(',', 2)), "1,64") << first;
+  EXPECT_EQ(FirstUpdateAndEnvSteps(dir), "1,64");
   // fewer env steps per rollout than minibatches: refused, naming the option
   const ShellRun tiny = Shell(fmt::format("{} train {} --envs 1 --quiet", RMPMARL_CLI_PATH,
                                           WriteConfig(dir, 2, /*minibatches=*/32)));
@@ -521,12 +530,6 @@ double RankZeroSurvives(const std::string& name, int timeout_s, const std::funct
     return pid;
   };
   const pid_t r0 = start(0, log0), r1 = start(1, dir + "/rank1.log");
-  auto read = [](const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  };
   auto stop_both = [&] {
     kill(r0, SIGKILL);
     kill(r1, SIGKILL);
@@ -535,10 +538,10 @@ double RankZeroSurvives(const std::string& name, int timeout_s, const std::funct
   };
   // rank 0 reports updates once the group trains
   const auto begin = std::chrono::steady_clock::now();
-  while (read(log0).find("3/100000]") == std::string::npos) {
+  while (ReadLog(log0).find("3/100000]") == std::string::npos) {
     if (std::chrono::steady_clock::now() - begin > std::chrono::seconds(120)) {
       stop_both();
-      ADD_FAILURE() << "the ranks did not train for 120 s:\n" << read(log0);
+      ADD_FAILURE() << "the ranks did not train for 120 s:\n" << ReadLog(log0);
       return -1.0;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -558,7 +561,7 @@ double RankZeroSurvives(const std::string& name, int timeout_s, const std::funct
   kill(r1, SIGKILL);
   waitpid(r1, nullptr, 0);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) != 0);
-  const std::string out = read(log0);
+  const std::string out = ReadLog(log0);
   EXPECT_NE(out.find("rank 0 of 2"), std::string::npos) << out;
   EXPECT_NE(out.find("another rank died, hung"), std::string::npos) << out;
   fs::remove_all(dir);
@@ -595,18 +598,12 @@ TEST(DistributedTest, TheLauncherNamesTheRankThatHung) {
           nullptr);
     _exit(127);
   }
-  auto read = [](const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  };
   const auto begin = std::chrono::steady_clock::now();
-  while (read(log).find("3/100000]") == std::string::npos) {
+  while (ReadLog(log).find("3/100000]") == std::string::npos) {
     if (std::chrono::steady_clock::now() - begin > std::chrono::seconds(120)) {
       kill(-launcher, SIGKILL);
       kill(launcher, SIGKILL);
-      FAIL() << read(log);
+      FAIL() << ReadLog(log);
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
@@ -628,7 +625,7 @@ TEST(DistributedTest, TheLauncherNamesTheRankThatHung) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 1);
-  const std::string out = read(log);
+  const std::string out = ReadLog(log);
   EXPECT_NE(out.find("rank 1: hung: killed after the timeout"), std::string::npos) << out;
   EXPECT_NE(out.find("rank 0: exited with status 1"), std::string::npos) << out;
   EXPECT_NE(kill(rank1, 0), 0) << "the hung rank is gone";

@@ -115,7 +115,7 @@ class GlooCollective final : public Collective {
 
  private:
   enum Op { kAllReduce, kBroadcast };
-  // the algorithms bound to a buffer of one op, type and size, one per piece of at most ChunkBytes, made once
+  // the algorithms bound to a buffer of one op, type and size, one per piece of at most kPieceBytes, made once
   // (every rank makes them in the same order, as they call the same collectives in the same order): registering a
   // ring's buffers costs more than running it
   struct Slot {
