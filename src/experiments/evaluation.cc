@@ -37,8 +37,9 @@ class Actor {
 class PolicyActor final : public Actor {
  public:
   PolicyActor(const rl::PolicyWeights& weights, int num_agents) : runtime_(weights, num_agents), agents_(num_agents) {}
+  /// only the agents whose action the env will read (held parameters): the others keep their last, valid action
   void Act(const tasks::StepBuffers& step, float* actions) override {
-    runtime_.Act(step.local_obs.data(), agents_, actions);
+    runtime_.ActWhere(step.local_obs.data(), agents_, step.next_action_read.data(), actions);
   }
 
  private:

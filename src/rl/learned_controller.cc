@@ -47,6 +47,7 @@ LearnedController::LearnedController(const kinematics::Robot& robot, const tasks
   obs_.assign(static_cast<size_t>(nq) * obs_dim_, 0.0f);
   hold_scene_.obstacles.reserve(options_.max_obstacles);
   actions_.assign(static_cast<size_t>(nq) * action_size_, 0.0f);
+  reads_.assign(nq, 1.0f);
   // the pairs the tasks' MuJoCo worlds check: capsules of distinct, non-excluded links
   const int nc = static_cast<int>(robot.capsules.size());
   for (int c = 0; c < nc; ++c) {
@@ -148,7 +149,9 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
   if (started_) agents_.End();  // the last step's options end on what is sensed now, as in the env
   const int n = nq();
   for (int i = 0; i < n; ++i) agents_.WriteLocal(i, steps_, obs_.data() + static_cast<size_t>(i) * obs_dim_);
-  runtime_.Act(obs_.data(), n, actions_.data());
+  // the network for the agents whose action Apply reads (with held parameters, at most steps none)
+  for (int i = 0; i < n; ++i) reads_[i] = agents_.ReadsAction(i) ? 1.0f : 0.0f;
+  runtime_.ActWhere(obs_.data(), n, reads_.data(), actions_.data());
   agents_.Apply(actions_.data(), nullptr, nullptr);
   started_ = true;
   // the progress feature saturates at the task's episode length; the count stops there too (no overflow)

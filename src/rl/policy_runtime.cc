@@ -128,6 +128,9 @@ struct PolicyRuntime::Impl {
   std::vector<Packed> packed;
   int stride = 0;  // floats per agent row in the activation buffers
   std::vector<float> x, h0, h1, head_out;
+  // ActWhere: the evaluated agents' observations and actions, gathered, and their indices
+  std::vector<float> obs_rows, act_rows;
+  std::vector<int> rows;
   // portable path
   Eigen::MatrixXf e_in, e_h0, e_h1;
 
@@ -234,6 +237,9 @@ PolicyRuntime::PolicyRuntime(const PolicyWeights& weights, int max_agents) : imp
   m.e_h0.setZero(widest, max_agents);
   m.e_h1.setZero(widest, max_agents);
   m.head_out.assign(static_cast<std::size_t>(max_agents) * weights.head_size(), 0.0f);
+  m.obs_rows.assign(static_cast<std::size_t>(max_agents) * weights.obs_dim, 0.0f);
+  m.act_rows.assign(static_cast<std::size_t>(max_agents) * weights.action_size(), 0.0f);
+  m.rows.assign(max_agents, 0);
 }
 
 PolicyRuntime::~PolicyRuntime() = default;
@@ -271,6 +277,40 @@ void PolicyRuntime::Act(const float* obs, int num_agents, float* actions) {
     for (int c = 0; c < w.num_continuous; ++c) act[j++] = std::clamp(h[w.num_options + c], w.low[c], w.high[c]);
     if (w.has_termination) act[j++] = h[hs - 1] > 0.0f ? 1.0f : 0.0f;
   }
+}
+
+int PolicyRuntime::ActWhere(const float* obs, int num_agents, const float* read, float* actions) {
+  Impl& m = *impl_;
+  RMPMARL_ASSERT(num_agents >= 0 && num_agents <= m.max_agents, "PolicyRuntime: num_agents > max_agents");
+  int n = 0;
+  for (int a = 0; a < num_agents; ++a) {
+    if (read[a] != 0.0f) m.rows[n++] = a;
+  }
+  if (n == num_agents) {
+    Act(obs, num_agents, actions);
+    return n;
+  }
+  const int d = m.w.obs_dim, as = m.w.action_size();
+  if (!m.avx2 && n > 0) {
+    // Eigen's product of a batch may round a row differently from the same row alone: the whole batch, then the
+    // rows asked for
+    Act(obs, num_agents, m.act_rows.data());
+    for (int k = 0; k < n; ++k) {
+      const std::size_t offset = static_cast<std::size_t>(m.rows[k]) * as;
+      std::memcpy(actions + offset, m.act_rows.data() + offset, sizeof(float) * as);
+    }
+    return n;
+  }
+  for (int k = 0; k < n; ++k) {
+    std::memcpy(m.obs_rows.data() + static_cast<std::size_t>(k) * d, obs + static_cast<std::size_t>(m.rows[k]) * d,
+                sizeof(float) * d);
+  }
+  if (n > 0) Act(m.obs_rows.data(), n, m.act_rows.data());
+  for (int k = 0; k < n; ++k) {
+    std::memcpy(actions + static_cast<std::size_t>(m.rows[k]) * as, m.act_rows.data() + static_cast<std::size_t>(k) * as,
+                sizeof(float) * as);
+  }
+  return n;
 }
 
 }  // namespace rmpmarl::rl

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -115,7 +116,7 @@ struct CollisionLeaf {
   math::DistanceResult distance;           ///< witness points and distance
   Eigen::Vector3d n;                       ///< ∂d/∂p_W1 (gradient_norm · n_W)
   double xd;                               ///< ḋ relative to the obstacle
-  Rmp1 rmp;                                ///< the unscaled RMP
+  Rmp1 rmp;  ///< the unscaled RMP (its acceleration only where a joint reads it at length scale 1, else 0)
   double sigma;                            ///< its velocity gate σ(ẋ), which no length scale changes
   double jdqd;                             ///< J̇q̇ of the distance
 };
@@ -128,15 +129,32 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                           OnDistance&& on_distance, OnLeaf&& on_leaf) {
   const double r = params.collision.metric_modulation_radius;
+  // the obstacles' bounding spheres (centre, radius), once per evaluation for the first kCachedSpheres
+  constexpr int kCachedSpheres = 32;
+  std::array<Eigen::Vector4d, kCachedSpheres> spheres;
+  const int num_obstacles = static_cast<int>(scene.obstacles.size());
+  const int cached = std::min(num_obstacles, kCachedSpheres);
+  auto bounding_sphere = [&](int j) {
+    Eigen::Vector4d sphere;
+    sphere << Centre(scene.obstacles[j]), BoundingRadius(scene.obstacles[j]);
+    return sphere;
+  };
+  for (int j = 0; j < cached; ++j) spheres[j] = bounding_sphere(j);
   for (const kinematics::LinkCapsule& lc : robot.capsules) {
     const std::vector<int>& dofs = robot.model.link_dofs(lc.link);
     if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
+    // the RMP's acceleration at length scale 1 only where some joint reads it (ScaledCollisionAccel)
+    const bool unit_scale = std::any_of(dofs.begin(), dofs.end(), [&](int dof) {
+      return weights[dof].use_collision && weights[dof].collision_length_scale == 1.0;
+    });
     const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
     const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
     const Eigen::Vector3d centre = 0.5 * (capsule.p_WA + capsule.p_WB);
     const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
-    for (const Obstacle& obstacle : scene.obstacles) {
-      const double lower = (centre - Centre(obstacle)).norm() - bound - BoundingRadius(obstacle);
+    for (int j = 0; j < num_obstacles; ++j) {
+      const Obstacle& obstacle = scene.obstacles[j];
+      const Eigen::Vector4d sphere = j < cached ? spheres[j] : bounding_sphere(j);
+      const double lower = (centre - sphere.head<3>()).norm() - bound - sphere[3];
       if (lower > r) {
         on_distance(dofs, lower);
         continue;
@@ -147,7 +165,7 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
       leaf.n = leaf.distance.gradient_norm * leaf.distance.n_W;
       leaf.xd = leaf.n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, leaf.distance.p_W1) - obstacle.v_WO);
       leaf.sigma = CollisionVelocityGate(leaf.xd, params.collision.damping_velocity_gate_length_scale);
-      leaf.rmp.a = CollisionRmpAccel(params.collision, leaf.distance.distance, leaf.xd, leaf.sigma);
+      if (unit_scale) leaf.rmp.a = CollisionRmpAccel(params.collision, leaf.distance.distance, leaf.xd, leaf.sigma);
       leaf.rmp.m = CollisionRmpMetric(params.collision, leaf.distance.distance, leaf.sigma);
       leaf.jdqd = leaf.n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, leaf.distance.p_W1));
       on_leaf(leaf);
@@ -215,7 +233,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
           const double m = w.collision_metric_scale * leaf.rmp.m;
           const double f = m * w.collision_accel_scale * ScaledCollisionAccel(params, leaf, w);
           const double j =
-              leaf.n.dot(CalcPointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+              leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
           results[dof].force += j * (f - m * leaf.jdqd);
           results[dof].metric += j * m * j;
           ++results[dof].collision_terms;
@@ -262,7 +280,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     for (int dof : model.link_dofs(link)) {
       const JointLayerWeights& w = weights[dof];
       if (!w.use_target || w.target_metric_scale <= 0.0) continue;
-      const Eigen::Vector3d j = CalcPointJacobianColumn(model, kin, dof, link, p_WE);
+      const Eigen::Vector3d j = internal::PointJacobianColumn(model, kin, dof, link, p_WE);
       ws.G.col(dof) = std::sqrt(w.target_metric_scale) * j;
       const Eigen::Vector3d Ma_scaled = ScaledTargetAccel(params, Ma, M_attraction, w.target_accel_scale);
       ws.b[dof] += w.target_metric_scale * j.dot(Ma_scaled - Mjdqd);
@@ -284,7 +302,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
           if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
           const double a = ScaledCollisionAccel(params, leaf, w);
           const double j =
-              leaf.n.dot(CalcPointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+              leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
           ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
           ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
         }

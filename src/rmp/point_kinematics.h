@@ -10,6 +10,18 @@
 
 namespace rmpmarl::rmp::internal {
 
+// kinematics::CalcPointJacobianColumn(model, kin, dof, link, p_W) inline, the same arithmetic: a × (p_W − o_J) for
+// the rotational joint of `dof`, a for a prismatic one (the general column where mimic joints exist)
+inline Eigen::Vector3d PointJacobianColumn(const kinematics::Model& model, const kinematics::Data& kin, int dof, int link,
+                                           const Eigen::Vector3d& p_W) {
+  if (model.has_mimic_joints()) return kinematics::CalcPointJacobianColumn(model, kin, dof, link, p_W);
+  const int joint_link = model.dof_link(dof);
+  const Eigen::Vector3d axis = kin.axis_W.col(dof);
+  const kinematics::JointType type = model.link(joint_link).joint_type;
+  if (type != kinematics::JointType::kRevolute && type != kinematics::JointType::kContinuous) return axis;
+  return axis.cross(p_W - kin.X_WL[joint_link].translation());
+}
+
 // row += sign · nᵀ J_WP for world point p_W fixed on `link` (only the dofs moving the link are touched), with per-dof
 // joint origins o_W (3 × nq) and prismatic flags gathered once per evaluation:
 // nᵀ (a × r) = a · (r × n) for a revolute axis a, nᵀ a for a prismatic one.

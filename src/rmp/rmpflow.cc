@@ -164,6 +164,7 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
     throw InputError(fmt::format("RMPflow: scene has {} obstacles but the policy was built for at most {}",
                                  num_obstacles, max_obstacles_));
   }
+  if (ee_node_ >= 0) data_.set_enabled(ee_node_, true);
   PushForward(tree_, q, qd, scene, &data_);
   WriteLeaves(q, qd, scene, /*task_leaves=*/true);
   PullbackAndResolve(tree_, &data_, qdd);
@@ -180,6 +181,7 @@ void RmpflowPolicy::EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q
   const kinematics::Model& model = tree_.robot().model;
   kinematics::CheckJointVector(model, q, "q");
   kinematics::CheckJointVector(model, qd, "qd");
+  if (ee_node_ >= 0) data_.set_enabled(ee_node_, false);  // the target leaf is the caller's (its RMP would be zero)
   PushForward(tree_, q, qd, no_task_, &data_);
   WriteLeaves(q, qd, no_task_, /*task_leaves=*/false);
   Pullback(tree_, &data_);

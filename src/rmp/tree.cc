@@ -206,6 +206,7 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
   }
   arena_.assign(off, 0.0);
   active_.assign(n, 0);
+  enabled_.assign(n, 1);
   distance_.resize(n);
   const kinematics::Robot& robot = tree.robot();
   capsule_W_.resize(robot.capsules.size());
@@ -279,7 +280,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
     const int i = node.node;
     const int parent = node.parent;
     data->active_[i] = 0;
-    if (parent >= 0 && !data->active_[parent]) continue;
+    if (!data->enabled_[i] || (parent >= 0 && !data->active_[parent])) continue;
     double* x = data->arena_.data() + data->node_[i].x_off;
     double* xd = data->arena_.data() + data->node_[i].xd_off;
     double* jdqd = data->arena_.data() + data->node_[i].jdqd_off;

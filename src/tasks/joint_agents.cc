@@ -336,9 +336,7 @@ void JointAgents::Apply(const float* actions, float* option_started, float* para
     const OptionSelection sel = options_[i].Begin(chosen, option_warning_[i] != 0);
     if (option_started != nullptr) option_started[i] = sel.started ? 1.0f : 0.0f;
     // the RMP parameters: read now, or held since the last read (options.parameter_period)
-    const int period = config_.options.parameter_period;
-    const bool read = period == 1 || sel.started || parameter_age_[i] < 0 || parameter_age_[i] >= period ||
-                      parameter_warning_[i] != option_warning_[i];
+    const bool read = sel.started || ParametersDue(i);
     if (read) {
       for (int c = 0; c < RmpActionLayout::kNumContinuous; ++c) {
         held_parameters_(i, c) = u[RmpActionLayout::kTargetAccelScale + c];
@@ -369,6 +367,18 @@ void JointAgents::Apply(const float* actions, float* option_started, float* para
     w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);
     terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
   }
+}
+
+bool JointAgents::ReadsAction(int i) const {
+  RMPMARL_ASSERT(layer_ != nullptr, "JointAgents::ReadsAction: the per-joint-rmp interface only");
+  RMPMARL_ASSERT(i >= 0 && i < nq_, "JointAgents::ReadsAction: joint index out of range");
+  return action_.has_termination || options_[i].idle() || ParametersDue(i);
+}
+
+bool JointAgents::ParametersDue(int i) const {
+  const int period = config_.options.parameter_period;
+  return period == 1 || parameter_age_[i] < 0 || parameter_age_[i] >= period ||
+         parameter_warning_[i] != option_warning_[i];
 }
 
 const rmp::JointLayerWeights& JointAgents::layer_weights(int i) const {

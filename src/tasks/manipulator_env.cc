@@ -476,6 +476,17 @@ void ManipulatorEnv::WriteObservation(const StepOutput& out) const {
     for (int i = 0; i < num_agents_; ++i) agents_->WriteLocal(i, steps_, out.local_obs + static_cast<size_t>(i) * dim);
   }
   WriteGlobal(out.global_state);
+  if (out.next_action_read != nullptr) {  // which actions the next Step reads (an actor may skip the others)
+    for (int i = 0; i < num_agents_; ++i) {
+      bool read = true;
+      if (external_controller_ != nullptr) {
+        read = false;
+      } else if (config_.interface == InterfaceMode::kPerJointRmp) {
+        read = agents_->ReadsAction(i);
+      }
+      out.next_action_read[i] = read ? 1.0f : 0.0f;
+    }
+  }
 }
 
 void ManipulatorEnv::SanitiseOutputs(const StepOutput& out) {

@@ -114,7 +114,7 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
   LearnedControllerOptions options;
   options.max_obstacles = context->num_obstacles();
   LearnedController controller(env.world().model().robot(), config, file.weights, options);
-  int steps = 0;
+  int steps = 0, read_actions = 0;
   double max_state_diff = 0.0, max_joint_diff = 0.0, max_action_diff = 0.0;
   for (int episode = 0; episode < 2; ++episode) {
     std::mt19937_64 rng(300 + episode);
@@ -135,6 +135,9 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
         for (int k = tasks::LocalObs::kJointPosition; k <= tasks::LocalObs::kJointIndex; ++k) {
           max_joint_diff = std::max(max_joint_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
+        // the controller runs its network where the step reads the action (held parameters: only then)
+        if (buffers.next_action_read[i] == 0.0f) continue;
+        ++read_actions;
         for (int c = 0; c < a.num_continuous; ++c) {
           const size_t k = static_cast<size_t>(i) * a.size() + a.continuous_offset() + c;
           max_action_diff = std::max(max_action_diff,
@@ -150,6 +153,7 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
   EXPECT_LE(max_state_diff, 1e-6);  // the same count and options, step by step
   EXPECT_LE(max_joint_diff, 1e-6);  // the same measured state
   EXPECT_LE(max_action_diff, 0.05);  // as on a single state (witness points of near-parallel capsules)
+  EXPECT_GT(read_actions, 2 * nq * config.episode.max_steps / config.options.parameter_period);
 }
 
 // without a target in the scene the agents hold the end effector where it was at the first step without one: the

@@ -335,6 +335,69 @@ TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
   EXPECT_GT(early, 0);          // and read early where options start or warnings change
 }
 
+// StepOutput::next_action_read: an agent marked 0 has its action ignored by the next step. Two envs on the same
+// episode, one fed random actions, the other the same where marked 1 and other random values where marked 0, stay
+// identical step by step; the marks are both 0 and 1 (held parameters), agree with what the step then read, and are
+// all 1 where the action carries a learned termination flag, which every step reads.
+TEST(ManipulatorEnvTest, NextActionReadMarksTheActionsTheNextStepIgnores) {
+  struct Case {
+    int fixed_option;
+    OptionTermination termination;
+  };
+  for (const Case& k : {Case{2, OptionTermination::kFixed}, Case{-1, OptionTermination::kFixed},
+                        Case{-1, OptionTermination::kLearned}}) {
+    SCOPED_TRACE(k.fixed_option);
+    TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "panda", 1);
+    c.options.parameter_period = 5;
+    c.options.fixed_option = k.fixed_option;
+    c.options.termination = k.termination;
+    c.options.horizon = 8;
+    c.scenario.crossing.num_obstacles = 2;  // warnings come and go
+    auto context = MakeTaskContext(c);
+    ManipulatorEnv a(context), b(context);
+    const EnvSpec& s = a.spec();
+    const ActionSpec& as = s.action;
+    Buffers ba(s), bb(s);
+    std::mt19937_64 rng_a(41), rng_b(41), arng(42), brng(43);
+    a.Reset(rng_a, ba.out());
+    b.Reset(rng_b, bb.out());
+    EXPECT_EQ(ba.next_action_read, std::vector<float>(s.num_agents, 1.0f));  // the first step reads every action
+    std::vector<float> actions(s.num_agents * as.size()), other(actions.size());
+    int ignored = 0, read = 0;
+    for (int step = 0; step < 200; ++step) {
+      RandomActions(s, arng, actions.data());
+      RandomActions(s, brng, other.data());
+      const std::vector<float> predicted = ba.next_action_read;
+      for (int i = 0; i < s.num_agents; ++i) {
+        ASSERT_TRUE(predicted[i] == 0.0f || predicted[i] == 1.0f);
+        if (predicted[i] == 0.0f) {
+          ++ignored;
+        } else {
+          ++read;
+          std::copy_n(actions.begin() + i * as.size(), as.size(), other.begin() + i * as.size());
+        }
+      }
+      a.Step(actions.data(), rng_a, ba.out());
+      b.Step(other.data(), rng_b, bb.out());
+      ASSERT_EQ((a.world().q() - b.world().q()).cwiseAbs().maxCoeff(), 0.0) << "step " << step;
+      ASSERT_EQ(ba.local_obs, bb.local_obs) << "step " << step;
+      ASSERT_EQ(ba.next_action_read, bb.next_action_read) << "step " << step;
+      for (int i = 0; i < s.num_agents; ++i) {
+        // what the step read was marked; with the option fixed, only what it read
+        EXPECT_TRUE(predicted[i] == 1.0f || (ba.parameters_read[i] == 0.0f && ba.option_started[i] == 0.0f));
+        if (k.fixed_option >= 0) EXPECT_EQ(predicted[i], ba.parameters_read[i]) << "step " << step;
+      }
+      if (ba.terminated || ba.truncated) break;
+    }
+    if (k.termination == OptionTermination::kLearned) {
+      EXPECT_EQ(ignored, 0);
+    } else {
+      EXPECT_GT(ignored, 2 * read);  // most steps hold every parameter
+      EXPECT_GT(read, 0);
+    }
+  }
+}
+
 // options.target_gain_range 1: the target RMP's two scales are unit whatever the action, so two episodes whose
 // actions differ only there are identical, step for step; with the default range the same difference changes the
 // motion (the check can fail)

@@ -69,7 +69,8 @@ class LearnedController final : public sim::AccelerationPolicy {
   sim::ControllerOptions controller_options() const;
   /// the agents (their observations, options, warnings) after the last control step.
   const tasks::JointAgents& agents() const { return agents_; }
-  /// the local observations of the last control step (nq × obs_dim, row-major) and the actions taken on them.
+  /// the local observations of the last control step (nq × obs_dim, row-major) and the actions: those of the last
+  /// step at which the agents read an action (the network runs only then, JointAgents::ReadsAction).
   const std::vector<float>& observations() const { return obs_; }
   const std::vector<float>& actions() const { return actions_; }
   /// control steps since Reset, saturated at the task's episode length (the agents' progress feature reads 1 from
@@ -91,6 +92,7 @@ class LearnedController final : public sim::AccelerationPolicy {
   int steps_ = 0;
   bool started_ = false;
   std::vector<float> obs_, actions_;
+  std::vector<float> reads_;  // per agent: 1 where this step's Apply reads its action (JointAgents::ReadsAction)
   std::vector<sim::WarningContact> contacts_;
   std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
   std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)

@@ -64,6 +64,11 @@ class PolicyRuntime {
   /// deterministic actions (option = argmax logits, continuous = clamp(mean, low, high), terminate = logit > 0) in
   /// the flat ActionSpec layout (num_agents × action_size, row-major).
   void Act(const float* obs, int num_agents, float* actions);
+  /// Act for the agents whose `read[a]` is not 0 (num_agents flags, e.g. StepOutput::next_action_read); the other
+  /// agents' actions are left as they are, and with none to read the network does not run. The actions equal Act's
+  /// bit for bit: the AVX2 kernel computes each agent's row alone, the portable path evaluates the whole batch.
+  /// Allocates nothing. Returns how many agents' actions were written.
+  int ActWhere(const float* obs, int num_agents, const float* read, float* actions);
   /// forces the portable path (for tests of both kernels).
   void DisableAvx2();
 

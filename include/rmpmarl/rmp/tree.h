@@ -176,8 +176,12 @@ class TreeData {
   Eigen::Map<const Eigen::MatrixXd> M(int node) const {
     return CMat(node_[node].M_off, node_[node].dim, node_[node].dim);
   }
-  /// false when the node was skipped this evaluation (empty obstacle slot, beyond cutoff, or inactive parent).
+  /// false when the node was skipped this evaluation (empty obstacle slot, beyond cutoff, inactive parent, or
+  /// disabled).
   bool active(int node) const { return active_[node] != 0; }
+  /// a disabled node and its subtree are skipped by PushForward (inactive) until enabled again: nothing of them is
+  /// computed or pulled back, as for a leaf whose RMP is zero. Every node starts enabled.
+  void set_enabled(int node, bool enabled) { enabled_[node] = enabled ? 1 : 0; }
   /// witness points and normal of a distance node (PushForward; meaningful while the node is active).
   const math::DistanceResult& distance(int node) const { return distance_[node]; }
 
@@ -210,6 +214,7 @@ class TreeData {
   std::vector<double> arena_;  // [x, ẋ, J̇ẏ of every node][f, M of every node (zeroed at once)][J of every node]
   int fm_begin_ = 0, fm_end_ = 0;
   std::vector<char> active_;
+  std::vector<char> enabled_;
   std::vector<math::DistanceResult> distance_;
   // per evaluation: world capsules with bounding spheres, obstacle bounding spheres (broad phase)
   std::vector<math::Capsule> capsule_W_;

@@ -86,6 +86,11 @@ struct StepOutput {
   /// num_agents, optional (nullptr: not asked): 1 where the env read the action's continuous part this step, 0 where
   /// it held earlier values (per-joint-rmp with options.parameter_period > 1); envs that always read it may leave it
   float* parameters_read = nullptr;
+  /// num_agents, optional (nullptr: not asked): 1 where the next Step reads some part of the agent's action, 0 where
+  /// it will ignore it (per-joint-rmp with a fixed option, no learned termination and parameters held by
+  /// options.parameter_period > 1; every agent while a baseline drives the robot). A deterministic actor may skip
+  /// the agents marked 0; the env still checks that every action is finite. Envs that always read leave it.
+  float* next_action_read = nullptr;
 };
 
 /// Owned buffers for one env's step results (what a VecEnv row holds), sized from a spec, and the StepOutput view
@@ -103,11 +108,12 @@ struct StepBuffers {
 
   StepOutput out() {
     return {local_obs.data(), global_state.data(), reward_terms.data(), &reward, &terminated, &truncated,
-            option_started.data(), &metrics, parameters_read.data()};
+            option_started.data(), &metrics, parameters_read.data(), next_action_read.data()};
   }
 
   std::vector<float> local_obs, global_state, reward_terms, option_started;
   std::vector<float> parameters_read = std::vector<float>(option_started.size(), 1.0f);
+  std::vector<float> next_action_read = std::vector<float>(option_started.size(), 1.0f);
   float reward = 0.0f;
   std::uint8_t terminated = 0, truncated = 0;
   EpisodeMetrics metrics;

@@ -83,6 +83,11 @@ class JointAgents {
   void Apply(const float* actions, float* option_started, float* parameters_read);
   /// per-joint-rmp: ends the step — options end by their termination flag or the warnings sensed since Apply.
   void End();
+  /// per-joint-rmp: whether the next Apply reads some part of joint i's action — its termination flag (learned
+  /// termination), its option index and parameters (an option starts), or its parameters (options.parameter_period
+  /// elapsed, or the warning set emptied or filled). false: Apply ignores the action, so an actor need not compute
+  /// it. Valid after End (or Reset) and the Sense that precedes the next Apply.
+  bool ReadsAction(int i) const;
   /// every joint's predicted pass clears the arm by more than `clearance` [m] (−inf: always true).
   bool PassesClear(double clearance) const;
 
@@ -110,6 +115,9 @@ class JointAgents {
  private:
   class Layer;
   void UpdateLookahead(const rmp::Scene& scene);
+  /// Apply reads joint i's parameters even if no option starts: every step (parameter_period 1), at the episode's
+  /// first step, when the period elapsed, or when the warning set emptied or filled since the last read
+  bool ParametersDue(int i) const;
 
   TaskConfig config_;
   ActionSpec action_;
