@@ -247,7 +247,8 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
 }
 
 CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
-    : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq) {}
+    : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq), collision_active(nq, 0), sqrt_collision_metric(nq),
+      scaled_collision(nq), mg(nq) {}
 
 void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
@@ -292,25 +293,39 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     }
   }
 
-  // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r
+  // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r; what depends on the joint alone first
+  for (int i = 0; i < nq; ++i) {
+    const JointLayerWeights& w = weights[i];
+    ws.collision_active[i] = w.use_collision && w.collision_metric_scale > 0.0;
+    ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
+    CollisionRmpParams& p = ws.scaled_collision[i];  // ScaledCollisionAccel's parameters
+    p = params.collision;
+    p.repulsion_std_dev *= w.collision_length_scale;
+    p.damping_std_dev *= w.collision_length_scale;
+  }
   ForEachCollisionLeaf(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
       [&](const CollisionLeaf& leaf) {
         for (int dof : *leaf.dofs) {
-          const JointLayerWeights& w = weights[dof];
           ws.g[dof] = 0.0;
-          if (!w.use_collision || w.collision_metric_scale <= 0.0) continue;
-          const double a = ScaledCollisionAccel(params, leaf, w);
-          const double j =
-              leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
-          ws.g[dof] = std::sqrt(w.collision_metric_scale) * j;
-          ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
+          if (ws.collision_active[dof]) {
+            const JointLayerWeights& w = weights[dof];
+            const double a =
+                w.collision_length_scale == 1.0
+                    ? leaf.rmp.a
+                    : CollisionRmpAccel(ws.scaled_collision[dof], leaf.distance.distance, leaf.xd, leaf.sigma);
+            const double j =
+                leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+            ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
+            ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
+          }
+          ws.mg[dof] = leaf.rmp.m * ws.g[dof];
         }
         // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
         // forms it: g_j (m g_i))
         for (int j : *leaf.dofs) {
           const double g_j = ws.g[j];
-          for (int i : *leaf.dofs) ws.A(i, j) += g_j * (leaf.rmp.m * ws.g[i]);
+          for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
         }
       });
 

@@ -13,6 +13,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <span>
+#include <vector>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
@@ -104,6 +105,12 @@ struct CoupledLayerWorkspace {
   Eigen::Matrix3Xd G;                 ///< the target leaf's weighted Jacobian, 3 × nq
   Eigen::Matrix3Xd MG;                ///< M · G, 3 × nq
   Eigen::LDLT<Eigen::MatrixXd> ldlt;  ///< factorisation of A + λI
+  // per joint, once per evaluation: whether it takes collision leaves, √s_m, the collision RMP with its length
+  // scale; per leaf: m g
+  std::vector<char> collision_active;
+  Eigen::VectorXd sqrt_collision_metric;
+  std::vector<CollisionRmpParams> scaled_collision;
+  Eigen::VectorXd mg;
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved
