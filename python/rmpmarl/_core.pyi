@@ -77,7 +77,7 @@ class Controller:
         """learned: the agents' observations of the last decision [nq, obs_dim]"""
     @property
     def actions(self) -> Optional[Float32Array]:
-        """learned: the agents' actions of the last decision [nq, action_size]"""
+        """learned: the agents' actions [nq, action_size], each row from the last decision that read it"""
     def reset(self, q: ArrayLike, qd: Optional[ArrayLike] = None) -> None: ...
     def accelerations(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
                       target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,

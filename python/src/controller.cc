@@ -324,8 +324,8 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       }, "learned: the agents' local observations of the last decision [nq, obs_dim] (a copy); None for RMPflow")
       .def_property_readonly("actions", [](const ControllerHandle& h) {
         return PerJoint(h, h.learned ? &h.learned->actions() : nullptr);
-      }, "learned: the agents' actions [nq, action_size] (a copy) of the last decision that read one (the network runs "
-         "only then: with held parameters most control steps read none); None for RMPflow")
+      }, "learned: the agents' actions [nq, action_size] (a copy), each row from the last decision that read that agent's "
+         "action (the network runs only then: with held parameters most control steps read none); None for RMPflow")
       .def("__repr__", [](const ControllerHandle& h) {
         return fmt::format("Controller('{}' on {}, {} Hz)", h.controller->policy().name(), h.robot->robot->name,
                            1.0 / h.controller->control_period());

@@ -307,8 +307,8 @@ int PolicyRuntime::ActWhere(const float* obs, int num_agents, const float* read,
   }
   if (n > 0) Act(m.obs_rows.data(), n, m.act_rows.data());
   for (int k = 0; k < n; ++k) {
-    std::memcpy(actions + static_cast<std::size_t>(m.rows[k]) * as, m.act_rows.data() + static_cast<std::size_t>(k) * as,
-                sizeof(float) * as);
+    std::memcpy(actions + static_cast<std::size_t>(m.rows[k]) * as,
+                m.act_rows.data() + static_cast<std::size_t>(k) * as, sizeof(float) * as);
   }
   return n;
 }

@@ -129,7 +129,8 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                           OnDistance&& on_distance, OnLeaf&& on_leaf) {
   const double r = params.collision.metric_modulation_radius;
-  // the obstacles' bounding spheres (centre, radius), once per evaluation for the first kCachedSpheres
+  // the obstacles' bounding spheres (centre, radius), once per evaluation (for the first kCachedSpheres) when a
+  // capsule needs them
   constexpr int kCachedSpheres = 32;
   std::array<Eigen::Vector4d, kCachedSpheres> spheres;
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
@@ -139,10 +140,14 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
     sphere << Centre(scene.obstacles[j]), BoundingRadius(scene.obstacles[j]);
     return sphere;
   };
-  for (int j = 0; j < cached; ++j) spheres[j] = bounding_sphere(j);
+  bool spheres_ready = false;
   for (const kinematics::LinkCapsule& lc : robot.capsules) {
     const std::vector<int>& dofs = robot.model.link_dofs(lc.link);
     if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
+    if (!spheres_ready) {
+      for (int j = 0; j < cached; ++j) spheres[j] = bounding_sphere(j);
+      spheres_ready = true;
+    }
     // the RMP's acceleration at length scale 1 only where some joint reads it (ScaledCollisionAccel)
     const bool unit_scale = std::any_of(dofs.begin(), dofs.end(), [&](int dof) {
       return weights[dof].use_collision && weights[dof].collision_length_scale == 1.0;
@@ -296,7 +301,8 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r; what depends on the joint alone first
   for (int i = 0; i < nq; ++i) {
     const JointLayerWeights& w = weights[i];
-    ws.collision_active[i] = w.use_collision && w.collision_metric_scale > 0.0;
+    // as the leaf loop skipped before: a NaN scale stays in, and shows in q̈
+    ws.collision_active[i] = w.use_collision && !(w.collision_metric_scale <= 0.0);
     ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
     CollisionRmpParams& p = ws.scaled_collision[i];  // ScaledCollisionAccel's parameters
     p = params.collision;

@@ -12,8 +12,8 @@ namespace rmpmarl::rmp::internal {
 
 // kinematics::CalcPointJacobianColumn(model, kin, dof, link, p_W) inline, the same arithmetic: a × (p_W − o_J) for
 // the rotational joint of `dof`, a for a prismatic one (the general column where mimic joints exist)
-inline Eigen::Vector3d PointJacobianColumn(const kinematics::Model& model, const kinematics::Data& kin, int dof, int link,
-                                           const Eigen::Vector3d& p_W) {
+inline Eigen::Vector3d PointJacobianColumn(const kinematics::Model& model, const kinematics::Data& kin, int dof,
+                                           int link, const Eigen::Vector3d& p_W) {
   if (model.has_mimic_joints()) return kinematics::CalcPointJacobianColumn(model, kin, dof, link, p_W);
   const int joint_link = model.dof_link(dof);
   const Eigen::Vector3d axis = kin.axis_W.col(dof);

@@ -135,7 +135,8 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
         for (int k = tasks::LocalObs::kJointPosition; k <= tasks::LocalObs::kJointIndex; ++k) {
           max_joint_diff = std::max(max_joint_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
-        // the controller runs its network where the step reads the action (held parameters: only then)
+        // the controller reads an action where the env's step does, and runs its network only then
+        EXPECT_EQ(controller.actions_read()[i], buffers.next_action_read[i]) << "step " << steps << " joint " << i;
         if (buffers.next_action_read[i] == 0.0f) continue;
         ++read_actions;
         for (int c = 0; c < a.num_continuous; ++c) {

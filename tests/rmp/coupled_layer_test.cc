@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -219,6 +220,37 @@ TEST(CoupledLayerTest, RejectsWrongSizes) {
   EXPECT_THROW(EvaluateCoupledLayer(robot, kin, Scene{}, BasicRmpParams{}, std::vector<JointLayerWeights>(nq),
                                     Eigen::VectorXd::Zero(nq), Eigen::MatrixXd::Zero(nq, nq), 1e-6, &workspace, qdd),
                InputError);
+}
+
+// EvaluateStructure leaves the end-effector node out: its pulled-back (f, M) equal, bit for bit, those of a full
+// evaluation whose scene gives that node nothing to do (no target, no obstacles); and the same policy evaluated in
+// full afterwards (the node back in) gives what a fresh one gives, bit for bit.
+TEST(CoupledLayerTest, StructureWithoutTheTargetNodeIsBitIdenticalAndTheFullEvaluationComesBack) {
+  std::mt19937_64 rng(17);
+  for (const kinematics::Robot& robot : {testing::LoadArm(), testing::LoadTreeRobot()}) {
+    const int nq = robot.model.nq();
+    const RmpflowOptions options;
+    RmpflowPolicy structure(robot, options, 4), reference(robot, options, 0), fresh(robot, options, 4);
+    Scene empty;  // no target, no obstacles
+    empty.has_target = false;
+    for (int trial = 0; trial < 20; ++trial) {
+      const Eigen::VectorXd q = RandomConfiguration(robot.model, rng, 0.05);
+      const Eigen::VectorXd qd = RandomVelocity(robot.model, rng);
+      Eigen::VectorXd qdd(nq), qdd_fresh(nq);
+      structure.EvaluateStructure(q, qd);
+      reference.Evaluate(q, qd, empty, qdd);
+      const Eigen::VectorXd f = structure.data().f_root;
+      const Eigen::MatrixXd M = structure.data().M_root;
+      ASSERT_TRUE(f.allFinite() && M.allFinite());
+      EXPECT_EQ(std::memcmp(f.data(), reference.data().f_root.data(), sizeof(double) * nq), 0) << trial;
+      EXPECT_EQ(std::memcmp(M.data(), reference.data().M_root.data(), sizeof(double) * nq * nq), 0) << trial;
+      const Scene scene = RandomScene(rng, 4);
+      structure.Evaluate(q, qd, scene, qdd);
+      fresh.Evaluate(q, qd, scene, qdd_fresh);
+      EXPECT_EQ(std::memcmp(qdd.data(), qdd_fresh.data(), sizeof(double) * nq), 0) << robot.name << " " << trial;
+      EXPECT_EQ(structure.end_effector_position(), fresh.end_effector_position());
+    }
+  }
 }
 
 }  // namespace

@@ -108,6 +108,9 @@ TEST(EpisodeMetricsTest, ExternalControllerDrivesTheRobotAndIgnoresTheActions) {
   EXPECT_EQ(rmpflow.variant(), agents.variant());
   EXPECT_TRUE(rmpflow.world().q().isApprox(agents.world().q()));
   EXPECT_TRUE(rmpflow.scenario().target().p_WT.isApprox(agents.scenario().target().p_WT));
+  // the baseline's env reads no action, the agents' env every one (parameter_period 1)
+  EXPECT_EQ(b1.next_action_read, std::vector<float>(rmpflow.spec().num_agents, 0.0f));
+  EXPECT_EQ(b2.next_action_read, std::vector<float>(agents.spec().num_agents, 1.0f));
 }
 
 TEST(EpisodeMetricsTest, ExternalControllerWithoutAPolicyMakerIsRejected) {

@@ -336,64 +336,85 @@ TEST(ManipulatorEnvTest, ParameterPeriodHoldsParametersBetweenReads) {
 }
 
 // StepOutput::next_action_read: an agent marked 0 has its action ignored by the next step. Two envs on the same
-// episode, one fed random actions, the other the same where marked 1 and other random values where marked 0, stay
-// identical step by step; the marks are both 0 and 1 (held parameters), agree with what the step then read, and are
-// all 1 where the action carries a learned termination flag, which every step reads.
+// episodes, one fed random actions, the other the same where marked 1 and other random values where marked 0, stay
+// identical step by step; the marks are both 0 and 1 (held parameters, also read early where a warning set changes),
+// agree with what the step then read, and are all 1 where every step reads the action: a learned termination flag,
+// parameter_period 1, the direct interface.
 TEST(ManipulatorEnvTest, NextActionReadMarksTheActionsTheNextStepIgnores) {
   struct Case {
     int fixed_option;
     OptionTermination termination;
+    int period;
+    InterfaceMode interface;
   };
-  for (const Case& k : {Case{2, OptionTermination::kFixed}, Case{-1, OptionTermination::kFixed},
-                        Case{-1, OptionTermination::kLearned}}) {
-    SCOPED_TRACE(k.fixed_option);
+  constexpr int kPeriod = 6;
+  for (const Case& k : {Case{2, OptionTermination::kFixed, kPeriod, InterfaceMode::kPerJointRmp},
+                        Case{-1, OptionTermination::kFixed, kPeriod, InterfaceMode::kPerJointRmp},
+                        Case{-1, OptionTermination::kLearned, kPeriod, InterfaceMode::kPerJointRmp},
+                        Case{2, OptionTermination::kFixed, 1, InterfaceMode::kPerJointRmp},
+                        Case{-1, OptionTermination::kLearned, 1, InterfaceMode::kDirect}}) {
+    SCOPED_TRACE(::testing::Message() << "fixed option " << k.fixed_option << ", period " << k.period
+                                      << ", interface " << InterfaceModeName(k.interface));
     TaskConfig c = SmallConfig(TaskKind::kReachAvoid, "panda", 1);
-    c.options.parameter_period = 5;
+    c.interface = k.interface;
+    c.options.parameter_period = k.period;
     c.options.fixed_option = k.fixed_option;
     c.options.termination = k.termination;
-    c.options.horizon = 8;
-    c.scenario.crossing.num_obstacles = 2;  // warnings come and go
+    c.options.horizon = 20;
+    c.scenario.crossing.num_obstacles = 4;
+    c.observation.warning_distance = 0.2;
+    c.options.warnings = OptionWarnings::kAll;  // W_i of any warning: it fills and empties often
     auto context = MakeTaskContext(c);
     ManipulatorEnv a(context), b(context);
     const EnvSpec& s = a.spec();
     const ActionSpec& as = s.action;
     Buffers ba(s), bb(s);
     std::mt19937_64 rng_a(41), rng_b(41), arng(42), brng(43);
-    a.Reset(rng_a, ba.out());
-    b.Reset(rng_b, bb.out());
-    EXPECT_EQ(ba.next_action_read, std::vector<float>(s.num_agents, 1.0f));  // the first step reads every action
     std::vector<float> actions(s.num_agents * as.size()), other(actions.size());
-    int ignored = 0, read = 0;
-    for (int step = 0; step < 200; ++step) {
-      RandomActions(s, arng, actions.data());
-      RandomActions(s, brng, other.data());
-      const std::vector<float> predicted = ba.next_action_read;
-      for (int i = 0; i < s.num_agents; ++i) {
-        ASSERT_TRUE(predicted[i] == 0.0f || predicted[i] == 1.0f);
-        if (predicted[i] == 0.0f) {
-          ++ignored;
-        } else {
-          ++read;
-          std::copy_n(actions.begin() + i * as.size(), as.size(), other.begin() + i * as.size());
+    int ignored = 0, read = 0, warning_reads = 0;
+    for (int episode = 0; episode < 2; ++episode) {
+      a.Reset(rng_a, ba.out());
+      b.Reset(rng_b, bb.out());
+      EXPECT_EQ(ba.next_action_read, std::vector<float>(s.num_agents, 1.0f));  // the first step reads every action
+      std::vector<int> age(s.num_agents, 0);
+      for (int step = 0; step < 150; ++step) {
+        RandomActions(s, arng, actions.data());
+        RandomActions(s, brng, other.data());
+        const std::vector<float> predicted = ba.next_action_read;
+        for (int i = 0; i < s.num_agents; ++i) {
+          ASSERT_TRUE(predicted[i] == 0.0f || predicted[i] == 1.0f);
+          if (predicted[i] == 0.0f) {
+            ++ignored;
+          } else {
+            ++read;
+            std::copy_n(actions.begin() + i * as.size(), as.size(), other.begin() + i * as.size());
+          }
         }
+        a.Step(actions.data(), rng_a, ba.out());
+        b.Step(other.data(), rng_b, bb.out());
+        ASSERT_EQ((a.world().q() - b.world().q()).cwiseAbs().maxCoeff(), 0.0) << "step " << step;
+        ASSERT_EQ(ba.local_obs, bb.local_obs) << "step " << step;
+        ASSERT_EQ(ba.next_action_read, bb.next_action_read) << "step " << step;
+        for (int i = 0; i < s.num_agents; ++i) {
+          // what the step read was marked; with the option fixed, only what it read
+          EXPECT_TRUE(predicted[i] == 1.0f || (ba.parameters_read[i] == 0.0f && ba.option_started[i] == 0.0f));
+          if (k.fixed_option >= 0) EXPECT_EQ(predicted[i], ba.parameters_read[i]) << "step " << step;
+          ++age[i];
+          if (ba.parameters_read[i] == 1.0f) {
+            // read before the period ran out with no option starting: the warning set emptied or filled
+            warning_reads += step > 0 && age[i] < kPeriod && ba.option_started[i] == 0.0f;
+            age[i] = 0;
+          }
+        }
+        if (ba.terminated || ba.truncated) break;
       }
-      a.Step(actions.data(), rng_a, ba.out());
-      b.Step(other.data(), rng_b, bb.out());
-      ASSERT_EQ((a.world().q() - b.world().q()).cwiseAbs().maxCoeff(), 0.0) << "step " << step;
-      ASSERT_EQ(ba.local_obs, bb.local_obs) << "step " << step;
-      ASSERT_EQ(ba.next_action_read, bb.next_action_read) << "step " << step;
-      for (int i = 0; i < s.num_agents; ++i) {
-        // what the step read was marked; with the option fixed, only what it read
-        EXPECT_TRUE(predicted[i] == 1.0f || (ba.parameters_read[i] == 0.0f && ba.option_started[i] == 0.0f));
-        if (k.fixed_option >= 0) EXPECT_EQ(predicted[i], ba.parameters_read[i]) << "step " << step;
-      }
-      if (ba.terminated || ba.truncated) break;
     }
-    if (k.termination == OptionTermination::kLearned) {
-      EXPECT_EQ(ignored, 0);
+    if (k.termination == OptionTermination::kLearned || k.period == 1) {
+      EXPECT_EQ(ignored, 0);  // every step reads every action
     } else {
       EXPECT_GT(ignored, 2 * read);  // most steps hold every parameter
       EXPECT_GT(read, 0);
+      EXPECT_GT(warning_reads, 0);
     }
   }
 }

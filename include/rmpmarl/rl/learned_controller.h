@@ -69,10 +69,13 @@ class LearnedController final : public sim::AccelerationPolicy {
   sim::ControllerOptions controller_options() const;
   /// the agents (their observations, options, warnings) after the last control step.
   const tasks::JointAgents& agents() const { return agents_; }
-  /// the local observations of the last control step (nq × obs_dim, row-major) and the actions: those of the last
-  /// step at which the agents read an action (the network runs only then, JointAgents::ReadsAction).
+  /// the local observations of the last control step (nq × obs_dim, row-major) and the actions: each agent's row is
+  /// that of the last step that read its action (the network runs for an agent only then, JointAgents::ReadsAction),
+  /// so rows may come from different steps.
   const std::vector<float>& observations() const { return obs_; }
   const std::vector<float>& actions() const { return actions_; }
+  /// per agent, 1 where the last control step read its action (and ran the network for it), else 0.
+  const std::vector<float>& actions_read() const { return reads_; }
   /// control steps since Reset, saturated at the task's episode length (the agents' progress feature reads 1 from
   /// there on: a controller running longer than the episodes it was trained on sees the end of an episode).
   int steps() const { return steps_; }

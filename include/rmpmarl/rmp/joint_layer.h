@@ -105,12 +105,10 @@ struct CoupledLayerWorkspace {
   Eigen::Matrix3Xd G;                 ///< the target leaf's weighted Jacobian, 3 × nq
   Eigen::Matrix3Xd MG;                ///< M · G, 3 × nq
   Eigen::LDLT<Eigen::MatrixXd> ldlt;  ///< factorisation of A + λI
-  // per joint, once per evaluation: whether it takes collision leaves, √s_m, the collision RMP with its length
-  // scale; per leaf: m g
-  std::vector<char> collision_active;
-  Eigen::VectorXd sqrt_collision_metric;
-  std::vector<CollisionRmpParams> scaled_collision;
-  Eigen::VectorXd mg;
+  std::vector<char> collision_active;              ///< per joint: it takes collision leaves (use_collision, s_m > 0)
+  Eigen::VectorXd sqrt_collision_metric;           ///< per joint: √s_m of its collision leaves
+  std::vector<CollisionRmpParams> scaled_collision;  ///< per joint: the collision RMP with its length scale
+  Eigen::VectorXd mg;                              ///< one collision leaf's m · g, per dof
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved

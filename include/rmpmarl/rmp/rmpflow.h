@@ -93,7 +93,8 @@ class RmpflowPolicy {
   /// the pulled-back C-space RMP of the leaves that are not the task's — C-space target and damping, joint limits,
   /// velocity cap, self-collision; not the end-effector target nor the obstacles — left unresolved in data().f_root
   /// and data().M_root: the rest of RMPflow under a coupled per-joint basic layer (rmp::EvaluateCoupledLayer). The
-  /// end-effector node is left out (end_effector_position() stays that of the last Evaluate). Throws InputError for q/q̇ of the wrong size or non-finite. Allocates nothing.
+  /// end-effector node is left out (end_effector_position() stays that of the last Evaluate). Throws InputError for
+  /// q/q̇ of the wrong size or non-finite. Allocates nothing.
   void EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd);
 
   /// sets the C-space target posture (nq finite values).

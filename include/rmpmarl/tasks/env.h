@@ -87,9 +87,10 @@ struct StepOutput {
   /// it held earlier values (per-joint-rmp with options.parameter_period > 1); envs that always read it may leave it
   float* parameters_read = nullptr;
   /// num_agents, optional (nullptr: not asked): 1 where the next Step reads some part of the agent's action, 0 where
-  /// it will ignore it (per-joint-rmp with a fixed option, no learned termination and parameters held by
+  /// it will ignore it (per-joint-rmp with a running option, no learned termination and parameters held by
   /// options.parameter_period > 1; every agent while a baseline drives the robot). A deterministic actor may skip
-  /// the agents marked 0; the env still checks that every action is finite. Envs that always read leave it.
+  /// the agents marked 0, but the env still checks every action (finite, a valid option index): keep their last
+  /// actions there. Envs that always read leave it.
   float* next_action_read = nullptr;
 };
 
