@@ -228,6 +228,18 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
   for (int c = 0; c < static_cast<int>(used.size()); ++c) {
     if (used[c]) used_capsules_.push_back(c);
   }
+  row_end_.assign(n, tree.nq());
+  auto end_of = [&](int link) {
+    const std::vector<int>& dofs = robot.model.link_dofs(link);
+    return dofs.empty() ? 0 : *std::max_element(dofs.begin(), dofs.end()) + 1;
+  };
+  for (int i = 0; i < n; ++i) {
+    if (const auto* d = std::get_if<CapsuleObstacleDistanceMap>(&tree.map(i))) {
+      row_end_[i] = end_of(robot.capsules[d->capsule].link);
+    } else if (const auto* c = std::get_if<CapsuleCapsuleDistanceMap>(&tree.map(i))) {
+      row_end_[i] = std::max(end_of(robot.capsules[c->capsule1].link), end_of(robot.capsules[c->capsule2].link));
+    }
+  }
   obstacle_sphere_.resize(num_slots_);
   const kinematics::Model& model = robot.model;
   dof_origin_W_.setZero(3, model.nq());
@@ -368,18 +380,20 @@ void Pullback(const Tree& tree, TreeData* data) {
     const int parent = it->parent;
     const TreeData::NodeLayout& layout = data->node_[i];
     if (parent < 0 && it->dim == 1 && it->type != TaskMapType::kJointAffine) {
-      // 1-D leaf of the root (distances): f_q += (f − m J̇q̇) Jᵀ and the lower triangle of M_q += m JᵀJ
+      // 1-D leaf of the root (distances): f_q += (f − m J̇q̇) Jᵀ and the lower triangle of M_q += m JᵀJ, over the
+      // dofs before the row's zero tail (whose terms would add zeros)
       const double* arena = data->arena_.data();
       const double f = arena[layout.f_off], mm = arena[layout.M_off];
       if (mm == 0.0 && f == 0.0) continue;
       const double* J = arena + layout.J_off;
       const double g = f - mm * arena[layout.jdqd_off];
-      for (int c = 0; c < nq; ++c) {
+      const int end = data->row_end_[i];
+      for (int c = 0; c < end; ++c) {
         const double Jc = J[c];
         f_root[c] += g * Jc;
         const double s = mm * Jc;
         double* col = M_root + c * nq;
-        for (int r = c; r < nq; ++r) col[r] += s * J[r];
+        for (int r = c; r < end; ++r) col[r] += s * J[r];
       }
       continue;
     }

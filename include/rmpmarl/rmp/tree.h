@@ -215,6 +215,9 @@ class TreeData {
   int fm_begin_ = 0, fm_end_ = 0;
   std::vector<char> active_;
   std::vector<char> enabled_;
+  // per node: a distance node's 1-D Jacobian row is zero from this dof on (past the last dof that moves one of its
+  // links); nq for every other node
+  std::vector<int> row_end_;
   std::vector<math::DistanceResult> distance_;
   // per evaluation: world capsules with bounding spheres, obstacle bounding spheres (broad phase)
   std::vector<math::Capsule> capsule_W_;
