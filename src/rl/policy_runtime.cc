@@ -282,6 +282,7 @@ void PolicyRuntime::Act(const float* obs, int num_agents, float* actions) {
 int PolicyRuntime::ActWhere(const float* obs, int num_agents, const float* read, float* actions) {
   Impl& m = *impl_;
   RMPMARL_ASSERT(num_agents >= 0 && num_agents <= m.max_agents, "PolicyRuntime: num_agents > max_agents");
+  RMPMARL_ASSERT(read != nullptr || num_agents == 0, "PolicyRuntime::ActWhere: null read flags");
   int n = 0;
   for (int a = 0; a < num_agents; ++a) {
     if (read[a] != 0.0f) m.rows[n++] = a;
