@@ -2,10 +2,11 @@
 """The speed table (docs/performance.md): each row's measurement beside its anchor and goal, in one run, on this
 machine. `make bench` runs it last, after the Google Benchmark binaries have written their JSON (medians of their
 repetitions) into BUILD_DIR/bench-results/ and train_scaling_bench.py its own JSON there. It measures itself:
-  - the control step of the shipped learned default against RMPflow and RMPflow-tuned: `rmpmarl experiment table4
-    --shipped` on the held-out episodes (evaluation seed 20231001), one thread, the experiments' own step column;
+  - the control step of the shipped learned default against RMPflow and RMPflow-tuned (and the hand gate, the same
+    layer with unit scales): `rmpmarl experiment table4 --shipped` on the held-out episodes (evaluation seed
+    20231001), one thread, the experiments' own step column, per speed the median of --rounds runs;
   - the anchor of the VecEnv row: one env_bench process of BM_VecEnvStep/threads:1 alone, then two side by side.
-usage: speed_table.py BUILD_DIR [--episodes 10]"""
+usage: speed_table.py BUILD_DIR [--episodes 10] [--rounds 3]"""
 import argparse
 import csv
 import json
@@ -38,16 +39,20 @@ def find(results, prefix):
     return results[sorted(hits, key=len)[0]]
 
 
-def control_steps(build, episodes):
-    """method -> [step µs per speed] from a table4 run of the shipped policies on one thread."""
-    with tempfile.TemporaryDirectory() as out:
-        subprocess.run([os.path.join(build, "rmpmarl"), "experiment", "table4", "--shipped", "--methods",
-                        "marl-rmp-residual,rmpflow,rmpflow-tuned", "--episodes", str(episodes), "--jobs", "1",
-                        "--out", out, "--no-plots"], check=True, stdout=subprocess.DEVNULL)
-        steps = {}
-        for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
-            steps.setdefault(row["method"], []).append(float(row["control_step_us"]))
-        return steps
+def control_steps(build, episodes, rounds):
+    """method -> [step µs per speed]: per speed the median over `rounds` table4 runs of the shipped policies on one
+    thread (one run's speeds differ from the next's by 5–10 % on a virtual machine)."""
+    runs = []
+    for _ in range(rounds):
+        with tempfile.TemporaryDirectory() as out:
+            subprocess.run([os.path.join(build, "rmpmarl"), "experiment", "table4", "--shipped", "--methods",
+                            "marl-rmp-residual,hand-gate,rmpflow,rmpflow-tuned", "--episodes", str(episodes),
+                            "--jobs", "1", "--out", out, "--no-plots"], check=True, stdout=subprocess.DEVNULL)
+            steps = {}
+            for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
+                steps.setdefault(row["method"], []).append(float(row["control_step_us"]))
+            runs.append(steps)
+    return {m: [statistics.median(r[m][k] for r in runs) for k in range(len(runs[0][m]))] for m in runs[0]}
 
 
 def vecenv_processes(build):
@@ -68,24 +73,29 @@ def main():
     p = argparse.ArgumentParser()
     p.add_argument("build", nargs="?", default="build")
     p.add_argument("--episodes", type=int, default=10, help="table4 episodes per speed for the control-step row")
+    p.add_argument("--rounds", type=int, default=3, help="table4 runs whose per-speed medians the row shows")
     a = p.parse_args()
     res = os.path.join(a.build, "bench-results")
     env = medians(os.path.join(res, "env_bench.json"))
     rmp = medians(os.path.join(res, "rmp_bench.json"))
     rows = []
 
-    steps = control_steps(a.build, a.episodes)
+    steps = control_steps(a.build, a.episodes, a.rounds)
     learned = steps.get("MARL-RMP residual (ours)", [])
     flow = steps.get("RMPflow", [])
     tuned = steps.get("RMPflow-tuned", [])
+    gate = steps.get("Hand gate (ours)", [])
     if learned and flow:
         ratio = max(l / f for l, f in zip(learned, flow))
         anchor = f"RMPflow {min(flow):.1f}–{max(flow):.1f} µs"
         if tuned:
             anchor += f", RMPflow-tuned {min(tuned):.1f}–{max(tuned):.1f} µs"
-        rows.append(("control step, shipped learned default (table4 held-out episodes, per speed)",
-                     f"{min(learned):.1f}–{max(learned):.1f} µs", anchor, f"{ratio:.2f}× RMPflow (worst speed)",
-                     "≤ 1.00×"))
+        if gate:
+            anchor += (f"; the hand gate (the same layer, unit scales) {min(gate):.1f}–{max(gate):.1f} µs, "
+                       f"{max(g / f for g, f in zip(gate, flow)):.2f}×")
+        rows.append((f"control step, shipped learned default (table4 held-out episodes, per speed, median of "
+                     f"{a.rounds} runs)", f"{min(learned):.1f}–{max(learned):.1f} µs", anchor,
+                     f"{ratio:.2f}× RMPflow (worst speed)", "≤ 1.00×"))
 
     flow_bench = find(rmp, "BM_RmpflowEvaluate/arm7_7caps_20boxes")
     if flow_bench:
