@@ -30,15 +30,20 @@ Eigen::Vector3d AttractionForScale(const BasicRmpParams& params, const Eigen::Ve
                                                         : Eigen::Vector3d::Zero();
 }
 
+/// the collision RMP with its acceleration length scales l_p, l_d of eq (8) multiplied by `length_scale`
+CollisionRmpParams LengthScaled(const CollisionRmpParams& params, double length_scale) {
+  CollisionRmpParams p = params;
+  p.repulsion_std_dev *= length_scale;  // l_p
+  p.damping_std_dev *= length_scale;    // l_d
+  return p;
+}
+
 }  // namespace
 
 Rmp1 EvalScaledCollisionRmp(const CollisionRmpParams& params, double x, double xd, double length_scale) {
   RMPMARL_DASSERT(length_scale > 0.0, "EvalScaledCollisionRmp: length_scale must be > 0");
   if (length_scale == 1.0) return EvalCollisionRmp(params, x, xd);
-  CollisionRmpParams p = params;
-  p.repulsion_std_dev *= length_scale;  // l_p of eq (8)
-  p.damping_std_dev *= length_scale;    // l_d of eq (8)
-  return EvalCollisionRmp(p, x, xd);
+  return EvalCollisionRmp(LengthScaled(params, length_scale), x, xd);
 }
 using kinematics::CalcPointJdotQdotAtWorldPoint;
 using kinematics::CalcPointVelocityAtWorldPoint;
@@ -135,17 +140,12 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
   std::array<Eigen::Vector4d, kCachedSpheres> spheres;
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
   const int cached = std::min(num_obstacles, kCachedSpheres);
-  auto bounding_sphere = [&](int j) {
-    Eigen::Vector4d sphere;
-    sphere << Centre(scene.obstacles[j]), BoundingRadius(scene.obstacles[j]);
-    return sphere;
-  };
   bool spheres_ready = false;
   for (const kinematics::LinkCapsule& lc : robot.capsules) {
     const std::vector<int>& dofs = robot.model.link_dofs(lc.link);
     if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
     if (!spheres_ready) {
-      for (int j = 0; j < cached; ++j) spheres[j] = bounding_sphere(j);
+      for (int j = 0; j < cached; ++j) spheres[j] = BoundingSphere(scene.obstacles[j]);
       spheres_ready = true;
     }
     // the RMP's acceleration at length scale 1 only where some joint reads it (ScaledCollisionAccel)
@@ -158,7 +158,7 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
     const double bound = 0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
     for (int j = 0; j < num_obstacles; ++j) {
       const Obstacle& obstacle = scene.obstacles[j];
-      const Eigen::Vector4d sphere = j < cached ? spheres[j] : bounding_sphere(j);
+      const Eigen::Vector4d sphere = j < cached ? spheres[j] : BoundingSphere(obstacle);
       const double lower = (centre - sphere.head<3>()).norm() - bound - sphere[3];
       if (lower > r) {
         on_distance(dofs, lower);
@@ -178,14 +178,11 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
   }
 }
 
-/// the collision RMP's acceleration with joint w's length scale (rmp.a itself at scale 1): EvalScaledCollisionRmp's
-/// acceleration, with the leaf's velocity gate
-double ScaledCollisionAccel(const BasicRmpParams& params, const CollisionLeaf& leaf, const JointLayerWeights& w) {
-  if (w.collision_length_scale == 1.0) return leaf.rmp.a;
-  CollisionRmpParams p = params.collision;
-  p.repulsion_std_dev *= w.collision_length_scale;
-  p.damping_std_dev *= w.collision_length_scale;
-  return CollisionRmpAccel(p, leaf.distance.distance, leaf.xd, leaf.sigma);
+/// the collision RMP's acceleration at a joint's length scale (rmp.a itself at scale 1): EvalScaledCollisionRmp's
+/// acceleration, with the leaf's velocity gate; `scaled` is LengthScaled(params.collision, length_scale)
+double ScaledCollisionAccel(const CollisionRmpParams& scaled, const CollisionLeaf& leaf, double length_scale) {
+  if (length_scale == 1.0) return leaf.rmp.a;
+  return CollisionRmpAccel(scaled, leaf.distance.distance, leaf.xd, leaf.sigma);
 }
 
 }  // namespace
@@ -236,7 +233,9 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
           const JointLayerWeights& w = weights[dof];
           if (!w.use_collision) continue;
           const double m = w.collision_metric_scale * leaf.rmp.m;
-          const double f = m * w.collision_accel_scale * ScaledCollisionAccel(params, leaf, w);
+          const double a = ScaledCollisionAccel(LengthScaled(params.collision, w.collision_length_scale), leaf,
+                                                w.collision_length_scale);
+          const double f = m * w.collision_accel_scale * a;
           const double j =
               leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
           results[dof].force += j * (f - m * leaf.jdqd);
@@ -304,10 +303,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     // as the leaf loop skipped before: a NaN scale stays in, and shows in q̈
     ws.collision_active[i] = w.use_collision && !(w.collision_metric_scale <= 0.0);
     ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
-    CollisionRmpParams& p = ws.scaled_collision[i];  // ScaledCollisionAccel's parameters
-    p = params.collision;
-    p.repulsion_std_dev *= w.collision_length_scale;
-    p.damping_std_dev *= w.collision_length_scale;
+    ws.scaled_collision[i] = LengthScaled(params.collision, w.collision_length_scale);
   }
   ForEachCollisionLeaf(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
@@ -316,10 +312,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
           ws.g[dof] = 0.0;
           if (ws.collision_active[dof]) {
             const JointLayerWeights& w = weights[dof];
-            const double a =
-                w.collision_length_scale == 1.0
-                    ? leaf.rmp.a
-                    : CollisionRmpAccel(ws.scaled_collision[dof], leaf.distance.distance, leaf.xd, leaf.sigma);
+            const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
             const double j =
                 leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
             ws.g[dof] = ws.sqrt_collision_metric[dof] * j;

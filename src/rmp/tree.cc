@@ -229,9 +229,9 @@ TreeData::TreeData(const Tree& tree, const ResolveOptions& resolve)
     if (used[c]) used_capsules_.push_back(c);
   }
   row_end_.assign(n, tree.nq());
-  auto end_of = [&](int link) {
+  auto end_of = [&](int link) {  // one past the last dof that moves the link (link_dofs is ascending)
     const std::vector<int>& dofs = robot.model.link_dofs(link);
-    return dofs.empty() ? 0 : *std::max_element(dofs.begin(), dofs.end()) + 1;
+    return dofs.empty() ? 0 : dofs.back() + 1;
   };
   for (int i = 0; i < n; ++i) {
     if (const auto* d = std::get_if<CapsuleObstacleDistanceMap>(&tree.map(i))) {
@@ -269,10 +269,7 @@ void PushForward(const Tree& tree, const Eigen::Ref<const Eigen::VectorXd>& q,
         0.5 * (capsule.p_WB - capsule.p_WA).norm() + capsule.radius;
   }
   const int num_obstacles = std::min(static_cast<int>(scene.obstacles.size()), data->num_slots_);
-  for (int s = 0; s < num_obstacles; ++s) {
-    const Obstacle& o = scene.obstacles[s];
-    data->obstacle_sphere_[s] << Centre(o), BoundingRadius(o);
-  }
+  for (int s = 0; s < num_obstacles; ++s) data->obstacle_sphere_[s] = BoundingSphere(scene.obstacles[s]);
   // a pair is skipped when its bounding spheres are farther apart than the cutoff (compared squared, so that the
   // branch does not wait for the square root; the root only feeds x, a lower bound of the distance)
   auto beyond = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b, double cutoff, double* lower) {

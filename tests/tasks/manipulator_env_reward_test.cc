@@ -398,7 +398,9 @@ TEST(ManipulatorEnvTest, NextActionReadMarksTheActionsTheNextStepIgnores) {
         for (int i = 0; i < s.num_agents; ++i) {
           // what the step read was marked; with the option fixed, only what it read
           EXPECT_TRUE(predicted[i] == 1.0f || (ba.parameters_read[i] == 0.0f && ba.option_started[i] == 0.0f));
-          if (k.fixed_option >= 0) EXPECT_EQ(predicted[i], ba.parameters_read[i]) << "step " << step;
+          if (k.fixed_option >= 0) {
+            EXPECT_EQ(predicted[i], ba.parameters_read[i]) << "step " << step;
+          }
           ++age[i];
           if (ba.parameters_read[i] == 1.0f) {
             // read before the period ran out with no option starting: the warning set emptied or filled

@@ -60,4 +60,11 @@ double BoundingRadius(const Obstacle& obstacle);
 /// centre of the obstacle (sphere centre, box centre, a point set's bounding-box centre).
 Eigen::Vector3d Centre(const Obstacle& obstacle);
 
+/// (Centre, BoundingRadius) of the obstacle in one vector: its bounding sphere, for the broad phases.
+inline Eigen::Vector4d BoundingSphere(const Obstacle& obstacle) {
+  Eigen::Vector4d sphere;
+  sphere << Centre(obstacle), BoundingRadius(obstacle);
+  return sphere;
+}
+
 }  // namespace rmpmarl::rmp
