@@ -7,8 +7,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 
+#include "collision_leaf_simd.h"
 #include "point_kinematics.h"
 #include "rmpmarl/common/error.h"
 
@@ -250,9 +253,36 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   }
 }
 
+namespace {
+
+// the vectorised leaves' per-joint arrays in CoupledLayerWorkspace::lanes, lane_stride entries each
+enum Lane : int {
+  kRepulsionStdDev, kDampingStdDev, kMetricScale, kAccelScale, kSqrtMetricScale, kActive,
+  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kLeafG, kLeafMg, kNumLanes
+};
+
+// true where the vectorised leaf kernel may run on this robot: every dof a revolute joint of its own
+bool RevoluteJoints(const kinematics::Model& model) {
+  if (model.has_mimic_joints()) return false;
+  for (int i = 0; i < model.nq(); ++i) {
+    const kinematics::JointType type = model.link(model.dof_link(i)).joint_type;
+    if (type != kinematics::JointType::kRevolute && type != kinematics::JointType::kContinuous) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
     : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq), collision_active(nq, 0), sqrt_collision_metric(nq),
-      scaled_collision(nq), mg(nq) {}
+      scaled_collision(nq), mg(nq), lane_stride((nq + 3) / 4 * 4), lanes(static_cast<size_t>(kNumLanes) * lane_stride,
+                                                                          0.0) {
+  // the padding lanes' length scales stay 1, so that their (discarded) arithmetic stays finite
+  for (int i = nq; i < lane_stride; ++i) {
+    lanes[kRepulsionStdDev * lane_stride + i] = 1.0;
+    lanes[kDampingStdDev * lane_stride + i] = 1.0;
+  }
+}
 
 void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
@@ -305,9 +335,54 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
     ws.scaled_collision[i] = LengthScaled(params.collision, w.collision_length_scale);
   }
+  const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && RevoluteJoints(model);
+  internal::CollisionLeafLanes lanes{};
+  if (vectorised) {
+    const int stride = ws.lane_stride;
+    auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
+    for (int i = 0; i < nq; ++i) {
+      const JointLayerWeights& w = weights[i];
+      lane(kRepulsionStdDev)[i] = ws.scaled_collision[i].repulsion_std_dev;
+      lane(kDampingStdDev)[i] = ws.scaled_collision[i].damping_std_dev;
+      lane(kMetricScale)[i] = w.collision_metric_scale;
+      lane(kAccelScale)[i] = w.collision_accel_scale;
+      lane(kSqrtMetricScale)[i] = ws.sqrt_collision_metric[i];
+      const std::uint64_t all = ws.collision_active[i] ? ~std::uint64_t{0} : 0;
+      std::memcpy(lane(kActive) + i, &all, sizeof(double));
+      const Eigen::Vector3d& o_W = kin.X_WL[model.dof_link(i)].translation();
+      for (int c = 0; c < 3; ++c) {
+        lane(static_cast<Lane>(kAxisX + c))[i] = kin.axis_W(c, i);
+        lane(static_cast<Lane>(kOriginX + c))[i] = o_W[c];
+      }
+    }
+    lanes = {lane(kRepulsionStdDev), lane(kDampingStdDev), lane(kMetricScale),
+             lane(kAccelScale),      lane(kSqrtMetricScale), lane(kActive),
+             {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
+             {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
+  }
   ForEachCollisionLeaf(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
       [&](const CollisionLeaf& leaf) {
+        const std::vector<int>& dofs = *leaf.dofs;
+        const int k = static_cast<int>(dofs.size());
+        if (vectorised && dofs.back() == k - 1) {  // dofs 0..k-1 (ascending): the lanes are the dofs
+          const CollisionRmpParams& c = params.collision;
+          internal::CollisionLeafScalars s;
+          s.xc = std::max(leaf.distance.distance, 0.0);
+          s.repulsion_gain = c.repulsion_gain;
+          s.damping_force = c.damping_gain * leaf.sigma * leaf.xd;
+          s.damping_eps = c.damping_robustness_eps;
+          s.m = leaf.rmp.m;
+          s.jdqd = leaf.jdqd;
+          for (int i = 0; i < 3; ++i) {
+            s.n[i] = leaf.n[i];
+            s.p[i] = leaf.distance.p_W1[i];
+          }
+          double* g = ws.lanes.data() + static_cast<size_t>(kLeafG) * ws.lane_stride;
+          double* mg = ws.lanes.data() + static_cast<size_t>(kLeafMg) * ws.lane_stride;
+          internal::CollisionLeafAvx2(s, k, lanes, ws.b.data(), g, mg, ws.A.data(), nq);
+          return;
+        }
         for (int dof : *leaf.dofs) {
           ws.g[dof] = 0.0;
           if (ws.collision_active[dof]) {

@@ -253,5 +253,58 @@ TEST(CoupledLayerTest, StructureWithoutTheTargetNodeIsBitIdenticalAndTheFullEval
   }
 }
 
+// The vectorised collision leaves (AVX2, four joints at a time) give the scalar loop's bits: q̈, A and b, on the
+// Panda (every dof revolute: the kernel runs where the CPU has it) and on the tree robot (the scalar loop where a
+// leaf's dofs are not 0..k-1), with leaves inside obstacles (d ≤ 0), joints that take no leaf, zero metric scales,
+// unit and other length scales.
+TEST(CoupledLayerTest, VectorisedLeavesGiveTheScalarLoopsBits) {
+  std::mt19937_64 rng(23);
+  for (const kinematics::Robot& robot : {testing::LoadArm(), testing::LoadTreeRobot()}) {
+    const int nq = robot.model.nq();
+    kinematics::Data kin(robot.model);
+    CoupledLayerWorkspace vectorised(nq), scalar(nq);
+    scalar.vectorised = false;
+    BasicRmpParams params;
+    params.collision.metric_modulation_radius = 0.5;
+    params.collision.repulsion_std_dev = 0.0283;
+    params.collision.damping_std_dev = 0.1131;
+    int leaves = 0;
+    for (int trial = 0; trial < 200; ++trial) {
+      Scene scene = RandomScene(rng, 1 + static_cast<int>(rng() % 6));
+      for (int k = 0; k < 2; ++k) {  // boxes too, some of them on the arm
+        Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+        X.linear() = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+        X.translation() = RandomVector3(rng, -0.4, 0.4) + Eigen::Vector3d(0, 0, 0.4);
+        scene.obstacles.push_back(
+            Obstacle::MakeBox(X, RandomVector3(rng, 0.02, 0.15), RandomVector3(rng, -1.0, 1.0)));
+      }
+      kinematics::CalcVelocityKinematics(robot.model, RandomConfiguration(robot.model, rng),
+                                         RandomVelocity(robot.model, rng), &kin);
+      std::vector<JointLayerWeights> weights(nq);
+      for (JointLayerWeights& w : weights) {
+        const int pick = static_cast<int>(rng() % 8);
+        w.use_collision = pick != 0;
+        w.collision_metric_scale = pick == 1 ? 0.0 : Uniform(rng, 0.25, 4.0);
+        w.collision_accel_scale = Uniform(rng, 0.25, 4.0);
+        w.collision_length_scale = pick == 2 ? 1.0 : std::pow(w.collision_accel_scale, 0.75);
+        w.target_accel_scale = Uniform(rng, 0.25, 4.0);
+        w.target_metric_scale = Uniform(rng, 0.25, 4.0);
+      }
+      Eigen::MatrixXd B = Eigen::MatrixXd::Random(nq, nq);
+      const Eigen::MatrixXd M0 = B * B.transpose() + Eigen::MatrixXd::Identity(nq, nq);
+      const Eigen::VectorXd f0 = Eigen::VectorXd::Random(nq);
+      Eigen::VectorXd qdd_vectorised(nq), qdd_scalar(nq);
+      EvaluateCoupledLayer(robot, kin, scene, params, weights, f0, M0, 1e-6, &vectorised, qdd_vectorised);
+      EvaluateCoupledLayer(robot, kin, scene, params, weights, f0, M0, 1e-6, &scalar, qdd_scalar);
+      ASSERT_TRUE(qdd_scalar.allFinite());
+      EXPECT_EQ(std::memcmp(qdd_vectorised.data(), qdd_scalar.data(), sizeof(double) * nq), 0) << trial;
+      EXPECT_EQ(std::memcmp(vectorised.A.data(), scalar.A.data(), sizeof(double) * nq * nq), 0) << trial;
+      EXPECT_EQ(std::memcmp(vectorised.b.data(), scalar.b.data(), sizeof(double) * nq), 0) << trial;
+      leaves += (vectorised.A - M0).cwiseAbs().maxCoeff() > 0.0;
+    }
+    EXPECT_GT(leaves, 50) << robot.name << ": too few trials with collision leaves to compare";
+  }
+}
+
 }  // namespace
 }  // namespace rmpmarl::rmp

@@ -109,6 +109,11 @@ struct CoupledLayerWorkspace {
   Eigen::VectorXd sqrt_collision_metric;           ///< per joint: √s_m of its collision leaves
   std::vector<CollisionRmpParams> scaled_collision;  ///< per joint: the collision RMP with its length scale
   Eigen::VectorXd mg;                              ///< one collision leaf's m · g, per dof
+  /// evaluate the collision leaves four joints at a time with AVX2 where the CPU has it (the same bits as the scalar
+  /// loop; robots whose joints are all revolute); false: always the scalar loop
+  bool vectorised = true;
+  int lane_stride = 0;         ///< nq rounded up to a multiple of 4
+  std::vector<double> lanes;   ///< the vectorised leaves' per-joint arrays, lane_stride entries each
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved

@@ -1,0 +1,53 @@
+#pragma once
+// Internal to the rmp module: the coupled layer's per-joint work on one collision leaf, four joints at a time with
+// AVX2, giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc). The scalar loop evaluates
+// one exponential per joint and leaf (the repulsion at the joint's length scale), the bulk of the layer's extra cost
+// over RMPflow; here those exponentials run four at a time with the C library's own algorithm and table, so each
+// lane returns std::exp's result bit for bit. Every other operation is one IEEE operation per lane, in the scalar
+// loop's order, and never fused (this file's translation unit is compiled with -ffp-contract=off).
+//
+// Available only on a CPU with AVX2 and FMA, and only after a self-check against std::exp at first use: a C library
+// whose exp differs from the kernel's turns the kernel off, and the scalar loop runs.
+
+namespace rmpmarl::rmp::internal {
+
+/// the joints' inputs, one array per quantity, lane i = dof i, each padded to a multiple of 4 entries
+struct CollisionLeafLanes {
+  const double* repulsion_std_dev;  ///< l_p at the joint's length scale
+  const double* damping_std_dev;    ///< l_d at the joint's length scale
+  const double* metric_scale;       ///< s_m
+  const double* accel_scale;        ///< s_a
+  const double* sqrt_metric_scale;  ///< √s_m (0 where inactive)
+  const double* active;             ///< all bits set where the joint takes the leaf, 0 where not
+  const double* axis[3];            ///< the joint axis in the world frame, x, y, z
+  const double* origin[3];          ///< the joint origin in the world frame, x, y, z
+};
+
+/// one collision leaf: what does not depend on the joint
+struct CollisionLeafScalars {
+  double xc;              ///< max(d, 0)
+  double repulsion_gain;  ///< the collision RMP's repulsion gain
+  double damping_force;   ///< (damping gain · σ) · ḋ
+  double damping_eps;     ///< damping_robustness_eps
+  double m;               ///< the leaf's metric
+  double jdqd;            ///< J̇q̇ of the distance
+  double n[3];            ///< ∂d/∂p_W1
+  double p[3];            ///< the witness point p_W1
+};
+
+/// true where the kernel runs: AVX2 and FMA present, and the vectorised exp matches std::exp on the self-check
+bool CollisionLeafKernelAvailable();
+
+/// The coupled layer's update for one leaf moved by dofs 0..k-1 (k <= nq), as the scalar loop does it:
+/// per dof i, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where active, with
+/// j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
+/// A(i, j) += g_j mg_i for i, j < k. A is column-major with leading dimension lda; g and mg have room for k rounded up
+/// to a multiple of 4. \pre CollisionLeafKernelAvailable().
+void CollisionLeafAvx2(const CollisionLeafScalars& leaf, int k, const CollisionLeafLanes& lanes, double* b,
+                       double* g, double* mg, double* A, int lda);
+
+/// exp of n values with the vectorised algorithm (lanes outside its range by std::exp); for tests.
+/// \pre CollisionLeafKernelAvailable().
+void ExpAvx2(const double* x, double* y, int n);
+
+}  // namespace rmpmarl::rmp::internal
