@@ -2,6 +2,7 @@
 // a 7-DoF arm with 20 box obstacles (goal ≤ 3 µs), and the paper's two-RMP basic layer at one joint.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -136,7 +137,58 @@ void BM_JointLayersAllJoints(benchmark::State& state) {
   }
 }
 
+// the learned default's layer (configs/layers/v2c-gate-prior.yaml: the coupled resolve of the agents' target and
+// collision RMPs on RMPflow's structure) at random per-joint scales in the agents' range, on the same states and
+// scenes as BM_RmpflowEvaluate: structure (push-forward, C-space leaves, pullback) and coupled layer, as one control
+// substep evaluates them; `vectorised` false: the scalar leaf loop (CoupledLayerWorkspace::vectorised)
+void BM_CoupledLayerEvaluate(benchmark::State& state, int num_boxes, bool vectorised) {
+  const kinematics::Robot robot = BenchRobot(/*one_capsule_per_link=*/false);
+  const int nq = robot.model.nq();
+  rmp::RmpflowPolicy structure(robot, rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name)), 0);
+  rmp::BasicRmpParams params;
+  params.target_scale = rmp::TargetScale::kStiffness;
+  params.target.damping = rmp::TargetDamping::kLinear;
+  params.target.accel_d_gain = 85.0;
+  params.collision.metric_modulation_radius = 0.5;
+  params.collision.metric_scalar = 10000.0;
+  params.collision.repulsion_gain = 3200.0;
+  params.collision.damping_gain = 200.0;
+  params.collision.repulsion_std_dev = 0.0283;
+  params.collision.damping_std_dev = 0.1131;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto gain = [&] { return std::exp(u(rng) * std::log(4.0)); };  // an agent's scale, gain range 4
+  std::vector<rmp::JointLayerWeights> weights(nq);
+  for (rmp::JointLayerWeights& w : weights) {
+    w.target_accel_scale = gain();
+    w.target_metric_scale = gain();
+    w.collision_accel_scale = gain();
+    w.collision_metric_scale = gain();
+    w.collision_length_scale = std::pow(w.collision_accel_scale, 0.75);
+  }
+  rmp::CoupledLayerWorkspace workspace(nq);
+  workspace.vectorised = vectorised;
+  const rmp::Scene scene = BoxScene(num_boxes);
+  std::vector<Eigen::VectorXd> qs, qds;
+  States(robot.model, &qs, &qds);
+  Eigen::VectorXd qdd(nq);
+  size_t n = 0;
+  for (auto _ : state) {
+    const size_t k = n++ & (kStates - 1);
+    structure.EvaluateStructure(qs[k], qds[k]);
+    rmp::EvaluateCoupledLayer(robot, structure.data().kinematics, scene, params, weights, structure.data().f_root,
+                              structure.data().M_root, 1e-6, &workspace, qdd);
+    benchmark::DoNotOptimize(qdd.data());
+    benchmark::ClobberMemory();
+  }
+}
+
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes, true, 20, 0.0);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_5boxes, false, 5, 0.0);
+BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_5boxes, 5, true);
+BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_5boxes_scalar, 5, false);
+BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_20boxes, 20, true);
+BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_20boxes_scalar, 20, false);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes_r0.2, true, 20, 0.2);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_20boxes, false, 20, 0.0);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_0boxes, true, 0, 0.0);

@@ -3,6 +3,7 @@
 // the scalar loop; the exp's fused multiply-adds are written out as such, where the C library's exp has them.
 #include "collision_leaf_simd.h"
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -141,12 +142,6 @@ __attribute__((target("avx2,fma"))) __m256d Exp4(__m256d x) {
   return y;
 }
 
-// lanes base.. of a leaf with k dofs: all bits set where base + i < k
-__attribute__((target("avx2,fma"))) __m256i LaneMask(int base, int k) {
-  const __m256i lane = _mm256_add_epi64(_mm256_set1_epi64x(base), _mm256_setr_epi64x(0, 1, 2, 3));
-  return _mm256_cmpgt_epi64(_mm256_set1_epi64x(k), lane);
-}
-
 bool CpuHasAvx2Fma() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -190,7 +185,7 @@ __attribute__((target("avx2,fma"))) void ExpAvx2(const double* x, double* y, int
 
 __attribute__((target("avx2,fma"))) void CollisionLeafAvx2(const CollisionLeafScalars& leaf, int k,
                                                           const CollisionLeafLanes& lanes, double* b, double* g,
-                                                          double* mg, double* A, int lda) {
+                                                          double* mg, double* b_increment, double* A, int lda) {
   const __m256d xc = Set(leaf.xc), neg_xc = Set(-leaf.xc), m = Set(leaf.m), jdqd = Set(leaf.jdqd);
   const __m256d n0 = Set(leaf.n[0]), n1 = Set(leaf.n[1]), n2 = Set(leaf.n[2]);
   const __m256d p0 = Set(leaf.p[0]), p1 = Set(leaf.p[1]), p2 = Set(leaf.p[2]);
@@ -219,23 +214,26 @@ __attribute__((target("avx2,fma"))) void CollisionLeafAvx2(const CollisionLeafSc
     const __m256d increment =
         _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.metric_scale + base), j), m),
                       _mm256_sub_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.accel_scale + base), a), jdqd));
-    const __m256i valid = LaneMask(base, k);
-    const __m256d b_old = _mm256_maskload_pd(b + base, valid);
-    _mm256_maskstore_pd(b + base, valid, _mm256_blendv_pd(b_old, _mm256_add_pd(b_old, increment), active));
-    const __m256d gv =
-        _mm256_and_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.sqrt_metric_scale + base), j), active);
+    _mm256_storeu_pd(b_increment + base, _mm256_and_pd(increment, active));
+    const __m256d gv = _mm256_and_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.sqrt_metric_scale + base), j), active);
     _mm256_storeu_pd(g + base, gv);
     _mm256_storeu_pd(mg + base, _mm256_mul_pd(m, gv));
   }
+  // the lanes past k are not the leaf's: whole blocks of four by vector, the rest one by one (no masked stores,
+  // which are slow on some CPUs)
+  for (int i = 0; i < k; ++i) {
+    if (std::bit_cast<std::uint64_t>(lanes.active[i]) != 0) b[i] += b_increment[i];
+  }
   // A += m g gᵀ over the leaf's dofs, each entry g_j (m g_i) as the scalar loop forms it
   for (int col = 0; col < k; ++col) {
-    const __m256d g_j = Set(g[col]);
+    const double g_j = g[col];
     double* a_col = A + static_cast<long>(col) * lda;
-    for (int base = 0; base < k; base += 4) {
-      const __m256i valid = LaneMask(base, k);
-      const __m256d old = _mm256_maskload_pd(a_col + base, valid);
-      _mm256_maskstore_pd(a_col + base, valid, _mm256_add_pd(old, _mm256_mul_pd(g_j, _mm256_loadu_pd(mg + base))));
+    int i = 0;
+    for (; i + 4 <= k; i += 4) {
+      _mm256_storeu_pd(a_col + i,
+                       _mm256_add_pd(_mm256_loadu_pd(a_col + i), _mm256_mul_pd(Set(g_j), _mm256_loadu_pd(mg + i))));
     }
+    for (; i < k; ++i) a_col[i] += g_j * mg[i];
   }
 }
 
@@ -246,7 +244,7 @@ bool CollisionLeafKernelAvailable() { return false; }
 void ExpAvx2(const double*, double*, int) { RMPMARL_ASSERT(false, "ExpAvx2: x86-64 only"); }
 
 void CollisionLeafAvx2(const CollisionLeafScalars&, int, const CollisionLeafLanes&, double*, double*, double*,
-                       double*, int) {
+                       double*, double*, int) {
   RMPMARL_ASSERT(false, "CollisionLeafAvx2: x86-64 only");
 }
 

@@ -41,10 +41,10 @@ bool CollisionLeafKernelAvailable();
 /// The coupled layer's update for one leaf moved by dofs 0..k-1 (k <= nq), as the scalar loop does it:
 /// per dof i, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where active, with
 /// j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
-/// A(i, j) += g_j mg_i for i, j < k. A is column-major with leading dimension lda; g and mg have room for k rounded up
-/// to a multiple of 4. \pre CollisionLeafKernelAvailable().
+/// A(i, j) += g_j mg_i for i, j < k. A is column-major with leading dimension lda; g, mg and b_increment (scratch)
+/// have room for k rounded up to a multiple of 4. \pre CollisionLeafKernelAvailable().
 void CollisionLeafAvx2(const CollisionLeafScalars& leaf, int k, const CollisionLeafLanes& lanes, double* b,
-                       double* g, double* mg, double* A, int lda);
+                       double* g, double* mg, double* b_increment, double* A, int lda);
 
 /// exp of n values with the vectorised algorithm (lanes outside its range by std::exp); for tests.
 /// \pre CollisionLeafKernelAvailable().

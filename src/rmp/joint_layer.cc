@@ -131,8 +131,9 @@ struct CollisionLeaf {
 
 /// every capsule × obstacle pair of the capsules some joint selecting collision RMPs moves, each distance computed
 /// once: on_distance(dofs, d) with the distance or, past a bounding-sphere test, its lower bound (> r); then
-/// on_leaf(leaf) for the pairs within r.
-template <class OnDistance, class OnLeaf>
+/// on_leaf(leaf) for the pairs within r. Without kReportDistances, on_distance is not called and the pairs whose
+/// bounding spheres are certainly farther apart than r are skipped before the square root of their lower bound.
+template <bool kReportDistances, class OnDistance, class OnLeaf>
 void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                           OnDistance&& on_distance, OnLeaf&& on_leaf) {
@@ -144,6 +145,9 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
   const int cached = std::min(num_obstacles, kCachedSpheres);
   bool spheres_ready = false;
+  // squared sphere gaps beyond (1 + 1e-9) (r + radii)² are beyond r after every rounding of the lower bound below
+  constexpr double kCertainlyBeyond = 1.0 + 1e-9;
+  CollisionLeaf leaf;
   for (const kinematics::LinkCapsule& lc : robot.capsules) {
     const std::vector<int>& dofs = robot.model.link_dofs(lc.link);
     if (std::none_of(dofs.begin(), dofs.end(), [&](int dof) { return weights[dof].use_collision; })) continue;
@@ -162,14 +166,22 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
     for (int j = 0; j < num_obstacles; ++j) {
       const Obstacle& obstacle = scene.obstacles[j];
       const Eigen::Vector4d sphere = j < cached ? spheres[j] : BoundingSphere(obstacle);
-      const double lower = (centre - sphere.head<3>()).norm() - bound - sphere[3];
+      const double gap2 = (centre - sphere.head<3>()).squaredNorm();
+      if constexpr (!kReportDistances) {
+        const double reach = r + bound + sphere[3];
+        if (gap2 > kCertainlyBeyond * (reach * reach)) continue;
+      }
+      const double lower = std::sqrt(gap2) - bound - sphere[3];
       if (lower > r) {
-        on_distance(dofs, lower);
+        if constexpr (kReportDistances) on_distance(dofs, lower);
         continue;
       }
-      CollisionLeaf leaf{&lc, &dofs, CapsuleObstacleDistance(capsule, obstacle), {}, 0.0, {}, 0.0, 0.0};
-      on_distance(dofs, leaf.distance.distance);
+      leaf.distance = CapsuleObstacleDistance(capsule, obstacle);
+      if constexpr (kReportDistances) on_distance(dofs, leaf.distance.distance);
       if (leaf.distance.distance > r) continue;
+      leaf.capsule = &lc;
+      leaf.dofs = &dofs;
+      leaf.rmp = Rmp1{};
       leaf.n = leaf.distance.gradient_norm * leaf.distance.n_W;
       leaf.xd = leaf.n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, leaf.distance.p_W1) - obstacle.v_WO);
       leaf.sigma = CollisionVelocityGate(leaf.xd, params.collision.damping_velocity_gate_length_scale);
@@ -224,7 +236,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   }
 
   // each capsule–obstacle distance once, shared by every joint that moves the capsule
-  ForEachCollisionLeaf(
+  ForEachCollisionLeaf</*kReportDistances=*/true>(
       robot, kin, scene, params, weights,
       [&](const std::vector<int>& dofs, double d) {
         for (int dof : dofs) {
@@ -258,7 +270,7 @@ namespace {
 // the vectorised leaves' per-joint arrays in CoupledLayerWorkspace::lanes, lane_stride entries each
 enum Lane : int {
   kRepulsionStdDev, kDampingStdDev, kMetricScale, kAccelScale, kSqrtMetricScale, kActive,
-  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kLeafG, kLeafMg, kNumLanes
+  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kLeafG, kLeafMg, kLeafB, kNumLanes
 };
 
 // true where the vectorised leaf kernel may run on this robot: every dof a revolute joint of its own
@@ -360,7 +372,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
              {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
              {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
   }
-  ForEachCollisionLeaf(
+  ForEachCollisionLeaf</*kReportDistances=*/false>(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
       [&](const CollisionLeaf& leaf) {
         const std::vector<int>& dofs = *leaf.dofs;
@@ -380,7 +392,8 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
           }
           double* g = ws.lanes.data() + static_cast<size_t>(kLeafG) * ws.lane_stride;
           double* mg = ws.lanes.data() + static_cast<size_t>(kLeafMg) * ws.lane_stride;
-          internal::CollisionLeafAvx2(s, k, lanes, ws.b.data(), g, mg, ws.A.data(), nq);
+          double* b_increment = ws.lanes.data() + static_cast<size_t>(kLeafB) * ws.lane_stride;
+          internal::CollisionLeafAvx2(s, k, lanes, ws.b.data(), g, mg, b_increment, ws.A.data(), nq);
           return;
         }
         for (int dof : *leaf.dofs) {
