@@ -3,7 +3,6 @@
 // the scalar loop; the exp's fused multiply-adds are written out as such, where the C library's exp has them.
 #include "collision_leaf_simd.h"
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -103,7 +102,7 @@ alignas(32) constexpr std::uint64_t kExpTable[256] = {
 __attribute__((target("avx2,fma"))) inline __m256d Set(double v) { return _mm256_set1_pd(v); }
 
 // exp of four lanes; lanes with |x| outside [2^-54, 512) (zero, tiny, huge, inf, NaN) go to std::exp
-__attribute__((target("avx2,fma"))) __m256d Exp4(__m256d x) {
+__attribute__((target("avx2,fma"), always_inline)) inline __m256d Exp4(__m256d x) {
   const __m256i ix = _mm256_castpd_si256(x);
   // the exponent field minus that of 2^-54: in [0, 62] on the table's range
   const __m256i top = _mm256_sub_epi64(_mm256_and_si256(_mm256_srli_epi64(ix, 52), _mm256_set1_epi64x(0x7ff)),
@@ -183,13 +182,17 @@ __attribute__((target("avx2,fma"))) void ExpAvx2(const double* x, double* y, int
   }
 }
 
-__attribute__((target("avx2,fma"))) void CollisionLeafAvx2(const CollisionLeafScalars& leaf, int k,
-                                                          const CollisionLeafLanes& lanes, double* b, double* g,
-                                                          double* mg, double* b_increment, double* A, int lda) {
+namespace {
+
+// one leaf's per-dof terms: the increments of b (before the active mask), g and mg, lanes 0..k rounded up to 4
+__attribute__((target("avx2,fma"), always_inline)) inline void LeafTerms(const CollisionLeafScalars& leaf,
+                                                                         const CollisionLeafLanes& lanes,
+                                                                         double* increment_out, double* g_out,
+                                                                         double* mg_out) {
   const __m256d xc = Set(leaf.xc), neg_xc = Set(-leaf.xc), m = Set(leaf.m), jdqd = Set(leaf.jdqd);
   const __m256d n0 = Set(leaf.n[0]), n1 = Set(leaf.n[1]), n2 = Set(leaf.n[2]);
   const __m256d p0 = Set(leaf.p[0]), p1 = Set(leaf.p[1]), p2 = Set(leaf.p[2]);
-  for (int base = 0; base < k; base += 4) {
+  for (int base = 0; base < leaf.k; base += 4) {
     // the collision acceleration at each joint's length scales (CollisionRmpAccel's expression)
     const __m256d repulsion =
         _mm256_mul_pd(Set(leaf.repulsion_gain),
@@ -209,31 +212,57 @@ __attribute__((target("avx2,fma"))) void CollisionLeafAvx2(const CollisionLeafSc
     const __m256d cz = _mm256_sub_pd(_mm256_mul_pd(ax, ry), _mm256_mul_pd(ay, rx));
     const __m256d j =
         _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(n0, cx), _mm256_mul_pd(n1, cy)), _mm256_mul_pd(n2, cz));
-    // b_i += s_m j m (s_a a − J̇q̇) where active; g_i = √s_m j where active, else 0; mg_i = m g_i
-    const __m256d active = _mm256_loadu_pd(lanes.active + base);
-    const __m256d increment =
-        _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.metric_scale + base), j), m),
-                      _mm256_sub_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.accel_scale + base), a), jdqd));
-    _mm256_storeu_pd(b_increment + base, _mm256_and_pd(increment, active));
-    const __m256d gv = _mm256_and_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.sqrt_metric_scale + base), j), active);
-    _mm256_storeu_pd(g + base, gv);
-    _mm256_storeu_pd(mg + base, _mm256_mul_pd(m, gv));
+    // s_m j m (s_a a − J̇q̇); g = √s_m j where active, else 0; m g
+    _mm256_storeu_pd(increment_out + base,
+                     _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.metric_scale + base), j), m),
+                                   _mm256_sub_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.accel_scale + base), a), jdqd)));
+    const __m256d g = _mm256_and_pd(_mm256_mul_pd(_mm256_loadu_pd(lanes.sqrt_metric_scale + base), j),
+                                    _mm256_loadu_pd(lanes.active + base));
+    _mm256_storeu_pd(g_out + base, g);
+    _mm256_storeu_pd(mg_out + base, _mm256_mul_pd(m, g));
   }
-  // the lanes past k are not the leaf's: whole blocks of four by vector, the rest one by one (no masked stores,
-  // which are slow on some CPUs)
-  for (int i = 0; i < k; ++i) {
-    if (std::bit_cast<std::uint64_t>(lanes.active[i]) != 0) b[i] += b_increment[i];
+}
+
+// lanes base..base+3 of a leaf with k dofs: all bits set where base + i < k
+__attribute__((target("avx2,fma"), always_inline)) inline __m256d LaneMask(int base, int k) {
+  const __m256i lane = _mm256_add_epi64(_mm256_set1_epi64x(base), _mm256_setr_epi64x(0, 1, 2, 3));
+  return _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x(k), lane));
+}
+
+}  // namespace
+
+__attribute__((target("avx2,fma"))) void CollisionLeavesAvx2(const CollisionLeafScalars* leaves, int count,
+                                                            const CollisionLeafLanes& lanes, int stride,
+                                                            double* scratch, double* b, double* A, int lda) {
+  double* increment = scratch;
+  double* g = scratch + static_cast<long>(count) * stride;
+  double* mg = g + static_cast<long>(count) * stride;
+  // every leaf's terms first (independent of each other, so that their latencies overlap), then the sums in order
+  for (int l = 0; l < count; ++l) {
+    const long at = static_cast<long>(l) * stride;
+    LeafTerms(leaves[l], lanes, increment + at, g + at, mg + at);
   }
-  // A += m g gᵀ over the leaf's dofs, each entry g_j (m g_i) as the scalar loop forms it
-  for (int col = 0; col < k; ++col) {
-    const double g_j = g[col];
-    double* a_col = A + static_cast<long>(col) * lda;
-    int i = 0;
-    for (; i + 4 <= k; i += 4) {
-      _mm256_storeu_pd(a_col + i,
-                       _mm256_add_pd(_mm256_loadu_pd(a_col + i), _mm256_mul_pd(Set(g_j), _mm256_loadu_pd(mg + i))));
+  for (int l = 0; l < count; ++l) {
+    const int k = leaves[l].k;
+    const long at = static_cast<long>(l) * stride;
+    // b_i += increment_i where active; the other entries keep their bits
+    for (int base = 0; base < k; base += 4) {
+      const __m256d old = _mm256_loadu_pd(b + base);
+      _mm256_storeu_pd(b + base,
+                       _mm256_blendv_pd(old, _mm256_add_pd(old, _mm256_loadu_pd(increment + at + base)),
+                                        _mm256_and_pd(_mm256_loadu_pd(lanes.active + base), LaneMask(base, k))));
     }
-    for (; i < k; ++i) a_col[i] += g_j * mg[i];
+    // A(i, j) += g_j (m g_i) for i, j < k, as the scalar loop forms each entry; the rows past k keep their bits
+    for (int base = 0; base < k; base += 4) {
+      const __m256d valid = LaneMask(base, k);
+      const __m256d mg_i = _mm256_loadu_pd(mg + at + base);
+      for (int col = 0; col < k; ++col) {
+        double* a = A + static_cast<long>(col) * lda + base;
+        const __m256d old = _mm256_loadu_pd(a);
+        _mm256_storeu_pd(a,
+                         _mm256_blendv_pd(old, _mm256_add_pd(old, _mm256_mul_pd(Set(g[at + col]), mg_i)), valid));
+      }
+    }
   }
 }
 
@@ -243,9 +272,9 @@ bool CollisionLeafKernelAvailable() { return false; }
 
 void ExpAvx2(const double*, double*, int) { RMPMARL_ASSERT(false, "ExpAvx2: x86-64 only"); }
 
-void CollisionLeafAvx2(const CollisionLeafScalars&, int, const CollisionLeafLanes&, double*, double*, double*,
-                       double*, double*, int) {
-  RMPMARL_ASSERT(false, "CollisionLeafAvx2: x86-64 only");
+void CollisionLeavesAvx2(const CollisionLeafScalars*, int, const CollisionLeafLanes&, int, double*, double*, double*,
+                         int) {
+  RMPMARL_ASSERT(false, "CollisionLeavesAvx2: x86-64 only");
 }
 
 #endif  // RMPMARL_LEAF_X86

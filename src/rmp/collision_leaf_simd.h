@@ -25,6 +25,7 @@ struct CollisionLeafLanes {
 
 /// one collision leaf: what does not depend on the joint
 struct CollisionLeafScalars {
+  int k;                  ///< the leaf moves dofs 0..k-1
   double xc;              ///< max(d, 0)
   double repulsion_gain;  ///< the collision RMP's repulsion gain
   double damping_force;   ///< (damping gain · σ) · ḋ
@@ -38,13 +39,14 @@ struct CollisionLeafScalars {
 /// true where the kernel runs: AVX2 and FMA present, and the vectorised exp matches std::exp on the self-check
 bool CollisionLeafKernelAvailable();
 
-/// The coupled layer's update for one leaf moved by dofs 0..k-1 (k <= nq), as the scalar loop does it:
-/// per dof i, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where active, with
-/// j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
-/// A(i, j) += g_j mg_i for i, j < k. A is column-major with leading dimension lda; g, mg and b_increment (scratch)
-/// have room for k rounded up to a multiple of 4. \pre CollisionLeafKernelAvailable().
-void CollisionLeafAvx2(const CollisionLeafScalars& leaf, int k, const CollisionLeafLanes& lanes, double* b,
-                       double* g, double* mg, double* b_increment, double* A, int lda);
+/// The coupled layer's update for `count` leaves, in order, as the scalar loop does it leaf by leaf: for leaf l and
+/// each of its dofs i < k, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where
+/// active, with j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
+/// A(i, j) += g_j mg_i for i, j < k. The lanes, b and A's columns (column-major, leading dimension lda) have `stride`
+/// entries, k rounded up to a multiple of 4 or more (the entries past k keep their bits); scratch has
+/// 3 · count · stride. \pre CollisionLeafKernelAvailable().
+void CollisionLeavesAvx2(const CollisionLeafScalars* leaves, int count, const CollisionLeafLanes& lanes, int stride,
+                         double* scratch, double* b, double* A, int lda);
 
 /// exp of n values with the vectorised algorithm (lanes outside its range by std::exp); for tests.
 /// \pre CollisionLeafKernelAvailable().

@@ -270,15 +270,21 @@ namespace {
 // the vectorised leaves' per-joint arrays in CoupledLayerWorkspace::lanes, lane_stride entries each
 enum Lane : int {
   kRepulsionStdDev, kDampingStdDev, kMetricScale, kAccelScale, kSqrtMetricScale, kActive,
-  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kLeafG, kLeafMg, kLeafB, kNumLanes
+  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kB, kNumLanes
 };
 
-// true where the vectorised leaf kernel may run on this robot: every dof a revolute joint of its own
-bool RevoluteJoints(const kinematics::Model& model) {
+// true where the vectorised leaf kernel may run on this robot: every dof a revolute joint of its own, and every
+// capsule moved by dofs 0..k-1 (a serial chain), so that a leaf's lanes are its dofs
+bool VectorisableRobot(const kinematics::Robot& robot) {
+  const kinematics::Model& model = robot.model;
   if (model.has_mimic_joints()) return false;
   for (int i = 0; i < model.nq(); ++i) {
     const kinematics::JointType type = model.link(model.dof_link(i)).joint_type;
     if (type != kinematics::JointType::kRevolute && type != kinematics::JointType::kContinuous) return false;
+  }
+  for (const kinematics::LinkCapsule& lc : robot.capsules) {
+    const std::vector<int>& dofs = model.link_dofs(lc.link);  // ascending
+    if (!dofs.empty() && dofs.back() != static_cast<int>(dofs.size()) - 1) return false;
   }
   return true;
 }
@@ -287,8 +293,9 @@ bool RevoluteJoints(const kinematics::Model& model) {
 
 CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
     : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq), collision_active(nq, 0), sqrt_collision_metric(nq),
-      scaled_collision(nq), mg(nq), lane_stride((nq + 3) / 4 * 4), lanes(static_cast<size_t>(kNumLanes) * lane_stride,
-                                                                          0.0) {
+      scaled_collision(nq), mg(nq), lane_stride((nq + 3) / 4 * 4),
+      lanes(static_cast<size_t>(kNumLanes) * lane_stride, 0.0), lane_A(static_cast<size_t>(lane_stride) * nq, 0.0),
+      leaf_scratch(static_cast<size_t>(3 * kLeafBatch) * lane_stride, 0.0) {
   // the padding lanes' length scales stay 1, so that their (discarded) arithmetic stays finite
   for (int i = nq; i < lane_stride; ++i) {
     lanes[kRepulsionStdDev * lane_stride + i] = 1.0;
@@ -347,11 +354,14 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
     ws.scaled_collision[i] = LengthScaled(params.collision, w.collision_length_scale);
   }
-  const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && RevoluteJoints(model);
+  const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && VectorisableRobot(robot);
+  const int stride = ws.lane_stride;
+  auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
   internal::CollisionLeafLanes lanes{};
   if (vectorised) {
-    const int stride = ws.lane_stride;
-    auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
+    // A and b with columns padded to the lanes (the padding rows are never read back)
+    for (int c = 0; c < nq; ++c) std::copy_n(ws.A.col(c).data(), nq, ws.lane_A.data() + static_cast<size_t>(c) * stride);
+    std::copy_n(ws.b.data(), nq, lane(kB));
     for (int i = 0; i < nq; ++i) {
       const JointLayerWeights& w = weights[i];
       lane(kRepulsionStdDev)[i] = ws.scaled_collision[i].repulsion_std_dev;
@@ -372,14 +382,21 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
              {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
              {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
   }
+  // the vectorised leaves in batches, each batch's terms at once (CollisionLeavesAvx2), in the leaves' order
+  std::array<internal::CollisionLeafScalars, CoupledLayerWorkspace::kLeafBatch> batch;
+  int batched = 0;
+  auto flush = [&] {
+    internal::CollisionLeavesAvx2(batch.data(), batched, lanes, stride, ws.leaf_scratch.data(), lane(kB),
+                                  ws.lane_A.data(), stride);
+    batched = 0;
+  };
   ForEachCollisionLeaf</*kReportDistances=*/false>(
       robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
       [&](const CollisionLeaf& leaf) {
-        const std::vector<int>& dofs = *leaf.dofs;
-        const int k = static_cast<int>(dofs.size());
-        if (vectorised && dofs.back() == k - 1) {  // dofs 0..k-1 (ascending): the lanes are the dofs
+        if (vectorised) {  // the leaf's dofs are 0..k-1: the lanes
           const CollisionRmpParams& c = params.collision;
-          internal::CollisionLeafScalars s;
+          internal::CollisionLeafScalars& s = batch[batched];
+          s.k = static_cast<int>(leaf.dofs->size());
           s.xc = std::max(leaf.distance.distance, 0.0);
           s.repulsion_gain = c.repulsion_gain;
           s.damping_force = c.damping_gain * leaf.sigma * leaf.xd;
@@ -390,10 +407,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
             s.n[i] = leaf.n[i];
             s.p[i] = leaf.distance.p_W1[i];
           }
-          double* g = ws.lanes.data() + static_cast<size_t>(kLeafG) * ws.lane_stride;
-          double* mg = ws.lanes.data() + static_cast<size_t>(kLeafMg) * ws.lane_stride;
-          double* b_increment = ws.lanes.data() + static_cast<size_t>(kLeafB) * ws.lane_stride;
-          internal::CollisionLeafAvx2(s, k, lanes, ws.b.data(), g, mg, b_increment, ws.A.data(), nq);
+          if (++batched == CoupledLayerWorkspace::kLeafBatch) flush();
           return;
         }
         for (int dof : *leaf.dofs) {
@@ -415,6 +429,12 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
           for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
         }
       });
+
+  if (vectorised) {
+    if (batched > 0) flush();
+    for (int c = 0; c < nq; ++c) std::copy_n(ws.lane_A.data() + static_cast<size_t>(c) * stride, nq, ws.A.col(c).data());
+    std::copy_n(lane(kB), nq, ws.b.data());
+  }
 
   const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);
   ws.A.diagonal().array() += lambda;

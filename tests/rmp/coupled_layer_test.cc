@@ -254,9 +254,9 @@ TEST(CoupledLayerTest, StructureWithoutTheTargetNodeIsBitIdenticalAndTheFullEval
 }
 
 // The vectorised collision leaves (AVX2, four joints at a time) give the scalar loop's bits: q̈, A and b, on the
-// Panda (every dof revolute: the kernel runs where the CPU has it) and on the tree robot (the scalar loop where a
-// leaf's dofs are not 0..k-1), with leaves inside obstacles (d ≤ 0), joints that take no leaf, zero metric scales,
-// unit and other length scales.
+// Panda (every dof revolute: the kernel runs where the CPU has it) and on the tree robot (a prismatic joint: the
+// scalar loop throughout), with leaves inside obstacles (d ≤ 0), joints that take no leaf, zero metric scales, unit
+// and other length scales.
 TEST(CoupledLayerTest, VectorisedLeavesGiveTheScalarLoopsBits) {
   std::mt19937_64 rng(23);
   for (const kinematics::Robot& robot : {testing::LoadArm(), testing::LoadTreeRobot()}) {

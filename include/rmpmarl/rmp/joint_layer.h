@@ -110,10 +110,13 @@ struct CoupledLayerWorkspace {
   std::vector<CollisionRmpParams> scaled_collision;  ///< per joint: the collision RMP with its length scale
   Eigen::VectorXd mg;                              ///< one collision leaf's m · g, per dof
   /// evaluate the collision leaves four joints at a time with AVX2 where the CPU has it (the same bits as the scalar
-  /// loop; robots whose joints are all revolute); false: always the scalar loop
+  /// loop; serial chains of revolute joints); false: always the scalar loop
   bool vectorised = true;
-  int lane_stride = 0;         ///< nq rounded up to a multiple of 4
-  std::vector<double> lanes;   ///< the vectorised leaves' per-joint arrays, lane_stride entries each
+  int lane_stride = 0;          ///< nq rounded up to a multiple of 4
+  std::vector<double> lanes;    ///< the vectorised leaves' per-joint arrays (and b), lane_stride entries each
+  std::vector<double> lane_A;   ///< A while the vectorised leaves add to it, columns of lane_stride entries
+  static constexpr int kLeafBatch = 32;  ///< vectorised leaves evaluated together
+  std::vector<double> leaf_scratch;      ///< their per-dof terms, 3 · kLeafBatch · lane_stride
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved
