@@ -184,22 +184,24 @@ __attribute__((target("avx2,fma"))) void ExpAvx2(const double* x, double* y, int
 
 namespace {
 
-// one leaf's per-dof terms: the increments of b (before the active mask), g and mg, lanes 0..k rounded up to 4
-__attribute__((target("avx2,fma"), always_inline)) inline void LeafTerms(const CollisionLeafScalars& leaf,
+// leaf l's per-dof terms: the increments of b (before the active mask), g and mg, lanes 0..k rounded up to 4
+__attribute__((target("avx2,fma"), always_inline)) inline void LeafTerms(const CollisionLeafBatch& batch, int l,
+                                                                         const CollisionLeafConstants& c,
                                                                          const CollisionLeafLanes& lanes,
                                                                          double* increment_out, double* g_out,
                                                                          double* mg_out) {
-  const __m256d xc = Set(leaf.xc), neg_xc = Set(-leaf.xc), m = Set(leaf.m), jdqd = Set(leaf.jdqd);
-  const __m256d n0 = Set(leaf.n[0]), n1 = Set(leaf.n[1]), n2 = Set(leaf.n[2]);
-  const __m256d p0 = Set(leaf.p[0]), p1 = Set(leaf.p[1]), p2 = Set(leaf.p[2]);
-  for (int base = 0; base < leaf.k; base += 4) {
+  const double x = batch.xc[l];
+  const __m256d xc = Set(x), neg_xc = Set(-x), m = Set(batch.m[l]), jdqd = Set(batch.jdqd[l]);
+  const __m256d n0 = Set(batch.n[0][l]), n1 = Set(batch.n[1][l]), n2 = Set(batch.n[2][l]);
+  const __m256d p0 = Set(batch.p[0][l]), p1 = Set(batch.p[1][l]), p2 = Set(batch.p[2][l]);
+  for (int base = 0; base < batch.k[l]; base += 4) {
     // the collision acceleration at each joint's length scales (CollisionRmpAccel's expression)
     const __m256d repulsion =
-        _mm256_mul_pd(Set(leaf.repulsion_gain),
+        _mm256_mul_pd(Set(c.repulsion_gain),
                       Exp4(_mm256_div_pd(neg_xc, _mm256_loadu_pd(lanes.repulsion_std_dev + base))));
     const __m256d damping = _mm256_div_pd(
-        Set(leaf.damping_force),
-        _mm256_add_pd(_mm256_div_pd(xc, _mm256_loadu_pd(lanes.damping_std_dev + base)), Set(leaf.damping_eps)));
+        Set(batch.damping_force[l]),
+        _mm256_add_pd(_mm256_div_pd(xc, _mm256_loadu_pd(lanes.damping_std_dev + base)), Set(c.damping_eps)));
     const __m256d a = _mm256_sub_pd(repulsion, damping);
     // j = n · (axis × (p − origin)), as Eigen's cross and dot form it
     const __m256d rx = _mm256_sub_pd(p0, _mm256_loadu_pd(lanes.origin[0] + base));
@@ -231,19 +233,38 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d LaneMask(int b
 
 }  // namespace
 
-__attribute__((target("avx2,fma"))) void CollisionLeavesAvx2(const CollisionLeafScalars* leaves, int count,
+__attribute__((target("avx2,fma"))) void CollisionLeavesAvx2(CollisionLeafBatch* batch,
+                                                            const CollisionLeafConstants& c,
                                                             const CollisionLeafLanes& lanes, int stride,
                                                             double* scratch, double* b, double* A, int lda) {
+  CollisionLeafBatch& leaves = *batch;
+  const int count = leaves.count;
+  RMPMARL_DASSERT(count >= 0 && count <= CollisionLeafBatch::kCapacity, "CollisionLeavesAvx2: batch size");
+  // the velocity gate σ = 1 / (1 + exp(ḋ / v_d)) and the metric σ g(x) μ / (x / l_e + ε_e), g(x) = (1 − x/r)² up to
+  // r (CollisionVelocityGate, CollisionDistanceGate, CollisionRmpMetric), four leaves at a time; the lanes past
+  // count are zeros
+  for (int l = count; l < (count + 3) / 4 * 4; ++l) leaves.xc[l] = leaves.xd[l] = 0.0;
+  for (int l = 0; l < count; l += 4) {
+    const __m256d xc = _mm256_loadu_pd(leaves.xc + l), xd = _mm256_loadu_pd(leaves.xd + l);
+    const __m256d one = Set(1.0);
+    const __m256d sigma = _mm256_div_pd(one, _mm256_add_pd(one, Exp4(_mm256_div_pd(xd, Set(c.velocity_gate)))));
+    const __m256d s = _mm256_sub_pd(one, _mm256_div_pd(xc, Set(c.radius)));
+    const __m256d gate = _mm256_andnot_pd(_mm256_cmp_pd(xc, Set(c.radius), _CMP_GT_OQ), _mm256_mul_pd(s, s));
+    _mm256_storeu_pd(leaves.m + l,
+                     _mm256_div_pd(_mm256_mul_pd(_mm256_mul_pd(sigma, gate), Set(c.metric_scalar)),
+                                   _mm256_add_pd(_mm256_div_pd(xc, Set(c.exploder_std_dev)), Set(c.exploder_eps))));
+    _mm256_storeu_pd(leaves.damping_force + l, _mm256_mul_pd(_mm256_mul_pd(Set(c.damping_gain), sigma), xd));
+  }
   double* increment = scratch;
-  double* g = scratch + static_cast<long>(count) * stride;
-  double* mg = g + static_cast<long>(count) * stride;
+  double* g = scratch + static_cast<long>(CollisionLeafBatch::kCapacity) * stride;
+  double* mg = g + static_cast<long>(CollisionLeafBatch::kCapacity) * stride;
   // every leaf's terms first (independent of each other, so that their latencies overlap), then the sums in order
   for (int l = 0; l < count; ++l) {
     const long at = static_cast<long>(l) * stride;
-    LeafTerms(leaves[l], lanes, increment + at, g + at, mg + at);
+    LeafTerms(leaves, l, c, lanes, increment + at, g + at, mg + at);
   }
   for (int l = 0; l < count; ++l) {
-    const int k = leaves[l].k;
+    const int k = leaves.k[l];
     const long at = static_cast<long>(l) * stride;
     // b_i += increment_i where active; the other entries keep their bits
     for (int base = 0; base < k; base += 4) {
@@ -272,8 +293,8 @@ bool CollisionLeafKernelAvailable() { return false; }
 
 void ExpAvx2(const double*, double*, int) { RMPMARL_ASSERT(false, "ExpAvx2: x86-64 only"); }
 
-void CollisionLeavesAvx2(const CollisionLeafScalars*, int, const CollisionLeafLanes&, int, double*, double*, double*,
-                         int) {
+void CollisionLeavesAvx2(CollisionLeafBatch*, const CollisionLeafConstants&, const CollisionLeafLanes&, int, double*,
+                         double*, double*, int) {
   RMPMARL_ASSERT(false, "CollisionLeavesAvx2: x86-64 only");
 }
 

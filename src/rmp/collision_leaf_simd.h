@@ -1,6 +1,6 @@
 #pragma once
-// Internal to the rmp module: the coupled layer's per-joint work on one collision leaf, four joints at a time with
-// AVX2, giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc). The scalar loop evaluates
+// Internal to the rmp module: the coupled layer's work on its collision leaves, four joints (or leaves) at a time
+// with AVX2, giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc). The scalar loop evaluates
 // one exponential per joint and leaf (the repulsion at the joint's length scale), the bulk of the layer's extra cost
 // over RMPflow; here those exponentials run four at a time with the C library's own algorithm and table, so each
 // lane returns std::exp's result bit for bit. Every other operation is one IEEE operation per lane, in the scalar
@@ -23,30 +23,45 @@ struct CollisionLeafLanes {
   const double* origin[3];          ///< the joint origin in the world frame, x, y, z
 };
 
-/// one collision leaf: what does not depend on the joint
-struct CollisionLeafScalars {
-  int k;                  ///< the leaf moves dofs 0..k-1
-  double xc;              ///< max(d, 0)
-  double repulsion_gain;  ///< the collision RMP's repulsion gain
-  double damping_force;   ///< (damping gain · σ) · ḋ
-  double damping_eps;     ///< damping_robustness_eps
-  double m;               ///< the leaf's metric
-  double jdqd;            ///< J̇q̇ of the distance
-  double n[3];            ///< ∂d/∂p_W1
-  double p[3];            ///< the witness point p_W1
+/// the collision RMP's constants (eqs 8–9), shared by every leaf
+struct CollisionLeafConstants {
+  double repulsion_gain;       ///< repulsion_gain
+  double damping_gain;         ///< damping_gain
+  double damping_eps;          ///< damping_robustness_eps
+  double velocity_gate;        ///< damping_velocity_gate_length_scale
+  double radius;               ///< metric_modulation_radius r
+  double metric_scalar;        ///< metric_scalar
+  double exploder_std_dev;     ///< metric_exploder_std_dev
+  double exploder_eps;         ///< metric_exploder_eps
+};
+
+/// up to kCapacity collision leaves, one array per quantity (what does not depend on the joint)
+struct CollisionLeafBatch {
+  static constexpr int kCapacity = 32;
+  int count = 0;
+  int k[kCapacity];        ///< leaf l moves dofs 0..k-1
+  double xc[kCapacity];    ///< max(d, 0)
+  double xd[kCapacity];    ///< ḋ relative to the obstacle
+  double jdqd[kCapacity];  ///< J̇q̇ of the distance
+  double n[3][kCapacity];  ///< ∂d/∂p_W1
+  double p[3][kCapacity];  ///< the witness point p_W1
+  // written by CollisionLeavesAvx2
+  double m[kCapacity];              ///< the metric (CollisionRmpMetric)
+  double damping_force[kCapacity];  ///< (damping gain · σ(ḋ)) · ḋ
 };
 
 /// true where the kernel runs: AVX2 and FMA present, and the vectorised exp matches std::exp on the self-check
 bool CollisionLeafKernelAvailable();
 
-/// The coupled layer's update for `count` leaves, in order, as the scalar loop does it leaf by leaf: for leaf l and
-/// each of its dofs i < k, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where
-/// active, with j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
+/// The coupled layer's update for the batch's leaves, in order, as the scalar loop does it leaf by leaf: each leaf's
+/// velocity gate σ and metric m (CollisionVelocityGate, CollisionRmpMetric); then for leaf l and each of its dofs
+/// i < k, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where active, with
+/// j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
 /// A(i, j) += g_j mg_i for i, j < k. The lanes, b and A's columns (column-major, leading dimension lda) have `stride`
 /// entries, k rounded up to a multiple of 4 or more (the entries past k keep their bits); scratch has
-/// 3 · count · stride. \pre CollisionLeafKernelAvailable().
-void CollisionLeavesAvx2(const CollisionLeafScalars* leaves, int count, const CollisionLeafLanes& lanes, int stride,
-                         double* scratch, double* b, double* A, int lda);
+/// 3 · kCapacity · stride. \pre CollisionLeafKernelAvailable().
+void CollisionLeavesAvx2(CollisionLeafBatch* batch, const CollisionLeafConstants& constants,
+                         const CollisionLeafLanes& lanes, int stride, double* scratch, double* b, double* A, int lda);
 
 /// exp of n values with the vectorised algorithm (lanes outside its range by std::exp); for tests.
 /// \pre CollisionLeafKernelAvailable().

@@ -133,7 +133,8 @@ struct CollisionLeaf {
 /// once: on_distance(dofs, d) with the distance or, past a bounding-sphere test, its lower bound (> r); then
 /// on_leaf(leaf) for the pairs within r. Without kReportDistances, on_distance is not called and the pairs whose
 /// bounding spheres are certainly farther apart than r are skipped before the square root of their lower bound.
-template <bool kReportDistances, class OnDistance, class OnLeaf>
+/// Without kEvaluateRmp the leaf's sigma and rmp are left unset (the caller evaluates them).
+template <bool kReportDistances, bool kEvaluateRmp, class OnDistance, class OnLeaf>
 void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                           OnDistance&& on_distance, OnLeaf&& on_leaf) {
@@ -156,7 +157,7 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
       spheres_ready = true;
     }
     // the RMP's acceleration at length scale 1 only where some joint reads it (ScaledCollisionAccel)
-    const bool unit_scale = std::any_of(dofs.begin(), dofs.end(), [&](int dof) {
+    const bool unit_scale = kEvaluateRmp && std::any_of(dofs.begin(), dofs.end(), [&](int dof) {
       return weights[dof].use_collision && weights[dof].collision_length_scale == 1.0;
     });
     const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
@@ -184,9 +185,11 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
       leaf.rmp = Rmp1{};
       leaf.n = leaf.distance.gradient_norm * leaf.distance.n_W;
       leaf.xd = leaf.n.dot(CalcPointVelocityAtWorldPoint(kin, lc.link, leaf.distance.p_W1) - obstacle.v_WO);
-      leaf.sigma = CollisionVelocityGate(leaf.xd, params.collision.damping_velocity_gate_length_scale);
-      if (unit_scale) leaf.rmp.a = CollisionRmpAccel(params.collision, leaf.distance.distance, leaf.xd, leaf.sigma);
-      leaf.rmp.m = CollisionRmpMetric(params.collision, leaf.distance.distance, leaf.sigma);
+      if constexpr (kEvaluateRmp) {
+        leaf.sigma = CollisionVelocityGate(leaf.xd, params.collision.damping_velocity_gate_length_scale);
+        if (unit_scale) leaf.rmp.a = CollisionRmpAccel(params.collision, leaf.distance.distance, leaf.xd, leaf.sigma);
+        leaf.rmp.m = CollisionRmpMetric(params.collision, leaf.distance.distance, leaf.sigma);
+      }
       leaf.jdqd = leaf.n.dot(CalcPointJdotQdotAtWorldPoint(kin, lc.link, leaf.distance.p_W1));
       on_leaf(leaf);
     }
@@ -236,7 +239,7 @@ void EvaluateJointLayers(const kinematics::Robot& robot, const kinematics::Data&
   }
 
   // each capsule–obstacle distance once, shared by every joint that moves the capsule
-  ForEachCollisionLeaf</*kReportDistances=*/true>(
+  ForEachCollisionLeaf</*kReportDistances=*/true, /*kEvaluateRmp=*/true>(
       robot, kin, scene, params, weights,
       [&](const std::vector<int>& dofs, double d) {
         for (int dof : dofs) {
@@ -290,6 +293,9 @@ bool VectorisableRobot(const kinematics::Robot& robot) {
 }
 
 }  // namespace
+
+static_assert(CoupledLayerWorkspace::kLeafBatch == internal::CollisionLeafBatch::kCapacity,
+              "the workspace's leaf scratch holds one batch");
 
 CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
     : A(nq, nq), b(nq), g(nq), G(3, nq), MG(3, nq), ldlt(nq), collision_active(nq, 0), sqrt_collision_metric(nq),
@@ -382,58 +388,60 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
              {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
              {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
   }
-  // the vectorised leaves in batches, each batch's terms at once (CollisionLeavesAvx2), in the leaves' order
-  std::array<internal::CollisionLeafScalars, CoupledLayerWorkspace::kLeafBatch> batch;
-  int batched = 0;
-  auto flush = [&] {
-    internal::CollisionLeavesAvx2(batch.data(), batched, lanes, stride, ws.leaf_scratch.data(), lane(kB),
-                                  ws.lane_A.data(), stride);
-    batched = 0;
-  };
-  ForEachCollisionLeaf</*kReportDistances=*/false>(
-      robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
-      [&](const CollisionLeaf& leaf) {
-        if (vectorised) {  // the leaf's dofs are 0..k-1: the lanes
-          const CollisionRmpParams& c = params.collision;
-          internal::CollisionLeafScalars& s = batch[batched];
-          s.k = static_cast<int>(leaf.dofs->size());
-          s.xc = std::max(leaf.distance.distance, 0.0);
-          s.repulsion_gain = c.repulsion_gain;
-          s.damping_force = c.damping_gain * leaf.sigma * leaf.xd;
-          s.damping_eps = c.damping_robustness_eps;
-          s.m = leaf.rmp.m;
-          s.jdqd = leaf.jdqd;
-          for (int i = 0; i < 3; ++i) {
-            s.n[i] = leaf.n[i];
-            s.p[i] = leaf.distance.p_W1[i];
-          }
-          if (++batched == CoupledLayerWorkspace::kLeafBatch) flush();
-          return;
-        }
-        for (int dof : *leaf.dofs) {
-          ws.g[dof] = 0.0;
-          if (ws.collision_active[dof]) {
-            const JointLayerWeights& w = weights[dof];
-            const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
-            const double j =
-                leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
-            ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
-            ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
-          }
-          ws.mg[dof] = leaf.rmp.m * ws.g[dof];
-        }
-        // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
-        // forms it: g_j (m g_i))
-        for (int j : *leaf.dofs) {
-          const double g_j = ws.g[j];
-          for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
-        }
-      });
-
   if (vectorised) {
-    if (batched > 0) flush();
+    // the leaves in batches, each batch's gates, metrics and per-joint terms at once (CollisionLeavesAvx2), summed in
+    // the leaves' order
+    const CollisionRmpParams& c = params.collision;
+    const internal::CollisionLeafConstants constants{c.repulsion_gain, c.damping_gain, c.damping_robustness_eps,
+                                                     c.damping_velocity_gate_length_scale, c.metric_modulation_radius,
+                                                     c.metric_scalar, c.metric_exploder_std_dev,
+                                                     c.metric_exploder_eps};
+    internal::CollisionLeafBatch batch;
+    auto flush = [&] {
+      internal::CollisionLeavesAvx2(&batch, constants, lanes, stride, ws.leaf_scratch.data(), lane(kB),
+                                    ws.lane_A.data(), stride);
+      batch.count = 0;
+    };
+    ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/false>(
+        robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
+        [&](const CollisionLeaf& leaf) {  // the leaf's dofs are 0..k-1: the lanes
+          const int l = batch.count;
+          batch.k[l] = static_cast<int>(leaf.dofs->size());
+          batch.xc[l] = std::max(leaf.distance.distance, 0.0);
+          batch.xd[l] = leaf.xd;
+          batch.jdqd[l] = leaf.jdqd;
+          for (int i = 0; i < 3; ++i) {
+            batch.n[i][l] = leaf.n[i];
+            batch.p[i][l] = leaf.distance.p_W1[i];
+          }
+          if (++batch.count == internal::CollisionLeafBatch::kCapacity) flush();
+        });
+    if (batch.count > 0) flush();
     for (int c = 0; c < nq; ++c) std::copy_n(ws.lane_A.data() + static_cast<size_t>(c) * stride, nq, ws.A.col(c).data());
     std::copy_n(lane(kB), nq, ws.b.data());
+  } else {
+    ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/true>(
+        robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
+        [&](const CollisionLeaf& leaf) {
+          for (int dof : *leaf.dofs) {
+            ws.g[dof] = 0.0;
+            if (ws.collision_active[dof]) {
+              const JointLayerWeights& w = weights[dof];
+              const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
+              const double j =
+                  leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+              ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
+              ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
+            }
+            ws.mg[dof] = leaf.rmp.m * ws.g[dof];
+          }
+          // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
+          // forms it: g_j (m g_i))
+          for (int j : *leaf.dofs) {
+            const double g_j = ws.g[j];
+            for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
+          }
+        });
   }
 
   const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);

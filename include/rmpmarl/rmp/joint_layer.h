@@ -116,7 +116,7 @@ struct CoupledLayerWorkspace {
   std::vector<double> lanes;    ///< the vectorised leaves' per-joint arrays (and b), lane_stride entries each
   std::vector<double> lane_A;   ///< A while the vectorised leaves add to it, columns of lane_stride entries
   static constexpr int kLeafBatch = 32;  ///< vectorised leaves evaluated together
-  std::vector<double> leaf_scratch;      ///< their per-dof terms, 3 · kLeafBatch · lane_stride
+  std::vector<double> leaf_scratch;      ///< their per-dof terms, 3 · kLeafBatch · lane_stride entries
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved
