@@ -185,6 +185,8 @@ void BM_CoupledLayerEvaluate(benchmark::State& state, int num_boxes, bool vector
 
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_7caps_20boxes, true, 20, 0.0);
 BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_5boxes, false, 5, 0.0);
+BENCHMARK_CAPTURE(BM_RmpflowEvaluate, arm7_allcaps_0boxes, false, 0, 0.0);
+BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_0boxes, 0, true);
 BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_5boxes, 5, true);
 BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_5boxes_scalar, 5, false);
 BENCHMARK_CAPTURE(BM_CoupledLayerEvaluate, default_layer_arm7_allcaps_20boxes, 20, true);

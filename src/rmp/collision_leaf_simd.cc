@@ -242,8 +242,8 @@ __attribute__((target("avx2,fma"))) void CollisionLeavesAvx2(CollisionLeafBatch*
   RMPMARL_DASSERT(count >= 0 && count <= CollisionLeafBatch::kCapacity, "CollisionLeavesAvx2: batch size");
   // the velocity gate σ = 1 / (1 + exp(ḋ / v_d)) and the metric σ g(x) μ / (x / l_e + ε_e), g(x) = (1 − x/r)² up to
   // r (CollisionVelocityGate, CollisionDistanceGate, CollisionRmpMetric), four leaves at a time; the lanes past
-  // count are zeros
-  for (int l = count; l < (count + 3) / 4 * 4; ++l) leaves.xc[l] = leaves.xd[l] = 0.0;
+  // count hold ones (their results are not read)
+  for (int l = count; l < (count + 3) / 4 * 4; ++l) leaves.xc[l] = leaves.xd[l] = 1.0;
   for (int l = 0; l < count; l += 4) {
     const __m256d xc = _mm256_loadu_pd(leaves.xc + l), xd = _mm256_loadu_pd(leaves.xd + l);
     const __m256d one = Set(1.0);
