@@ -52,7 +52,7 @@ test: build
 
 bench: build
 	@mkdir -p $(BUILD_DIR)/bench-results
-	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_report_aggregates_only=true --benchmark_out=$(BUILD_DIR)/bench-results/$$(basename $$b).json --benchmark_out_format=json; done
+	@for b in $(BUILD_DIR)/bench/*_bench; do echo "== $$b"; $$b --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true --benchmark_out=$(BUILD_DIR)/bench-results/$$(basename $$b).json --benchmark_out_format=json; done
 	@echo "== bench/python_bench.py"; /usr/bin/python3 bench/python_bench.py $(BUILD_DIR)
 	@echo "== bench/train_scaling_bench.py"; /usr/bin/python3 bench/train_scaling_bench.py $(BUILD_DIR) --json $(BUILD_DIR)/bench-results/train_scaling.json
 	@echo "== bench/speed_table.py"; /usr/bin/python3 bench/speed_table.py $(BUILD_DIR)

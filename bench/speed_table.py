@@ -97,6 +97,13 @@ def main():
                      f"{a.rounds} runs)", f"{min(learned):.1f}–{max(learned):.1f} µs", anchor,
                      f"{ratio:.2f}× RMPflow (worst speed)", "≤ 1.00×"))
 
+    layer, flow_same = (find(rmp, "BM_CoupledLayerEvaluate/default_layer_arm7_allcaps_20boxes"),
+                        find(rmp, "BM_RmpflowEvaluate/arm7_allcaps_20boxes"))
+    if layer and flow_same:
+        rows.append(("the learned default's layer (RMPflow structure + coupled layer), Panda all capsules × 20 boxes",
+                     f"{layer[0]:.1f} µs", f"RMPflow on the same states {flow_same[0]:.1f} µs",
+                     f"{layer[0] / flow_same[0]:.2f}× RMPflow", "≤ 1.00×"))
+
     flow_bench = find(rmp, "BM_RmpflowEvaluate/arm7_7caps_20boxes")
     if flow_bench:
         rows.append(("RMPflow evaluation, Panda 7 capsules × 20 boxes", f"{flow_bench[0]:.1f} µs",
