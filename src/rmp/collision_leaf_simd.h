@@ -1,13 +1,14 @@
 #pragma once
-// Internal to the rmp module: the coupled layer's work on its collision leaves, four joints (or leaves) at a time
-// with AVX2, giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc). The scalar loop evaluates
-// one exponential per joint and leaf (the repulsion at the joint's length scale), the bulk of the layer's extra cost
-// over RMPflow; here those exponentials run four at a time with the C library's own algorithm and table, so each
-// lane returns std::exp's result bit for bit. Every other operation is one IEEE operation per lane, in the scalar
-// loop's order, and never fused (this file's translation unit is compiled with -ffp-contract=off).
+// Internal to the rmp module: the coupled layer's collision leaves four joints (or leaves) at a time with AVX2,
+// giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc, AddCollisionLeaves). The scalar
+// loop evaluates one exponential per joint and leaf (the repulsion at the joint's length scale) and one per leaf (its
+// velocity gate), the bulk of the layer's extra cost over RMPflow; here they run four at a time with the C library's
+// own exp algorithm and table, so each lane returns std::exp's result bit for bit. Every other operation is one IEEE
+// operation per lane, in the scalar loop's order, and never fused (both files are compiled with -ffp-contract=off).
 //
-// Available only on a CPU with AVX2 and FMA, and only after a self-check against std::exp at first use: a C library
-// whose exp differs from the kernel's turns the kernel off, and the scalar loop runs.
+// Available only on a CPU with AVX2 and FMA, and only after a self-check against std::exp (run once, when the first
+// CoupledLayerWorkspace is built): a C library whose exp differs from the kernel's turns the kernel off, and the
+// scalar loop runs.
 
 namespace rmpmarl::rmp::internal {
 

@@ -138,6 +138,7 @@ template <bool kReportDistances, bool kEvaluateRmp, class OnDistance, class OnLe
 void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
                           OnDistance&& on_distance, OnLeaf&& on_leaf) {
+  if (scene.obstacles.empty()) return;
   const double r = params.collision.metric_modulation_radius;
   // the obstacles' bounding spheres (centre, radius), once per evaluation (for the first kCachedSpheres) when a
   // capsule needs them
@@ -147,6 +148,7 @@ void ForEachCollisionLeaf(const kinematics::Robot& robot, const kinematics::Data
   const int cached = std::min(num_obstacles, kCachedSpheres);
   bool spheres_ready = false;
   // squared sphere gaps beyond (1 + 1e-9) (r + radii)² are beyond r after every rounding of the lower bound below
+  // (r > 0 and the radii ≥ 0, so the margin of about 5e-10 of the gap dwarfs the rounding of a few ulps)
   constexpr double kCertainlyBeyond = 1.0 + 1e-9;
   CollisionLeaf leaf;
   for (const kinematics::LinkCapsule& lc : robot.capsules) {
@@ -307,7 +309,110 @@ CoupledLayerWorkspace::CoupledLayerWorkspace(int nq)
     lanes[kRepulsionStdDev * lane_stride + i] = 1.0;
     lanes[kDampingStdDev * lane_stride + i] = 1.0;
   }
+  internal::CollisionLeafKernelAvailable();  // its one-time self-check here, not in the first control step
 }
+
+bool CoupledLayerWorkspace::robot_vectorisable(const kinematics::Robot& robot) {
+  if (checked_robot_ != &robot) {
+    checked_robot_ = &robot;
+    robot_vectorisable_ = VectorisableRobot(robot);
+  }
+  return robot_vectorisable_;
+}
+
+namespace {
+
+// the collision leaves' terms added to ws.A and ws.b, leaf by leaf and joint by joint (the scalar loop)
+void AddCollisionLeaves(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                        const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                        CoupledLayerWorkspace& ws) {
+  const kinematics::Model& model = robot.model;
+  ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/true>(
+      robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
+      [&](const CollisionLeaf& leaf) {
+        for (int dof : *leaf.dofs) {
+          ws.g[dof] = 0.0;
+          if (ws.collision_active[dof]) {
+            const JointLayerWeights& w = weights[dof];
+            const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
+            const double j = internal::Dot3(
+                leaf.n, internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+            ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
+            ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
+          }
+          ws.mg[dof] = leaf.rmp.m * ws.g[dof];
+        }
+        // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
+        // forms it: g_j (m g_i))
+        for (int j : *leaf.dofs) {
+          const double g_j = ws.g[j];
+          for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
+        }
+      });
+}
+
+// AddCollisionLeaves' result, bit for bit, four joints or leaves at a time (internal::CollisionLeavesAvx2)
+// \pre internal::CollisionLeafKernelAvailable(), VectorisableRobot(robot)
+void AddCollisionLeavesAvx2(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
+                            const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
+                            CoupledLayerWorkspace& ws) {
+  const kinematics::Model& model = robot.model;
+  const int nq = model.nq();
+  const int stride = ws.lane_stride;
+  auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
+  // A and b with columns padded to the lanes (the padding rows are never read back), and the joints' lanes
+  for (int c = 0; c < nq; ++c) std::copy_n(ws.A.col(c).data(), nq, ws.lane_A.data() + static_cast<size_t>(c) * stride);
+  std::copy_n(ws.b.data(), nq, lane(kB));
+  for (int i = 0; i < nq; ++i) {
+    const JointLayerWeights& w = weights[i];
+    lane(kRepulsionStdDev)[i] = ws.scaled_collision[i].repulsion_std_dev;
+    lane(kDampingStdDev)[i] = ws.scaled_collision[i].damping_std_dev;
+    lane(kMetricScale)[i] = w.collision_metric_scale;
+    lane(kAccelScale)[i] = w.collision_accel_scale;
+    lane(kSqrtMetricScale)[i] = ws.sqrt_collision_metric[i];
+    const std::uint64_t all = ws.collision_active[i] ? ~std::uint64_t{0} : 0;
+    std::memcpy(lane(kActive) + i, &all, sizeof(double));
+    const Eigen::Vector3d& o_W = kin.X_WL[model.dof_link(i)].translation();
+    for (int c = 0; c < 3; ++c) {
+      lane(static_cast<Lane>(kAxisX + c))[i] = kin.axis_W(c, i);
+      lane(static_cast<Lane>(kOriginX + c))[i] = o_W[c];
+    }
+  }
+  const internal::CollisionLeafLanes lanes{lane(kRepulsionStdDev), lane(kDampingStdDev), lane(kMetricScale),
+                                           lane(kAccelScale),      lane(kSqrtMetricScale), lane(kActive),
+                                           {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
+                                           {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
+  const CollisionRmpParams& c = params.collision;
+  const internal::CollisionLeafConstants constants{c.repulsion_gain, c.damping_gain, c.damping_robustness_eps,
+                                                   c.damping_velocity_gate_length_scale, c.metric_modulation_radius,
+                                                   c.metric_scalar, c.metric_exploder_std_dev, c.metric_exploder_eps};
+  // the leaves in batches, each batch's gates, metrics and per-joint terms at once, summed in the leaves' order
+  internal::CollisionLeafBatch batch;
+  auto flush = [&] {
+    internal::CollisionLeavesAvx2(&batch, constants, lanes, stride, ws.leaf_scratch.data(), lane(kB),
+                                  ws.lane_A.data(), stride);
+    batch.count = 0;
+  };
+  ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/false>(
+      robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
+      [&](const CollisionLeaf& leaf) {  // the leaf's dofs are 0..k-1: the lanes
+        const int l = batch.count;
+        batch.k[l] = static_cast<int>(leaf.dofs->size());
+        batch.xc[l] = std::max(leaf.distance.distance, 0.0);
+        batch.xd[l] = leaf.xd;
+        batch.jdqd[l] = leaf.jdqd;
+        for (int i = 0; i < 3; ++i) {
+          batch.n[i][l] = leaf.n[i];
+          batch.p[i][l] = leaf.distance.p_W1[i];
+        }
+        if (++batch.count == internal::CollisionLeafBatch::kCapacity) flush();
+      });
+  if (batch.count > 0) flush();
+  for (int c = 0; c < nq; ++c) std::copy_n(ws.lane_A.data() + static_cast<size_t>(c) * stride, nq, ws.A.col(c).data());
+  std::copy_n(lane(kB), nq, ws.b.data());
+}
+
+}  // namespace
 
 void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
                           const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
@@ -360,88 +465,11 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
     ws.sqrt_collision_metric[i] = ws.collision_active[i] ? std::sqrt(w.collision_metric_scale) : 0.0;
     ws.scaled_collision[i] = LengthScaled(params.collision, w.collision_length_scale);
   }
-  const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && VectorisableRobot(robot);
-  const int stride = ws.lane_stride;
-  auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
-  internal::CollisionLeafLanes lanes{};
+  const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && ws.robot_vectorisable(robot);
   if (vectorised) {
-    // A and b with columns padded to the lanes (the padding rows are never read back)
-    for (int c = 0; c < nq; ++c) std::copy_n(ws.A.col(c).data(), nq, ws.lane_A.data() + static_cast<size_t>(c) * stride);
-    std::copy_n(ws.b.data(), nq, lane(kB));
-    for (int i = 0; i < nq; ++i) {
-      const JointLayerWeights& w = weights[i];
-      lane(kRepulsionStdDev)[i] = ws.scaled_collision[i].repulsion_std_dev;
-      lane(kDampingStdDev)[i] = ws.scaled_collision[i].damping_std_dev;
-      lane(kMetricScale)[i] = w.collision_metric_scale;
-      lane(kAccelScale)[i] = w.collision_accel_scale;
-      lane(kSqrtMetricScale)[i] = ws.sqrt_collision_metric[i];
-      const std::uint64_t all = ws.collision_active[i] ? ~std::uint64_t{0} : 0;
-      std::memcpy(lane(kActive) + i, &all, sizeof(double));
-      const Eigen::Vector3d& o_W = kin.X_WL[model.dof_link(i)].translation();
-      for (int c = 0; c < 3; ++c) {
-        lane(static_cast<Lane>(kAxisX + c))[i] = kin.axis_W(c, i);
-        lane(static_cast<Lane>(kOriginX + c))[i] = o_W[c];
-      }
-    }
-    lanes = {lane(kRepulsionStdDev), lane(kDampingStdDev), lane(kMetricScale),
-             lane(kAccelScale),      lane(kSqrtMetricScale), lane(kActive),
-             {lane(kAxisX), lane(kAxisY), lane(kAxisZ)},
-             {lane(kOriginX), lane(kOriginY), lane(kOriginZ)}};
-  }
-  if (vectorised) {
-    // the leaves in batches, each batch's gates, metrics and per-joint terms at once (CollisionLeavesAvx2), summed in
-    // the leaves' order
-    const CollisionRmpParams& c = params.collision;
-    const internal::CollisionLeafConstants constants{c.repulsion_gain, c.damping_gain, c.damping_robustness_eps,
-                                                     c.damping_velocity_gate_length_scale, c.metric_modulation_radius,
-                                                     c.metric_scalar, c.metric_exploder_std_dev,
-                                                     c.metric_exploder_eps};
-    internal::CollisionLeafBatch batch;
-    auto flush = [&] {
-      internal::CollisionLeavesAvx2(&batch, constants, lanes, stride, ws.leaf_scratch.data(), lane(kB),
-                                    ws.lane_A.data(), stride);
-      batch.count = 0;
-    };
-    ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/false>(
-        robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
-        [&](const CollisionLeaf& leaf) {  // the leaf's dofs are 0..k-1: the lanes
-          const int l = batch.count;
-          batch.k[l] = static_cast<int>(leaf.dofs->size());
-          batch.xc[l] = std::max(leaf.distance.distance, 0.0);
-          batch.xd[l] = leaf.xd;
-          batch.jdqd[l] = leaf.jdqd;
-          for (int i = 0; i < 3; ++i) {
-            batch.n[i][l] = leaf.n[i];
-            batch.p[i][l] = leaf.distance.p_W1[i];
-          }
-          if (++batch.count == internal::CollisionLeafBatch::kCapacity) flush();
-        });
-    if (batch.count > 0) flush();
-    for (int c = 0; c < nq; ++c) std::copy_n(ws.lane_A.data() + static_cast<size_t>(c) * stride, nq, ws.A.col(c).data());
-    std::copy_n(lane(kB), nq, ws.b.data());
+    AddCollisionLeavesAvx2(robot, kin, scene, params, weights, ws);
   } else {
-    ForEachCollisionLeaf</*kReportDistances=*/false, /*kEvaluateRmp=*/true>(
-        robot, kin, scene, params, weights, [](const std::vector<int>&, double) {},
-        [&](const CollisionLeaf& leaf) {
-          for (int dof : *leaf.dofs) {
-            ws.g[dof] = 0.0;
-            if (ws.collision_active[dof]) {
-              const JointLayerWeights& w = weights[dof];
-              const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
-              const double j =
-                  leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
-              ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
-              ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
-            }
-            ws.mg[dof] = leaf.rmp.m * ws.g[dof];
-          }
-          // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
-          // forms it: g_j (m g_i))
-          for (int j : *leaf.dofs) {
-            const double g_j = ws.g[j];
-            for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
-          }
-        });
+    AddCollisionLeaves(robot, kin, scene, params, weights, ws);
   }
 
   const double lambda = relative_regularizer * (1.0 + ws.A.trace() / nq);

@@ -101,14 +101,14 @@ struct CoupledLayerWorkspace {
   explicit CoupledLayerWorkspace(int nq);
   Eigen::MatrixXd A;                  ///< the resolved metric, nq × nq
   Eigen::VectorXd b;                  ///< the resolved force, nq
-  Eigen::VectorXd g;                  ///< one collision leaf's weighted row, nq
+  Eigen::VectorXd g;                  ///< one collision leaf's weighted row, nq (the scalar loop's)
   Eigen::Matrix3Xd G;                 ///< the target leaf's weighted Jacobian, 3 × nq
   Eigen::Matrix3Xd MG;                ///< M · G, 3 × nq
   Eigen::LDLT<Eigen::MatrixXd> ldlt;  ///< factorisation of A + λI
   std::vector<char> collision_active;              ///< per joint: it takes collision leaves (use_collision, s_m > 0)
   Eigen::VectorXd sqrt_collision_metric;           ///< per joint: √s_m of its collision leaves
   std::vector<CollisionRmpParams> scaled_collision;  ///< per joint: the collision RMP with its length scale
-  Eigen::VectorXd mg;                              ///< one collision leaf's m · g, per dof
+  Eigen::VectorXd mg;                              ///< one collision leaf's m · g, per dof (the scalar loop's)
   /// evaluate the collision leaves four joints at a time with AVX2 where the CPU has it (the same bits as the scalar
   /// loop; serial chains of revolute joints); false: always the scalar loop
   bool vectorised = true;
@@ -117,6 +117,13 @@ struct CoupledLayerWorkspace {
   std::vector<double> lane_A;   ///< A while the vectorised leaves add to it, columns of lane_stride entries
   static constexpr int kLeafBatch = 32;  ///< vectorised leaves evaluated together
   std::vector<double> leaf_scratch;      ///< their per-dof terms, 3 · kLeafBatch · lane_stride entries
+  /// true where the vectorised leaves apply to `robot`: every dof a revolute joint of its own and every capsule
+  /// moved by dofs 0..k-1 (a serial chain); remembered for the robot last asked about (robots are immutable)
+  bool robot_vectorisable(const kinematics::Robot& robot);
+
+ private:
+  const kinematics::Robot* checked_robot_ = nullptr;
+  bool robot_vectorisable_ = false;
 };
 
 /// The basic layer with the joints coupled: the same RMPs, selections and scalings as EvaluateJointLayers, resolved
