@@ -4,9 +4,10 @@ machine. `make bench` runs it last, after the Google Benchmark binaries have wri
 repetitions) into BUILD_DIR/bench-results/ and train_scaling_bench.py its own JSON there. It measures itself:
   - the control step of the shipped learned default against RMPflow and RMPflow-tuned (and the hand gate, the same
     layer with unit scales): `rmpmarl experiment table4 --shipped` on the held-out episodes (evaluation seed
-    20231001), one thread, the experiments' own step column, per speed the median of --rounds runs;
+    20231001), one thread, the experiments' own step column, per speed the median of --rounds runs of each method
+    (each method in its own runs, the methods in turn);
   - the anchor of the VecEnv row: one env_bench process of BM_VecEnvStep/threads:1 alone, then two side by side.
-usage: speed_table.py BUILD_DIR [--episodes 10] [--rounds 3]"""
+usage: speed_table.py BUILD_DIR [--episodes 10] [--rounds 5]"""
 import argparse
 import csv
 import json
@@ -39,20 +40,25 @@ def find(results, prefix):
     return results[sorted(hits, key=len)[0]]
 
 
+METHODS = ["marl-rmp-residual", "hand-gate", "rmpflow", "rmpflow-tuned"]
+
+
 def control_steps(build, episodes, rounds):
     """method -> [step µs per speed]: per speed the median over `rounds` table4 runs of the shipped policies on one
-    thread (one run's speeds differ from the next's by 5–10 % on a virtual machine)."""
-    runs = []
-    for _ in range(rounds):
-        with tempfile.TemporaryDirectory() as out:
-            subprocess.run([os.path.join(build, "rmpmarl"), "experiment", "table4", "--shipped", "--methods",
-                            "marl-rmp-residual,hand-gate,rmpflow,rmpflow-tuned", "--episodes", str(episodes),
-                            "--jobs", "1", "--out", out, "--no-plots"], check=True, stdout=subprocess.DEVNULL)
-            steps = {}
-            for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
-                steps.setdefault(row["method"], []).append(float(row["control_step_us"]))
-            runs.append(steps)
-    return {m: [statistics.median(r[m][k] for r in runs) for k in range(len(runs[0][m]))] for m in runs[0]}
+    thread. Each run evaluates one method, the methods in turn and in a rotated order from round to round, so that a
+    stretch of contention on a virtual machine (one run's speeds differ from the next's by 5–10 %) falls on every
+    method alike."""
+    runs = {}
+    for r in range(rounds):
+        for m in METHODS[r % len(METHODS):] + METHODS[:r % len(METHODS)]:
+            with tempfile.TemporaryDirectory() as out:
+                subprocess.run([os.path.join(build, "rmpmarl"), "experiment", "table4", "--shipped", "--methods", m,
+                                "--episodes", str(episodes), "--jobs", "1", "--out", out, "--no-plots"], check=True,
+                               stdout=subprocess.DEVNULL)
+                for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
+                    runs.setdefault(row["method"], {}).setdefault(row["condition"], []).append(
+                        float(row["control_step_us"]))
+    return {m: [statistics.median(v) for v in by_speed.values()] for m, by_speed in runs.items()}
 
 
 def vecenv_processes(build):
@@ -73,7 +79,7 @@ def main():
     p = argparse.ArgumentParser()
     p.add_argument("build", nargs="?", default="build")
     p.add_argument("--episodes", type=int, default=10, help="table4 episodes per speed for the control-step row")
-    p.add_argument("--rounds", type=int, default=3, help="table4 runs whose per-speed medians the row shows")
+    p.add_argument("--rounds", type=int, default=5, help="table4 runs per method whose per-speed medians the row shows")
     a = p.parse_args()
     res = os.path.join(a.build, "bench-results")
     env = medians(os.path.join(res, "env_bench.json"))

@@ -288,11 +288,29 @@ __attribute__((target("avx2,fma"))) void CollisionLeavesAvx2(CollisionLeafBatch*
   }
 }
 
+__attribute__((target("avx2,fma"))) void AddGramAvx2(const double* const g[3], const double* M, int n, double* A,
+                                                    int lda) {
+  for (int col = 0; col < n; ++col) {
+    const __m256d m0 = Set(M[3 * col]), m1 = Set(M[3 * col + 1]), m2 = Set(M[3 * col + 2]);
+    double* a = A + static_cast<long>(col) * lda;
+    for (int base = 0; base < n; base += 4) {
+      const __m256d sum = _mm256_add_pd(
+          _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(g[0] + base), m0), _mm256_mul_pd(_mm256_loadu_pd(g[1] + base), m1)),
+          _mm256_mul_pd(_mm256_loadu_pd(g[2] + base), m2));
+      _mm256_storeu_pd(a + base, _mm256_add_pd(_mm256_loadu_pd(a + base), sum));
+    }
+  }
+}
+
 #else  // not x86-64: the scalar loop runs
 
 bool CollisionLeafKernelAvailable() { return false; }
 
 void ExpAvx2(const double*, double*, int) { RMPMARL_ASSERT(false, "ExpAvx2: x86-64 only"); }
+
+void AddGramAvx2(const double* const*, const double*, int, double*, int) {
+  RMPMARL_ASSERT(false, "AddGramAvx2: x86-64 only");
+}
 
 void CollisionLeavesAvx2(CollisionLeafBatch*, const CollisionLeafConstants&, const CollisionLeafLanes&, int, double*,
                          double*, double*, int) {

@@ -275,7 +275,7 @@ namespace {
 // the vectorised leaves' per-joint arrays in CoupledLayerWorkspace::lanes, lane_stride entries each
 enum Lane : int {
   kRepulsionStdDev, kDampingStdDev, kMetricScale, kAccelScale, kSqrtMetricScale, kActive,
-  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kB, kNumLanes
+  kAxisX, kAxisY, kAxisZ, kOriginX, kOriginY, kOriginZ, kB, kGX, kGY, kGZ, kNumLanes
 };
 
 // true where the vectorised leaf kernel may run on this robot: every dof a revolute joint of its own, and every
@@ -351,18 +351,28 @@ void AddCollisionLeaves(const kinematics::Robot& robot, const kinematics::Data& 
       });
 }
 
-// AddCollisionLeaves' result, bit for bit, four joints or leaves at a time (internal::CollisionLeavesAvx2)
+// the target leaf's A += Gᵀ (M G) (ws.G, ws.MG), then AddCollisionLeaves, bit for bit, four joints or leaves at a
+// time (internal::AddGramAvx2, internal::CollisionLeavesAvx2)
 // \pre internal::CollisionLeafKernelAvailable(), VectorisableRobot(robot)
-void AddCollisionLeavesAvx2(const kinematics::Robot& robot, const kinematics::Data& kin, const Scene& scene,
-                            const BasicRmpParams& params, std::span<const JointLayerWeights> weights,
-                            CoupledLayerWorkspace& ws) {
+void AddTargetGramAndCollisionLeavesAvx2(const kinematics::Robot& robot, const kinematics::Data& kin,
+                                         const Scene& scene, const BasicRmpParams& params,
+                                         std::span<const JointLayerWeights> weights, bool target_gram,
+                                         CoupledLayerWorkspace& ws) {
   const kinematics::Model& model = robot.model;
   const int nq = model.nq();
   const int stride = ws.lane_stride;
   auto lane = [&](Lane l) { return ws.lanes.data() + static_cast<size_t>(l) * stride; };
-  // A and b with columns padded to the lanes (the padding rows are never read back), and the joints' lanes
+  // A and b with columns padded to the lanes (the padding rows are never read back)
   for (int c = 0; c < nq; ++c) std::copy_n(ws.A.col(c).data(), nq, ws.lane_A.data() + static_cast<size_t>(c) * stride);
   std::copy_n(ws.b.data(), nq, lane(kB));
+  if (target_gram) {
+    const double* const g[3] = {lane(kGX), lane(kGY), lane(kGZ)};
+    for (int i = 0; i < nq; ++i) {
+      for (int r = 0; r < 3; ++r) lane(static_cast<Lane>(kGX + r))[i] = ws.G(r, i);
+    }
+    internal::AddGramAvx2(g, ws.MG.data(), nq, ws.lane_A.data(), stride);
+  }
+  // the joints' lanes
   for (int i = 0; i < nq; ++i) {
     const JointLayerWeights& w = weights[i];
     lane(kRepulsionStdDev)[i] = ws.scaled_collision[i].repulsion_std_dev;
@@ -432,6 +442,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   ws.A = M0;  // the structure's leaves, already pulled back
   ws.b = f0;
 
+  bool target_gram = false;  // A += Gᵀ (M G) of the target leaf due
   if (scene.has_target) {  // the target leaf (eqs 5–7), columns weighted by √s_m of each joint
     const int link = robot.end_effector.link;
     const Eigen::Vector3d p_WE = kin.X_WL[link] * robot.end_effector.X_LE.translation();
@@ -451,10 +462,8 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
       ws.b[dof] += w.target_metric_scale * j.dot(Ma_scaled - Mjdqd);
       any = true;
     }
-    if (any) {
-      ws.MG.noalias() = rmp.M * ws.G;
-      ws.A.noalias() += ws.G.transpose() * ws.MG;
-    }
+    if (any) ws.MG.noalias() = rmp.M * ws.G;
+    target_gram = any;
   }
 
   // the collision leaves (eqs 8–9), one per capsule–obstacle pair within r; what depends on the joint alone first
@@ -467,8 +476,9 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   }
   const bool vectorised = ws.vectorised && internal::CollisionLeafKernelAvailable() && ws.robot_vectorisable(robot);
   if (vectorised) {
-    AddCollisionLeavesAvx2(robot, kin, scene, params, weights, ws);
+    AddTargetGramAndCollisionLeavesAvx2(robot, kin, scene, params, weights, target_gram, ws);
   } else {
+    if (target_gram) ws.A.noalias() += ws.G.transpose() * ws.MG;
     AddCollisionLeaves(robot, kin, scene, params, weights, ws);
   }
 
