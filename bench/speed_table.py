@@ -44,7 +44,7 @@ METHODS = ["marl-rmp-residual", "hand-gate", "rmpflow", "rmpflow-tuned"]
 
 
 def control_steps(build, episodes, rounds):
-    """method -> [step µs per speed]: per speed the median over `rounds` table4 runs of the shipped policies on one
+    """(method -> [step µs per speed], the speeds): per speed the median over `rounds` table4 runs of the shipped policies on one
     thread. Each run evaluates one method, the methods in turn and in a rotated order from round to round, so that a
     stretch of contention on a virtual machine (one run's speeds differ from the next's by 5–10 %) falls on every
     method alike."""
@@ -58,7 +58,8 @@ def control_steps(build, episodes, rounds):
                 for row in csv.DictReader(open(os.path.join(out, "summary.csv"))):
                     runs.setdefault(row["method"], {}).setdefault(row["condition"], []).append(
                         float(row["control_step_us"]))
-    return {m: [statistics.median(v) for v in by_speed.values()] for m, by_speed in runs.items()}
+    speeds = list(next(iter(runs.values())))
+    return {m: [statistics.median(by_speed[c]) for c in speeds] for m, by_speed in runs.items()}, speeds
 
 
 def vecenv_processes(build):
@@ -86,7 +87,7 @@ def main():
     rmp = medians(os.path.join(res, "rmp_bench.json"))
     rows = []
 
-    steps = control_steps(a.build, a.episodes, a.rounds)
+    steps, speeds = control_steps(a.build, a.episodes, a.rounds)
     learned = steps.get("MARL-RMP residual (ours)", [])
     flow = steps.get("RMPflow", [])
     tuned = steps.get("RMPflow-tuned", [])
@@ -160,6 +161,13 @@ def main():
     print("|---|---|---|---|---|")
     for r in rows:
         print("| " + " | ".join(r) + " |")
+    if learned and flow:
+        print("\ncontrol step per speed, µs (" + ", ".join(speeds) + "):")
+        for name, values in (("learned default", learned), ("hand gate", gate), ("RMPflow", flow),
+                             ("RMPflow-tuned", tuned)):
+            if values:
+                print(f"  {name}: " + " / ".join(f"{v:.1f}" for v in values))
+        print("  learned ÷ RMPflow: " + " / ".join(f"{l / f:.2f}" for l, f in zip(learned, flow)))
     return 0
 
 
