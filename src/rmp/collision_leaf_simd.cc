@@ -31,7 +31,8 @@ constexpr double kShift = 0x1.8p52;                          // rounds to an int
 constexpr double kC2 = 0x1.ffffffffffdbdp-2, kC3 = 0x1.555555555543cp-3;
 constexpr double kC4 = 0x1.55555cf172b91p-5, kC5 = 0x1.1111167a4d017p-7;
 
-// pairs (bits of tail_k, bits of H_k − k·2^45) for k = 0..127, printed by scripts/exp_table.py
+// pairs (bits of tail_k, bits of H_k − k·2^45) for k = 0..127, printed by scripts/exp_table.py (which checks this
+// copy: ctest rmp.exp_table_matches_its_script)
 alignas(32) constexpr std::uint64_t kExpTable[256] = {
     0x0000000000000000, 0x3ff0000000000000, 0x3c9b3b4f1a88bf6e, 0x3feff63da9fb3335,
     0xbc7160139cd8dc5d, 0x3fefec9a3e778061, 0xbc905e7a108766d1, 0x3fefe315e86e7f85,
