@@ -20,6 +20,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "rmpmarl/common/cpu.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rl {
@@ -70,14 +71,8 @@ __attribute__((target("avx2,fma"))) void DenseAvx2(const float* packed, const fl
 
 constexpr std::array<KernelFn, 9> kKernels = {nullptr,       DenseAvx2<1>, DenseAvx2<2>, DenseAvx2<3>, DenseAvx2<4>,
                                               DenseAvx2<5>, DenseAvx2<6>, DenseAvx2<7>, DenseAvx2<8>};
-
-bool CpuHasAvx2() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
 #else
 constexpr std::array<KernelFn, 9> kKernels = {};
-bool CpuHasAvx2() { return false; }
 #endif  // RMPMARL_RUNTIME_X86
 
 int RoundUp8(int n) { return (n + 7) / 8 * 8; }
@@ -228,7 +223,7 @@ PolicyRuntime::PolicyRuntime(const PolicyWeights& weights, int max_agents) : imp
   Impl& m = *impl_;
   m.w = weights;
   m.max_agents = max_agents;
-  m.avx2 = CpuHasAvx2();
+  m.avx2 = CpuHasAvx2Fma();
   m.Pack();
   int widest = weights.obs_dim;
   for (const DenseLayer& layer : weights.hidden) widest = std::max<int>(widest, layer.weight.rows());

@@ -13,6 +13,7 @@
 #define RMPMARL_LEAF_X86 1
 #endif
 
+#include "rmpmarl/common/cpu.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::rmp::internal {
@@ -140,11 +141,6 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d Exp4(__m256d x
     y = _mm256_load_pd(ys);
   }
   return y;
-}
-
-bool CpuHasAvx2Fma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 }
 
 // the vectorised exp against std::exp on 32768 random arguments: the range the collision RMP uses (which reaches

@@ -9,20 +9,12 @@
 #include <vector>
 
 #include "../../src/rmp/collision_leaf_simd.h"
+#include "rmpmarl/common/cpu.h"
 
 namespace rmpmarl::rmp {
 namespace {
 
 bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
-
-bool CpuHasAvx2Fma() {
-#if defined(__x86_64__)
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#else
-  return false;
-#endif
-}
 
 // on an AVX2/FMA machine with glibc the kernel must be on: off, the layer still gives the same results, only slower
 TEST(CollisionLeafSimdTest, KernelRunsOnAnAvx2MachineWithGlibc) {
