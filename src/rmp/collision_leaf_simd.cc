@@ -291,9 +291,9 @@ __attribute__((target("avx2,fma"))) void AddGramAvx2(const double* const g[3], c
     const __m256d m0 = Set(M[3 * col]), m1 = Set(M[3 * col + 1]), m2 = Set(M[3 * col + 2]);
     double* a = A + static_cast<long>(col) * lda;
     for (int base = 0; base < n; base += 4) {
-      const __m256d sum = _mm256_add_pd(
-          _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(g[0] + base), m0), _mm256_mul_pd(_mm256_loadu_pd(g[1] + base), m1)),
-          _mm256_mul_pd(_mm256_loadu_pd(g[2] + base), m2));
+      const __m256d g0m0 = _mm256_mul_pd(_mm256_loadu_pd(g[0] + base), m0);
+      const __m256d g1m1 = _mm256_mul_pd(_mm256_loadu_pd(g[1] + base), m1);
+      const __m256d sum = _mm256_add_pd(_mm256_add_pd(g0m0, g1m1), _mm256_mul_pd(_mm256_loadu_pd(g[2] + base), m2));
       _mm256_storeu_pd(a + base, _mm256_add_pd(_mm256_loadu_pd(a + base), sum));
     }
   }

@@ -64,9 +64,9 @@ bool CollisionLeafKernelAvailable();
 void CollisionLeavesAvx2(CollisionLeafBatch* batch, const CollisionLeafConstants& constants,
                          const CollisionLeafLanes& lanes, int stride, double* scratch, double* b, double* A, int lda);
 
-/// A(i, j) += (g0_i m0_j + g1_i m1_j) + g2_i m2_j for i, j < n, each entry as Eigen's coefficient-based product Gᵀ M
-/// forms it (the target leaf's Gᵀ (M G) in EvaluateCoupledLayer), where g0..g2 are the rows of G (3 × n) laid out as
-/// lanes and m0..m2 the rows of M (3 × n, column-major). The lanes and A's columns (leading dimension lda) have room
+/// A(i, j) += (g0_i m0_j + g1_i m1_j) + g2_i m2_j for i, j < n, each entry as the scalar loop's Dot3 sums it (the
+/// target leaf's Gᵀ (M G) in EvaluateCoupledLayer), where g0..g2 are the rows of G (3 × n) laid out as lanes and
+/// m0..m2 the rows of M (3 × n, column-major). The lanes and A's columns (leading dimension lda) have room
 /// for n rounded up to a multiple of 4; rows of A past n get unspecified values. \pre CollisionLeafKernelAvailable().
 void AddGramAvx2(const double* const g[3], const double* M, int n, double* A, int lda);
 

@@ -478,7 +478,11 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   if (vectorised) {
     AddTargetGramAndCollisionLeavesAvx2(robot, kin, scene, params, weights, target_gram, ws);
   } else {
-    if (target_gram) ws.A.noalias() += ws.G.transpose() * ws.MG;
+    if (target_gram) {  // A += Gᵀ (M G), each entry summed in Dot3's order (as AddGramAvx2)
+      for (int j = 0; j < nq; ++j) {
+        for (int i = 0; i < nq; ++i) ws.A(i, j) += internal::Dot3(ws.G.col(i), ws.MG.col(j));
+      }
+    }
     AddCollisionLeaves(robot, kin, scene, params, weights, ws);
   }
 

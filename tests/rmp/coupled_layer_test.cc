@@ -277,7 +277,8 @@ TEST(CoupledLayerTest, VectorisedLeavesGiveTheScalarLoopsBits) {
       Scene scene = RandomScene(rng, 1 + static_cast<int>(rng() % 8));
       for (int k = 0; k < 3; ++k) {  // boxes too, some of them on the arm
         Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-        X.linear() = Eigen::Quaterniond(normal(rng), normal(rng), normal(rng), normal(rng)).normalized().toRotationMatrix();
+        const Eigen::Quaterniond rotation(normal(rng), normal(rng), normal(rng), normal(rng));
+        X.linear() = rotation.normalized().toRotationMatrix();
         X.translation() = RandomVector3(rng, -0.4, 0.4) + Eigen::Vector3d(0, 0, 0.4);
         scene.obstacles.push_back(
             Obstacle::MakeBox(X, RandomVector3(rng, 0.02, 0.15), RandomVector3(rng, -1.0, 1.0)));
