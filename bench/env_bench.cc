@@ -12,8 +12,8 @@
 #include <random>
 #include <vector>
 
+#include "learned_default.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/rl/vec_env.h"
 
@@ -58,11 +58,7 @@ struct OneEnv {
   tasks::StepOutput out;
 };
 
-// the shipped learned default's own task, as its controller file carries it
-tasks::TaskConfig LearnedDefaultConfig() {
-  const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  return PolicyTaskConfig(LoadPolicyFile(path), path);
-}
+using bench::LearnedDefaultConfig;
 
 // one env of `config`, random actions drawn before timing, auto-reset at episode ends (resets are included in the
 // time)

@@ -6,10 +6,12 @@
 #include <random>
 #include <vector>
 
+#include "learned_default.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/rmpflow.h"
+#include "rmpmarl/tasks/agent_interface.h"
 
 namespace {
 
@@ -137,34 +139,26 @@ void BM_JointLayersAllJoints(benchmark::State& state) {
   }
 }
 
-// the learned default's layer (configs/layers/v2c-gate-prior.yaml: the coupled resolve of the agents' target and
-// collision RMPs on RMPflow's structure) at random per-joint scales in the agents' range, on the same states and
-// scenes as BM_RmpflowEvaluate: structure (push-forward, C-space leaves, pullback) and coupled layer, as one control
-// substep evaluates them; `vectorised` false: the scalar leaf loop (CoupledLayerWorkspace::vectorised)
+// the learned default's layer (the coupled resolve of the agents' target and collision RMPs on RMPflow's structure,
+// with the parameters its controller file carries) at random per-joint scales in the agents' range, on the same
+// states and scenes as BM_RmpflowEvaluate: structure (push-forward, C-space leaves, pullback) and coupled layer, as one
+// control substep evaluates them; `vectorised` false: the scalar leaf loop (CoupledLayerWorkspace::vectorised)
 void BM_CoupledLayerEvaluate(benchmark::State& state, int num_boxes, bool vectorised) {
   const kinematics::Robot robot = BenchRobot(/*one_capsule_per_link=*/false);
   const int nq = robot.model.nq();
   rmp::RmpflowPolicy structure(robot, rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name)), 0);
-  rmp::BasicRmpParams params;
-  params.target_scale = rmp::TargetScale::kStiffness;
-  params.target.damping = rmp::TargetDamping::kLinear;
-  params.target.accel_d_gain = 85.0;
-  params.collision.metric_modulation_radius = 0.5;
-  params.collision.metric_scalar = 10000.0;
-  params.collision.repulsion_gain = 3200.0;
-  params.collision.damping_gain = 200.0;
-  params.collision.repulsion_std_dev = 0.0283;
-  params.collision.damping_std_dev = 0.1131;
+  const tasks::TaskConfig config = bench::LearnedDefaultConfig();
+  const rmp::BasicRmpParams& params = config.basic_layer.params;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto gain = [&] { return std::exp(u(rng) * std::log(4.0)); };  // an agent's scale, gain range 4
+  auto gain = [&](double range) { return tasks::GainScale(u(rng), range); };  // an agent's scale
   std::vector<rmp::JointLayerWeights> weights(nq);
   for (rmp::JointLayerWeights& w : weights) {
-    w.target_accel_scale = gain();
-    w.target_metric_scale = gain();
-    w.collision_accel_scale = gain();
-    w.collision_metric_scale = gain();
-    w.collision_length_scale = std::pow(w.collision_accel_scale, 0.75);
+    w.target_accel_scale = gain(config.options.TargetGainRange());
+    w.target_metric_scale = gain(config.options.TargetGainRange());
+    w.collision_accel_scale = gain(config.options.gain_range);
+    w.collision_metric_scale = gain(config.options.gain_range);
+    w.collision_length_scale = std::pow(w.collision_accel_scale, config.options.collision_length_exponent);
   }
   rmp::CoupledLayerWorkspace workspace(nq);
   workspace.vectorised = vectorised;
@@ -177,7 +171,7 @@ void BM_CoupledLayerEvaluate(benchmark::State& state, int num_boxes, bool vector
     const size_t k = n++ & (kStates - 1);
     structure.EvaluateStructure(qs[k], qds[k]);
     rmp::EvaluateCoupledLayer(robot, structure.data().kinematics, scene, params, weights, structure.data().f_root,
-                              structure.data().M_root, 1e-6, &workspace, qdd);
+                              structure.data().M_root, config.basic_layer.relative_regularizer, &workspace, qdd);
     benchmark::DoNotOptimize(qdd.data());
     benchmark::ClobberMemory();
   }
