@@ -4,14 +4,15 @@
 #include <string>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::bench {
 
 inline tasks::TaskConfig LearnedDefaultConfig() {
   const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  return rl::PolicyTaskConfig(rl::LoadPolicyFile(path), path);
+  return rl::PolicyTaskConfig(control::LoadPolicyFile(path), path);
 }
 
 }  // namespace rmpmarl::bench

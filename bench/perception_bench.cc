@@ -13,7 +13,7 @@
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/math/point_cloud.h"
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 #include "rmpmarl/perception/depth_camera.h"
 #include "rmpmarl/perception/occlusion_memory.h"
 
@@ -136,7 +136,7 @@ BENCHMARK(BM_DepthToWorldPoints_320x240)->Unit(benchmark::kMicrosecond);
 void BM_DepthToObstacles_320x240(benchmark::State& state) {
   const DepthImage image = SyntheticDepthImage();
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  CloudObstacles cloud(robot, {});
+  control::CloudObstacles cloud(robot, {});
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
   Eigen::Matrix3Xd points;
   double time = 0.0;
@@ -144,7 +144,7 @@ void BM_DepthToObstacles_320x240(benchmark::State& state) {
   double downsample = 0.0, filter = 0.0, cluster = 0.0, track = 0.0;
   for (auto _ : state) {
     const int n = DepthToWorldPoints(image, 1, &points);
-    const CloudUpdateStats& s = cloud.Update(points.leftCols(n), time, q);
+    const control::CloudUpdateStats& s = cloud.Update(points.leftCols(n), time, q);
     time += 1.0 / 30.0;
     input = s.input_points;
     kept = cloud.points().cols();
@@ -170,7 +170,7 @@ void BM_DepthToObstaclesWithMemory_320x240(benchmark::State& state) {
   const DepthCameraOptions camera;
   const std::vector<Eigen::Vector2d> ranges{Eigen::Vector2d(camera.min_range, camera.max_range)};
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  CloudObstacles cloud(robot, {});
+  control::CloudObstacles cloud(robot, {});
   OcclusionMemory memory(OcclusionMemoryOptions{}, cloud.options().voxel_size);
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
   Eigen::Matrix3Xd points;

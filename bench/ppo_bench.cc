@@ -6,7 +6,7 @@
 
 #include <random>
 
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
@@ -84,7 +84,7 @@ void BM_PpoActBatch64Envs7Agents(benchmark::State& state) {
 }
 BENCHMARK(BM_PpoActBatch64Envs7Agents)->Arg(1)->Arg(2)->ArgName("threads")->Unit(benchmark::kMicrosecond)->UseRealTime();
 
-PolicyWeights SevenJointPolicy() {
+control::PolicyWeights SevenJointPolicy() {
   Ppo ppo(PerJointRmpSpec(7), NetworkOptions{}.actor_output_gain(1.0), PpoOptions{}, 3);
   torch::manual_seed(2);
   ppo.obs_norm().Update(torch::randn({256, 38}));
@@ -93,7 +93,7 @@ PolicyWeights SevenJointPolicy() {
 
 // all 7 agents of a 7-DoF arm at batch 1 (one observation each): normalise, 3 × 128 ReLU, head, mode actions.
 void BM_RuntimeSevenAgents(benchmark::State& state) {
-  PolicyRuntime rt(SevenJointPolicy(), 7);
+  control::PolicyRuntime rt(SevenJointPolicy(), 7);
   if (state.range(0) == 0) rt.DisableAvx2();
   std::mt19937 rng(1);
   std::normal_distribution<float> n;
@@ -110,7 +110,7 @@ BENCHMARK(BM_RuntimeSevenAgents)->Arg(1)->Arg(0)->ArgName("avx2")->Unit(benchmar
 
 // one agent at batch 1 (e.g. a single joint's controller).
 void BM_RuntimeOneAgent(benchmark::State& state) {
-  PolicyRuntime rt(SevenJointPolicy(), 1);
+  control::PolicyRuntime rt(SevenJointPolicy(), 1);
   std::vector<float> obs(38, 0.3f), actions(rt.action_size());
   for (auto _ : state) {
     rt.Act(obs.data(), 1, actions.data());

@@ -11,7 +11,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/rmpflow.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 
 namespace {
 
@@ -151,7 +151,7 @@ void BM_CoupledLayerEvaluate(benchmark::State& state, int num_boxes, bool vector
   const rmp::BasicRmpParams& params = config.basic_layer.params;
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto gain = [&](double range) { return tasks::GainScale(u(rng), range); };  // an agent's scale
+  auto gain = [&](double range) { return control::GainScale(u(rng), range); };  // an agent's scale
   std::vector<rmp::JointLayerWeights> weights(nq);
   for (rmp::JointLayerWeights& w : weights) {
     w.target_accel_scale = gain(config.options.TargetGainRange());

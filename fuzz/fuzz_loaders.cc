@@ -12,8 +12,9 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/trainer.h"
 #include "rmpmarl/rmp/rmpflow.h"
@@ -60,14 +61,14 @@ std::string_view LoaderName(Loader loader) {
 
 std::string WithValidChecksum(Loader loader, std::string bytes) {
   if (loader == Loader::kPolicy && bytes.size() >= 12) {
-    const std::uint32_t crc = rl::Crc32c(bytes.data(), bytes.size() - 4);
+    const std::uint32_t crc = control::Crc32c(bytes.data(), bytes.size() - 4);
     std::memcpy(bytes.data() + bytes.size() - 4, &crc, 4);
   }
   // checkpoint header: magic (8) · version (4) · payload size (8) · crc32c of the payload (4)
   constexpr std::size_t kHeader = 24;
   if (loader == Loader::kCheckpoint && bytes.size() >= kHeader) {
     const std::uint64_t size = bytes.size() - kHeader;
-    const std::uint32_t crc = rl::Crc32c(bytes.data() + kHeader, size);
+    const std::uint32_t crc = control::Crc32c(bytes.data() + kHeader, size);
     std::memcpy(bytes.data() + 12, &size, 8);
     std::memcpy(bytes.data() + 20, &crc, 4);
   }
@@ -91,10 +92,10 @@ void LoadRmpflowConfigInput(std::string_view bytes) { rmp::LoadRmpflowOptions(Wr
 void LoadPolicyInput(std::string_view bytes) {
   const std::string fixed = WithValidChecksum(Loader::kPolicy, std::string(bytes));
   const std::string path = WriteTempFile("policy.rmpp", fixed);
-  const rl::PolicyFile file = rl::LoadPolicyFile(path);
+  const control::PolicyFile file = control::LoadPolicyFile(path);
   if (file.has_task()) rl::PolicyTaskConfig(file, path);  // the task it carries parses or throws InputError
-  const rl::PolicyWeights& weights = file.weights;
-  rl::PolicyRuntime runtime(weights, 1);
+  const control::PolicyWeights& weights = file.weights;
+  control::PolicyRuntime runtime(weights, 1);
   std::vector<float> obs(static_cast<std::size_t>(weights.obs_dim), 0.5f);
   std::vector<float> actions(static_cast<std::size_t>(weights.action_size()));
   runtime.Act(obs.data(), 1, actions.data());

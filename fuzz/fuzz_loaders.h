@@ -19,7 +19,7 @@ enum class Loader {
   kTrainConfig,   ///< training config YAML (rl::LoadTrainConfig)
   kRmpflowConfig, ///< RMPflow parameters YAML (rmp::LoadRmpflowOptions)
   kCheckpoint,    ///< training checkpoint (rl::ReadCheckpointConfig, rl::ExportCheckpointPolicy)
-  kPolicy,        ///< exported policy file (rl::LoadPolicyFile, then an rl::PolicyRuntime and one Act)
+  kPolicy,        ///< exported policy file (control::LoadPolicyFile, then an control::PolicyRuntime and one Act)
 };
 
 /// the directory name of a loader's inputs (tests/data/fuzz/<name>/) and its fuzzer (<name>_fuzzer).

@@ -47,7 +47,7 @@ struct PerceptionArgs {
   double noise = 0.002;    // sigma_at_1m [m]
   double dropout = 0.01;
   double voxel = 0.02;     // [m]
-  double point_margin = perception::CloudObstacleOptions{}.point_margin;  // [m] added to each point's radius
+  double point_margin = control::CloudObstacleOptions{}.point_margin;  // [m] added to each point's radius
   int width = 320, height = 240;
   std::string memory = "on";  // on: static obstacles the arm hides are remembered (perception::OcclusionMemory)
   std::string cloud;       // a recorded cloud (file or folder) instead of the scene's obstacles ("" none)

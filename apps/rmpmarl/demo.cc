@@ -11,11 +11,12 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/rmp/rmpflow.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/render.h"
 #include "rmpmarl/sim/scenario.h"
@@ -43,7 +44,7 @@ struct DemoArgs {
 
 // obstacle slots of the controllers: the scene's, or the sensor's clusters with --perception depth
 int ObstacleSlots(const DemoArgs& args, int scene_obstacles) {
-  return UsesSensor(args.perception) ? std::max(scene_obstacles, perception::CloudObstacleOptions{}.max_obstacles)
+  return UsesSensor(args.perception) ? std::max(scene_obstacles, control::CloudObstacleOptions{}.max_obstacles)
                                      : scene_obstacles;
 }
 
@@ -91,9 +92,9 @@ void RunDemo(const DemoArgs& args) {
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   sim::World world(world_model);
   const auto config_path = rmp::RmpflowConfigPath(robot);
-  auto policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(robot),
+  auto policy = std::make_unique<control::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(robot),
                                                                  ObstacleSlots(args, scenario->num_obstacles()));
-  sim::ReactiveController controller(*world_model, std::move(policy));
+  control::ReactiveController controller(world_model->servos(), std::move(policy));
   std::unique_ptr<sim::ObstacleSensor> sensor;
   if (UsesSensor(args.perception)) sensor = MakeSensorFactory(args.perception, args.seed)(*world_model);
 
@@ -191,7 +192,7 @@ struct DemoRun {
 // runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
 // env's external controller; renders it when args.video is set.
 DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
-                       const DemoArgs& args, rl::LearnedController* const* learned = nullptr,
+                       const DemoArgs& args, control::LearnedController* const* learned = nullptr,
                        std::vector<std::string>* frames = nullptr) {
   const tasks::EnvSpec& spec = env.spec();
   const int A = spec.num_agents;
@@ -241,11 +242,11 @@ DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, con
 }
 
 // a controller file's learned agents and RMPflow on the SAME episode of its task, moved to the demo's robot, scene
-// and obstacle speed: both drive the env through the one controller interface (sim::AccelerationPolicy), the agents
-// as rl::LearnedController (Eigen runtime, no libtorch); summaries side by side and a video of each.
+// and obstacle speed: both drive the env through the one controller interface (control::AccelerationPolicy), the agents
+// as control::LearnedController (Eigen runtime, no libtorch); summaries side by side and a video of each.
 void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   const auto wall_start = std::chrono::steady_clock::now();
-  const rl::PolicyFile file = rl::LoadPolicyFile(policy_path);
+  const control::PolicyFile file = control::LoadPolicyFile(policy_path);
   rl::TaskMove move;
   move.robot = !args.urdf.empty() ? args.urdf : args.robot;
   move.collision = args.collision;
@@ -292,12 +293,12 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
                  ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
                  : "");
   tasks::ExternalController agents;
-  rl::LearnedController* learned_policy = nullptr;  // owned by the env's controller
+  control::LearnedController* learned_policy = nullptr;  // owned by the env's controller
   const int slots = ObstacleSlots(args, context->num_obstacles());
   fmt::print("  {}\n", DescribePerception(args.perception));
   agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
   agents.make_policy = [&](const kinematics::Robot& robot) {
-    auto policy = rl::MakeLearnedController(robot, file, policy_path, slots);
+    auto policy = control::MakeLearnedController(robot, file, policy_path, slots);
     learned_policy = policy.get();
     return policy;
   };
@@ -310,7 +311,7 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
   tasks::ExternalController rmpflow;
   rmpflow.make_sensor = MakeSensorFactory(args.perception, args.seed);
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
-    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, slots);
+    return std::make_unique<control::RmpflowAccelerationPolicy>(robot, slots);
   };
   tasks::ManipulatorEnv rmpflow_env(context, rmpflow);
   const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args, nullptr,

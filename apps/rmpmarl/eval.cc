@@ -14,9 +14,10 @@
 #include <string>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
 namespace rmpmarl::apps {
@@ -70,7 +71,7 @@ void RegisterEval(CLI::App& app) {
   cmd->add_option("--obstacle-speed", args->obstacle_speed, "every obstacle at this speed [m/s] (controller files)")
       ->check(CLI::Range(0.0, 20.0));
   cmd->add_flag("--as-controller", args->as_controller,
-                "run the controller file as a user's loop runs it (rl::LearnedController: warnings from the capsules "
+                "run the controller file as a user's loop runs it (control::LearnedController: warnings from the capsules "
                 "and the scene's obstacles) instead of as agents in the env (warnings from MuJoCo's contacts)");
   cmd->add_option("--task-config", args->task_config, "task YAML (default: the checkpoint's, else the shipped one)");
   cmd->add_option("--interface", args->interface, "interface mode (default: the checkpoint's)");
@@ -94,7 +95,7 @@ void RegisterEval(CLI::App& app) {
     if (!args->collision.empty() && args->urdf.empty()) throw InputError("eval: --collision needs --urdf");
     if (!is_checkpoint && args->task.empty() && args->task_config.empty() && args->interface.empty()) {
       // a controller file on its own task, or moved
-      const rl::PolicyFile file = rl::LoadPolicyFile(args->policy);
+      const control::PolicyFile file = control::LoadPolicyFile(args->policy);
       rl::TaskMove move;
       move.robot = args->urdf.empty() ? args->robot : args->urdf;
       move.collision = args->collision;
@@ -109,14 +110,15 @@ void RegisterEval(CLI::App& app) {
           throw InputError("eval: --stochastic and --as-controller: a controller acts on its deterministic modes");
         }
         tasks::ExternalController learned;
-        rl::LearnedControllerOptions options;
+        control::LearnedControllerOptions options;
         options.max_obstacles = std::max(context->num_obstacles(),
                                          depth ? DepthOptions(args->perception, 0).cloud.max_obstacles : 0);
         options.name = std::filesystem::path(args->policy).stem().string();
         learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
         // the moved task (scene, robot, --overrides) is the controller's task too
-        learned.make_policy = [config, weights = file.weights, options](const kinematics::Robot& robot) {
-          return std::make_unique<rl::LearnedController>(robot, config, weights, options);
+        learned.make_policy = [agent = tasks::AgentConfigOf(config), weights = file.weights,
+                               options](const kinematics::Robot& robot) {
+          return std::make_unique<control::LearnedController>(robot, agent, weights, options);
         };
         learned.options = config.controller;
         factory = [context, learned](int) { return std::make_unique<tasks::ManipulatorEnv>(context, learned); };

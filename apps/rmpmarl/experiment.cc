@@ -17,7 +17,8 @@
 #include "rmpmarl/experiments/experiments.h"
 #include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/experiments/probe.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::apps {
@@ -63,7 +64,7 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   auto perception_args = std::make_shared<PerceptionArgs>();
   AddPerceptionOptions(cmd, perception_args.get());
   cmd->add_flag("--as-controller", options->as_controller,
-                "learned methods run as rl::LearnedController, as in a user's loop (always so with --perception depth)");
+                "learned methods run as control::LearnedController, as in a user's loop (always so with --perception depth)");
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
   cmd->callback([options, out, runs, methods, list, command_line, perception_args] {
@@ -109,7 +110,7 @@ void RegisterProbeLookahead(CLI::App& app) {
   cmd->add_option("--time", args->probe.threat_time, "substituted pass: time of closest approach [s]")
       ->capture_default_str();
   cmd->callback([args] {
-    const rl::PolicyFile file = rl::LoadPolicyFile(args->policy);
+    const control::PolicyFile file = control::LoadPolicyFile(args->policy);
     rl::TaskMove move;
     move.scene = args->task;
     tasks::TaskConfig task = rl::PolicyTaskConfig(file, args->policy, move);

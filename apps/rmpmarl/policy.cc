@@ -11,8 +11,9 @@
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/tasks/agent_interface.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/agent_interface.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::apps {
@@ -41,8 +42,8 @@ struct UpgradeArgs {
 };
 
 void Upgrade(const UpgradeArgs& args) {
-  rl::PolicyFile file;
-  file.weights = rl::LoadPolicyFileV1(args.in);
+  control::PolicyFile file;
+  file.weights = control::LoadPolicyFileV1(args.in);
   std::filesystem::path card = args.card;
   if (card.empty()) {
     const std::filesystem::path beside = std::filesystem::path(args.in).replace_extension(".yaml");
@@ -80,7 +81,7 @@ void Upgrade(const UpgradeArgs& args) {
   file.task_yaml = rl::ControllerTaskYaml(tasks::TaskConfigPath(task), overrides, interface);
   // the network must fit the task it is given: its observation size is fixed by the interface and lookahead
   const tasks::TaskConfig config = tasks::ParseTaskConfig(file.task_yaml, args.in + " (upgraded task)");
-  const size_t obs = tasks::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size();
+  const size_t obs = control::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size();
   if (obs != static_cast<size_t>(file.weights.obs_dim)) {
     throw InputError(fmt::format("policy upgrade {}: the network takes {} observations per joint; task '{}' "
                                  "(interface {}, lookahead {}) gives {}: give the card it was shipped with "
@@ -90,8 +91,8 @@ void Upgrade(const UpgradeArgs& args) {
   }
   provenance["upgraded_from"] = std::filesystem::path(args.in).filename().string();
   file.provenance_yaml = YAML::Dump(provenance);
-  rl::SavePolicyFile(file, args.out);
-  fmt::print("wrote {} (format {}, task {}{})\n", args.out, rl::kPolicyFormatVersion, task,
+  control::SavePolicyFile(file, args.out);
+  fmt::print("wrote {} (format {}, task {}{})\n", args.out, control::kPolicyFormatVersion, task,
              card.empty() ? "" : ", layer and provenance from " + card.string());
 }
 
@@ -105,7 +106,7 @@ void RegisterPolicy(CLI::App& app) {
                                            "the task it runs on, provenance");
   show->add_option("policy", *show_path, "controller file (.rmpp)")->required();
   show->callback([show_path] {
-    const rl::PolicyFile file = rl::LoadPolicyFile(*show_path);
+    const control::PolicyFile file = control::LoadPolicyFile(*show_path);
     fmt::print("{}", rl::PolicyCard(file, *show_path));
   });
   auto args = std::make_shared<UpgradeArgs>();
@@ -127,12 +128,12 @@ void RegisterPolicy(CLI::App& app) {
   provenance->add_option("yaml", (*annotate)[1], "YAML file holding a mapping")->required();
   provenance->callback([annotate] {
     const auto& [path, yaml] = *annotate;
-    rl::PolicyFile file = rl::LoadPolicyFile(path);
+    control::PolicyFile file = control::LoadPolicyFile(path);
     const YAML::Node add = LoadCard(yaml);
     YAML::Node merged = file.provenance_yaml.empty() ? YAML::Node(YAML::NodeType::Map) : YAML::Load(file.provenance_yaml);
     for (const auto& kv : add) merged[kv.first.as<std::string>()] = kv.second;
     file.provenance_yaml = YAML::Dump(merged);
-    rl::SavePolicyFile(file, path);
+    control::SavePolicyFile(file, path);
     fmt::print("{}: provenance updated from {}\n", path, yaml);
   });
 }

@@ -10,7 +10,7 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/viewer/live_sim.h"
 #include "rmpmarl/viewer/realtime.h"
 #include "rmpmarl/viewer/recording.h"
@@ -52,11 +52,11 @@ void RunView(const ViewArgs& args) {
   } else {
     const kinematics::Robot robot = !args.urdf.empty() ? LoadUserRobot(args.urdf, args.collision).robot
                                                        : kinematics::LoadShippedRobot(args.robot);
-    std::shared_ptr<const rl::PolicyFile> file;
+    std::shared_ptr<const control::PolicyFile> file;
     std::string policy_path;
     if (args.policy != "rmpflow") {
       policy_path = !args.policy.empty() ? args.policy : ShippedDefaultPolicyPath().string();
-      file = std::make_shared<const rl::PolicyFile>(rl::LoadPolicyFile(policy_path));
+      file = std::make_shared<const control::PolicyFile>(control::LoadPolicyFile(policy_path));
     }
     viewer::RobotVisuals visuals = viewer::LoadRobotVisuals(robot);
     for (const std::string& w : visuals.warnings) fmt::print("rmpmarl view: visuals: {}\n", w);

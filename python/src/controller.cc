@@ -1,5 +1,5 @@
 // rmpmarl.Controller: the learned agents of a controller file or RMPflow behind C++'s one controller interface
-// (sim::AccelerationPolicy driven by sim::ReactiveController): joint state, target and obstacles in, joint
+// (control::AccelerationPolicy driven by control::ReactiveController): joint state, target and obstacles in, joint
 // accelerations (or the integrated joint commands) out.
 #include <fmt/format.h>
 #include <pybind11/stl.h>
@@ -11,12 +11,13 @@
 #include "bindings.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/perception/cloud_io.h"
-#include "rmpmarl/perception/cloud_obstacles.h"
-#include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/cloud_obstacles.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/rmp/scene.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/world.h"
 
 namespace rmpmarl::python {
@@ -27,13 +28,13 @@ namespace fs = std::filesystem;
 struct ControllerHandle {
   std::shared_ptr<RobotHandle> robot;
   std::shared_ptr<const sim::WorldModel> world;  // the robot the policy references, and the servo model
-  std::unique_ptr<sim::ReactiveController> controller;
-  rl::LearnedController* learned = nullptr;  // owned by controller; null for RMPflow
+  std::unique_ptr<control::ReactiveController> controller;
+  control::LearnedController* learned = nullptr;  // owned by controller; null for RMPflow
   rmp::Scene scene;
   int max_obstacles = 0;
   // the point cloud's obstacles (made at the first cloud): the last cloud's stay until a new one or clear_cloud()
-  std::unique_ptr<perception::CloudObstacles> cloud;
-  perception::CloudObstacleOptions cloud_options;
+  std::unique_ptr<control::CloudObstacles> cloud;
+  control::CloudObstacleOptions cloud_options;
   long steps = 0;  // control decisions, the cloud's clock when no cloud_time is given
   Eigen::VectorXd qdd;
   std::string file;
@@ -54,9 +55,9 @@ void CheckMaxObstacles(int max_obstacles) {
 }
 
 std::shared_ptr<ControllerHandle> Finish(std::shared_ptr<ControllerHandle> h,
-                                         std::unique_ptr<sim::AccelerationPolicy> policy,
-                                         const sim::ControllerOptions& options) {
-  h->controller = std::make_unique<sim::ReactiveController>(*h->world, std::move(policy), options);
+                                         std::unique_ptr<control::AccelerationPolicy> policy,
+                                         const control::ControllerOptions& options) {
+  h->controller = std::make_unique<control::ReactiveController>(h->world->servos(), std::move(policy), options);
   h->scene.obstacles.reserve(h->max_obstacles);
   h->qdd.setZero(h->world->nq());
   return h;
@@ -66,19 +67,19 @@ std::shared_ptr<ControllerHandle> LoadController(const std::string& path, const 
                                                  std::optional<double> floor_height) {
   if (!fs::is_regular_file(path)) FileNotFound(path, "policy_file", "a controller file (.rmpp)");
   CheckMaxObstacles(max_obstacles);
-  const rl::PolicyFile file = rl::LoadPolicyFile(path);
+  const control::PolicyFile file = control::LoadPolicyFile(path);
   auto h = std::make_shared<ControllerHandle>();
   h->robot = RobotOf(robot, rl::PolicyTaskConfig(file, path).robot);
   h->world = std::make_shared<const sim::WorldModel>(*h->robot->robot);
   h->max_obstacles = max_obstacles;
   h->file = path;
-  rl::LearnedControllerOptions options;
+  control::LearnedControllerOptions options;
   options.max_obstacles = max_obstacles;
   options.name = fs::path(path).stem().string();
   if (floor_height) options.floor_height = *floor_height;
-  std::unique_ptr<rl::LearnedController> learned = rl::MakeLearnedController(h->world->robot(), file, path, options);
+  std::unique_ptr<control::LearnedController> learned = control::MakeLearnedController(h->world->robot(), file, path, options);
   h->learned = learned.get();
-  const sim::ControllerOptions controller_options = learned->controller_options();
+  const control::ControllerOptions controller_options = learned->controller_options();
   return Finish(h, std::move(learned), controller_options);
 }
 
@@ -94,7 +95,7 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
   const kinematics::Robot& r = h->world->robot();
   const rmp::RmpflowOptions options = config ? rmp::LoadRmpflowOptions(*config) : rmp::LoadRmpflowOptions(r);
   h->file = config ? *config : rmp::RmpflowConfigPath(r).string();
-  return Finish(h, std::make_unique<sim::RmpflowAccelerationPolicy>(r, options, max_obstacles), {});
+  return Finish(h, std::make_unique<control::RmpflowAccelerationPolicy>(r, options, max_obstacles), {});
 }
 
 /// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
@@ -110,7 +111,7 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
     if (!cloud_time.is_none()) time = cloud_time.cast<double>();
     if (!h.cloud) {
       h.cloud_options.max_obstacles = std::max(1, std::min(h.cloud_options.max_obstacles, h.max_obstacles));
-      h.cloud = std::make_unique<perception::CloudObstacles>(h.world->robot(), h.cloud_options);
+      h.cloud = std::make_unique<control::CloudObstacles>(h.world->robot(), h.cloud_options);
     }
     const Eigen::Map<const Eigen::Matrix3Xd> p_B(static_cast<const double*>(c.data()), 3, c.shape(0));
     h.cloud->UpdateInBaseFrame(p_B, time, AsVector(q));
@@ -197,7 +198,7 @@ clear_cloud(). Give a cloud when the sensor has a new frame, not at every step.)
 void BindControllers(py::module_& m) {
   py::class_<ControllerHandle, std::shared_ptr<ControllerHandle>>(m, "Controller", R"doc(
 A reactive controller: the learned per-joint agents of a controller file (rmpmarl.load_controller) or RMPflow
-(rmpmarl.rmpflow), the same interface as C++'s sim::AccelerationPolicy inside a sim::ReactiveController.
+(rmpmarl.rmpflow), the same interface as C++'s control::AccelerationPolicy inside a control::ReactiveController.
 
 accelerations(q, qd, ...) returns the policy's joint accelerations q̈ at (q, q̇); update(q, qd, ...) runs one whole
 control step at control_rate (the decision on the measured state, `substeps` integration substeps of the commanded
@@ -233,7 +234,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         if (decide) ++h.steps;
         {
           py::gil_scoped_release release;
-          sim::AccelerationPolicy& policy = h.controller->policy();
+          control::AccelerationPolicy& policy = h.controller->policy();
           if (decide) policy.BeginControlStep(AsVector(qa), AsVector(qda), h.scene);
           policy.Evaluate(AsVector(qa), AsVector(qda), h.scene, h.qdd);
         }
@@ -253,7 +254,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
                   cloud, cloud_time);
         ++h.steps;
-        sim::ControlStepResult r;
+        control::ControlStepResult r;
         {
           py::gil_scoped_release release;
           r = h.controller->Update(AsVector(qa), AsVector(qda), h.scene);
@@ -274,7 +275,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       .def("set_cloud_options", [](ControllerHandle& h, double voxel_size, double self_filter_margin,
                                    double point_margin, int min_cluster_voxels, int max_obstacles,
                                    const py::handle& workspace) {
-        perception::CloudObstacleOptions o = h.cloud_options;
+        control::CloudObstacleOptions o = h.cloud_options;
         o.voxel_size = voxel_size;
         o.self_filter_margin = self_filter_margin;
         o.point_margin = point_margin;
@@ -285,7 +286,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
           const double* d = static_cast<const double*>(w.data());
           o.workspace = Eigen::AlignedBox3d(Eigen::Vector3d(d), Eigen::Vector3d(d + 3));
         }
-        perception::ValidateCloudObstacleOptions(o);
+        control::ValidateCloudObstacleOptions(o);
         if (max_obstacles > h.max_obstacles) {
           BadArgument(fmt::format("max_obstacles: expected at most the controller's max_obstacles = {}, got {}",
                                   h.max_obstacles, max_obstacles));
@@ -293,7 +294,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         h.cloud_options = o;
         h.cloud.reset();
       }, py::kw_only(), py::arg("voxel_size") = 0.02, py::arg("self_filter_margin") = 0.01,
-         py::arg("point_margin") = perception::CloudObstacleOptions{}.point_margin, py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8,
+         py::arg("point_margin") = control::CloudObstacleOptions{}.point_margin, py::arg("min_cluster_voxels") = 2, py::arg("max_obstacles") = 8,
          py::arg("workspace") = py::none(),
          "how clouds become obstacles: voxel size [m], the self filter's margin [m], the margin added to each "
          "point's radius (half a voxel) [m], the smallest cluster [voxels], "
@@ -309,7 +310,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       .def_property_readonly("cloud_obstacles", [](const ControllerHandle& h) {
         py::list out;
         if (!h.cloud) return out;
-        for (const perception::CloudCluster& c : h.cloud->clusters()) {
+        for (const control::CloudCluster& c : h.cloud->clusters()) {
           py::dict d;
           d["centroid"] = VectorToNumpy(Eigen::VectorXd(c.centroid_W));
           d["velocity"] = VectorToNumpy(Eigen::VectorXd(c.v_WO));

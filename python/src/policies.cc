@@ -1,4 +1,4 @@
-// rmpmarl.Policy: a controller file's actor through the torch-free runtime (rl::PolicyRuntime), acting on a batch of
+// rmpmarl.Policy: a controller file's actor through the torch-free runtime (control::PolicyRuntime), acting on a batch of
 // local observations; its card, task and provenance.
 #include <fmt/format.h>
 #include <pybind11/stl.h>
@@ -6,8 +6,9 @@
 #include <filesystem>
 
 #include "bindings.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
+#include "rmpmarl/control/policy_runtime.h"
 
 namespace rmpmarl::python {
 namespace {
@@ -16,23 +17,23 @@ namespace fs = std::filesystem;
 
 struct PolicyHandle {
   std::string path;
-  rl::PolicyFile file;
-  std::unique_ptr<rl::PolicyRuntime> runtime;  // sized for the largest batch seen
+  control::PolicyFile file;
+  std::unique_ptr<control::PolicyRuntime> runtime;  // sized for the largest batch seen
 };
 
 std::unique_ptr<PolicyHandle> LoadPolicy(const std::string& path) {
   if (!fs::is_regular_file(path)) FileNotFound(path, "policy_file", "a controller file (.rmpp)");
   auto h = std::make_unique<PolicyHandle>();
   h->path = path;
-  h->file = rl::LoadPolicyFile(path);
-  h->runtime = std::make_unique<rl::PolicyRuntime>(h->file.weights, 16);
+  h->file = control::LoadPolicyFile(path);
+  h->runtime = std::make_unique<control::PolicyRuntime>(h->file.weights, 16);
   return h;
 }
 
 /// rows of `obs` (float32 [B, obs_dim]) through the runtime in chunks of its capacity into `out` (B × width).
 template <typename F>
 py::array_t<float> Batched(PolicyHandle& h, const py::handle& obs, int width, F&& f) {
-  const rl::PolicyWeights& w = h.file.weights;
+  const control::PolicyWeights& w = h.file.weights;
   const py::array a = CheckedArray(obs, {.name = "obs", .shape = {-1, w.obs_dim}, .float32 = true});
   const py::ssize_t rows = a.shape(0);
   py::array_t<float> out({rows, static_cast<py::ssize_t>(width)});
@@ -69,11 +70,11 @@ Not thread-safe: one Policy per thread.)doc")
                              "the card `rmpmarl policy show` prints")
       .def("act", [](PolicyHandle& h, const py::handle& obs) {
         return Batched(h, obs, h.file.weights.action_size(),
-                       [](rl::PolicyRuntime& r, const float* o, int n, float* out) { r.Act(o, n, out); });
+                       [](control::PolicyRuntime& r, const float* o, int n, float* out) { r.Act(o, n, out); });
       }, py::arg("obs"), "deterministic actions float32 [B, action_size] for observations float32 [B, obs_dim]")
       .def("head", [](PolicyHandle& h, const py::handle& obs) {
         return Batched(h, obs, h.file.weights.head_size(),
-                       [](rl::PolicyRuntime& r, const float* o, int n, float* out) { r.EvaluateHead(o, n, out); });
+                       [](control::PolicyRuntime& r, const float* o, int n, float* out) { r.EvaluateHead(o, n, out); });
       }, py::arg("obs"), "the network's raw outputs [B, head_size]: option logits, means, termination logit")
       .def("__repr__", [](const PolicyHandle& h) {
         return fmt::format("Policy('{}', obs_dim={}, action_size={})", h.path, h.file.weights.obs_dim,

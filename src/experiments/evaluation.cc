@@ -17,12 +17,12 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/experiments/statistics.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
+#include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::experiments {
 namespace {
@@ -36,14 +36,14 @@ class Actor {
 
 class PolicyActor final : public Actor {
  public:
-  PolicyActor(const rl::PolicyWeights& weights, int num_agents) : runtime_(weights, num_agents), agents_(num_agents) {}
+  PolicyActor(const control::PolicyWeights& weights, int num_agents) : runtime_(weights, num_agents), agents_(num_agents) {}
   /// only the agents whose action the env will read (held parameters): the others keep their last, valid action
   void Act(const tasks::StepBuffers& step, float* actions) override {
     runtime_.ActWhere(step.local_obs.data(), agents_, step.next_action_read.data(), actions);
   }
 
  private:
-  rl::PolicyRuntime runtime_;
+  control::PolicyRuntime runtime_;
   int agents_;
 };
 
@@ -99,8 +99,8 @@ Method Method::Policy(std::string name, std::string path, tasks::InterfaceMode i
 }
 
 Method Method::FixedOption(std::string name, int option) {
-  if (option < 0 || option >= tasks::kNumRmpOptions) {
-    throw InputError(fmt::format("fixed option: expected 0..{}, got {}", tasks::kNumRmpOptions - 1, option));
+  if (option < 0 || option >= control::kNumRmpOptions) {
+    throw InputError(fmt::format("fixed option: expected 0..{}, got {}", control::kNumRmpOptions - 1, option));
   }
   Method m;
   m.name = std::move(name);
@@ -141,9 +141,9 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
   const tasks::EnvSpec& spec = context->spec();
   const int A = spec.num_agents, as = spec.action.size();
 
-  rl::PolicyWeights weights;
+  control::PolicyWeights weights;
   if (method.kind == MethodKind::kPolicy) {
-    weights = rl::LoadPolicyFile(method.policy_path).weights;
+    weights = control::LoadPolicyFile(method.policy_path).weights;
     if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != as) {
       throw InputError(fmt::format("{}: policy {} does not fit task {} ({}): it takes obs {} and gives {} action "
                                    "floats, the env has obs {} and actions of {}", method.name, method.policy_path,
@@ -151,13 +151,13 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
                                    weights.action_size(), spec.local_obs_dim, as));
     }
   }
-  auto constant_actions = [&](const std::array<float, tasks::RmpActionLayout::kNumContinuous>& parameters) {
+  auto constant_actions = [&](const std::array<float, control::RmpActionLayout::kNumContinuous>& parameters) {
     std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
     for (int a = 0; a < A; ++a) {
       float* u = actions.data() + static_cast<size_t>(a) * as;
-      u[tasks::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
-      for (int k = 0; k < tasks::RmpActionLayout::kNumContinuous; ++k) {
-        u[tasks::RmpActionLayout::kTargetAccelScale + k] = parameters[k];
+      u[control::RmpActionLayout::kOption] = static_cast<float>(method.fixed_option);
+      for (int k = 0; k < control::RmpActionLayout::kNumContinuous; ++k) {
+        u[control::RmpActionLayout::kTargetAccelScale + k] = parameters[k];
       }
     }
     return actions;
@@ -185,22 +185,22 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
   }
   auto make_env = [&]() -> std::unique_ptr<tasks::ManipulatorEnv> {
     if ((sensed || protocol.learned_as_controller) && method.kind == MethodKind::kPolicy) {
-      // the agents as a user's loop runs them: rl::LearnedController on what the sensor perceives
+      // the agents as a user's loop runs them: control::LearnedController on what the sensor perceives
       tasks::ExternalController external;
       external.options = config.controller;
       external.make_sensor = protocol.make_sensor;
-      rl::LearnedControllerOptions options;
+      control::LearnedControllerOptions options;
       options.max_obstacles =
           sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
       options.name = method.name;
-      external.make_policy = [config, weights, options](const kinematics::Robot& robot) {
-        return std::make_unique<rl::LearnedController>(robot, config, weights, options);
+      external.make_policy = [agent = tasks::AgentConfigOf(config), weights, options](const kinematics::Robot& robot) {
+        return std::make_unique<control::LearnedController>(robot, agent, weights, options);
       };
       return std::make_unique<tasks::ManipulatorEnv>(context, std::move(external));
     }
     if (method.kind == MethodKind::kRmpflow || method.kind == MethodKind::kRrt) {
       tasks::ExternalController external;
-      external.options = sim::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
+      external.options = control::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
       external.make_sensor = protocol.make_sensor;
       const int max_obstacles =
           sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
@@ -211,12 +211,12 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
             adjust(options);
             rmp::ValidateRmpflowOptions(options, "RMPflow options adjusted by the experiment");
           }
-          return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, options, max_obstacles);
+          return std::make_unique<control::RmpflowAccelerationPolicy>(robot, options, max_obstacles);
         };
       } else {
         planning::RrtOptions rrt = method.rrt;
         const double period = spec.control_dt;
-        rrt.evaluation_period = period / sim::ControlSubsteps(period, external.options);
+        rrt.evaluation_period = period / control::ControlSubsteps(period, external.options);
         external.make_policy = [rrt](const kinematics::Robot& robot) {
           return std::make_unique<planning::RrtPolicy>(robot, rrt);
         };
@@ -229,7 +229,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
     if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
     if (method.threat_gate) {
       return std::make_unique<ThreatGateActor>(
-          fixed, threat, spec.local_obs_dim, tasks::LookaheadOffset(config.interface) + tasks::LocalObs::kLookaheadClearance,
+          fixed, threat, spec.local_obs_dim, control::LookaheadOffset(config.interface) + control::LocalObs::kLookaheadClearance,
           static_cast<float>(method.threat_gate->clearance / config.observation.length_scale));
     }
     return std::make_unique<ConstantActor>(fixed);

@@ -377,7 +377,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
   ReportText text;
   text.command = o.command_line;
   if (o.as_controller) {
-    text.notes += "Learned methods run as rl::LearnedController: their warnings come from the obstacles the controller "
+    text.notes += "Learned methods run as control::LearnedController: their warnings come from the obstacles the controller "
                   "is told (as in a user's loop), not from MuJoCo's contacts.\n\n";
   }
   if (depth) {
@@ -386,7 +386,7 @@ fs::path RunExperiment(const ExperimentOptions& options) {
         "Perception: depth. The controllers know the obstacles only through one simulated {}×{} depth camera at "
         "{:g} Hz (noise σ = {:g} m × z², dropout {:g}), as point-set obstacles from {:g} m voxels (each point a "
         "sphere of half a voxel + {:g} m) with tracked velocities{} (docs/perception.md); learned methods run as "
-        "rl::LearnedController; fixed-option methods are left out.\n\n", c.width, c.height, c.rate,
+        "control::LearnedController; fixed-option methods are left out.\n\n", c.width, c.height, c.rate,
         c.noise.sigma_at_1m, c.noise.dropout, o.depth.cloud.voxel_size, o.depth.cloud.point_margin,
         o.depth.memory.enabled ? ", and obstacles at rest remembered while the arm hides them" : "");
   }

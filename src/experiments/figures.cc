@@ -14,8 +14,8 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/sim/render.h"
 
 namespace rmpmarl::experiments {
@@ -196,7 +196,7 @@ void WriteFig3Curves(const std::vector<LearnedRuns>& methods, const RunnerOption
 
 void RenderFig5Frames(const std::vector<std::string>& arms, const tasks::TaskConfig& base_task,
                       const fs::path& policy_path, std::uint64_t eval_seed, const fs::path& out, std::string* notes) {
-  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
+  const control::PolicyWeights weights = control::LoadPolicyFile(policy_path).weights;
   constexpr int kLead = 30;  // the earlier frame: 0.3 s before the closest approach
   std::string written;
   for (const std::string& arm : arms) {
@@ -205,7 +205,7 @@ void RenderFig5Frames(const std::vector<std::string>& arms, const tasks::TaskCon
     task.interface = tasks::InterfaceMode::kPerJointRmp;
     const auto context = tasks::MakeTaskContext(task);
     tasks::ManipulatorEnv env(context);
-    rl::PolicyRuntime runtime(weights, context->num_agents());
+    control::PolicyRuntime runtime(weights, context->num_agents());
     tasks::StepBuffers step(context->spec());
     std::vector<float> actions(static_cast<size_t>(context->num_agents()) * context->spec().action.size());
     // pass 1: the step of the closest approach to an obstacle; pass 2 (the same episode): render the frames

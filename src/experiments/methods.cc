@@ -55,12 +55,12 @@ std::string FlowMap(const internal::YamlReader& r, const YAML::Node& node, const
   return out.c_str();
 }
 
-/// the four continuous parameters u by name (tasks::RmpActionLayout order), each in [−1, 1]
-std::array<float, tasks::RmpActionLayout::kNumContinuous> Parameters(const internal::YamlReader& r,
+/// the four continuous parameters u by name (control::RmpActionLayout order), each in [−1, 1]
+std::array<float, control::RmpActionLayout::kNumContinuous> Parameters(const internal::YamlReader& r,
                                                                    const YAML::Node& node, const std::string& key) {
   static const std::vector<std::string> names = {"target_accel", "target_metric", "collision_accel",
                                                  "collision_metric"};
-  std::array<float, tasks::RmpActionLayout::kNumContinuous> u{};
+  std::array<float, control::RmpActionLayout::kNumContinuous> u{};
   if (!node) return u;
   r.CheckKeys(node, key, {names.begin(), names.end()});
   for (size_t i = 0; i < names.size(); ++i) {

@@ -10,8 +10,8 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
 
 namespace rmpmarl::experiments {
 
@@ -42,28 +42,28 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const tasks::TaskC
   }
   const auto context = tasks::MakeTaskContext(task);
   const tasks::EnvSpec& spec = context->spec();
-  const rl::PolicyWeights weights = rl::LoadPolicyFile(policy_path).weights;
+  const control::PolicyWeights weights = control::LoadPolicyFile(policy_path).weights;
   if (weights.obs_dim != spec.local_obs_dim || weights.action_size() != spec.action.size()) {
     throw InputError(fmt::format("look-ahead probe: policy {} takes obs {} and gives {} action floats; the task has "
                                  "obs {} and actions of {}", policy_path, weights.obs_dim, weights.action_size(),
                                  spec.local_obs_dim, spec.action.size()));
   }
   // the action is [option | continuous… | termination] and the head [option logits… | Gaussian means… | termination]
-  const int k = o.parameter - tasks::RmpActionLayout::kTargetAccelScale;  // index among the Gaussian means
+  const int k = o.parameter - control::RmpActionLayout::kTargetAccelScale;  // index among the Gaussian means
   if (k < 0 || k >= weights.num_continuous) {
     throw InputError(fmt::format("look-ahead probe: parameter: expected an RMP parameter index in [{}, {}], got {}",
-                                 tasks::RmpActionLayout::kTargetAccelScale,
-                                 tasks::RmpActionLayout::kTargetAccelScale + weights.num_continuous - 1, o.parameter));
+                                 control::RmpActionLayout::kTargetAccelScale,
+                                 control::RmpActionLayout::kTargetAccelScale + weights.num_continuous - 1, o.parameter));
   }
   const int A = spec.num_agents, D = spec.local_obs_dim, H = weights.head_size();
   const int mean_at = weights.num_options + k;
-  const int c = tasks::LookaheadOffset(task.interface);
-  float none[tasks::LocalObs::kLookaheadSize], threat[tasks::LocalObs::kLookaheadSize];
-  tasks::WriteLookaheadBlock(std::numeric_limits<double>::infinity(), 0.0, 0.0, task.observation, none);
-  tasks::WriteLookaheadBlock(o.threat_clearance, o.threat_time, o.threat_speed, task.observation, threat);
+  const int c = control::LookaheadOffset(task.interface);
+  float none[control::LocalObs::kLookaheadSize], threat[control::LocalObs::kLookaheadSize];
+  control::WriteLookaheadBlock(std::numeric_limits<double>::infinity(), 0.0, 0.0, task.observation, none);
+  control::WriteLookaheadBlock(o.threat_clearance, o.threat_time, o.threat_speed, task.observation, threat);
   const float threshold = static_cast<float>(o.threat_threshold / task.observation.length_scale);
 
-  rl::PolicyRuntime runtime(weights, A);
+  control::PolicyRuntime runtime(weights, A);
   tasks::ManipulatorEnv env(context);
   tasks::StepBuffers step(spec);
   std::vector<float> actions(static_cast<size_t>(A) * spec.action.size());
@@ -77,7 +77,7 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const tasks::TaskC
     const float* obs = step.local_obs.data();
     std::copy(obs, obs + static_cast<size_t>(A) * D, edited.begin());
     for (int a = 0; a < A; ++a) {
-      std::copy_n(block, tasks::LocalObs::kLookaheadSize, edited.begin() + static_cast<size_t>(a) * D + c);
+      std::copy_n(block, control::LocalObs::kLookaheadSize, edited.begin() + static_cast<size_t>(a) * D + c);
     }
     runtime.EvaluateHead(edited.data(), A, head.data());
   };
@@ -89,7 +89,7 @@ LookaheadProbe ProbeLookahead(const std::string& policy_path, const tasks::TaskC
       runtime.EvaluateHead(obs, A, head.data());
       for (int a = 0; a < A; ++a) {
         const double u = head[static_cast<size_t>(a) * H + mean_at];
-        if (obs[static_cast<size_t>(a) * D + c + tasks::LocalObs::kLookaheadClearance] < threshold) {
+        if (obs[static_cast<size_t>(a) * D + c + control::LocalObs::kLookaheadClearance] < threshold) {
           sum_threatened += u;
           ++p.threatened_steps;
         } else {

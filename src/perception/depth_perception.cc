@@ -23,7 +23,7 @@ void ValidateDepthPerceptionOptions(const DepthPerceptionOptions& o) {
   if (o.stride < 1 || o.stride > 64) {
     throw InputError(fmt::format("DepthPerceptionOptions.stride: expected a pixel stride in [1, 64], got {}", o.stride));
   }
-  ValidateCloudObstacleOptions(o.cloud);
+  control::ValidateCloudObstacleOptions(o.cloud);
   ValidateOcclusionMemoryOptions(o.memory);
 }
 
@@ -95,7 +95,7 @@ void DepthPerception::Sense(const sim::World& world, rmp::Scene* scene) {
 }
 
 void DepthPerception::ScoreVelocities(const rmp::Scene& truth) {
-  for (const CloudCluster& c : cloud_.clusters()) {
+  for (const control::CloudCluster& c : cloud_.clusters()) {
     double best = 0.15;
     const rmp::Obstacle* match = nullptr;
     for (const rmp::Obstacle& o : truth.obstacles) {

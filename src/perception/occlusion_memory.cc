@@ -116,19 +116,19 @@ void OcclusionMemory::Forget(const std::vector<DepthImage>& images, const std::v
   RebuildPoints();
 }
 
-void OcclusionMemory::Remember(const CloudObstacles& cloud, double time) {
+void OcclusionMemory::Remember(const control::CloudObstacles& cloud, double time) {
   if (!options_.enabled) return;
   next_.clear();
-  const std::vector<CloudCluster>& clusters = cloud.clusters();
+  const std::vector<control::CloudCluster>& clusters = cloud.clusters();
   for (int k = 0; k < static_cast<int>(clusters.size()); ++k) {
-    const CloudCluster& c = clusters[k];
+    const control::CloudCluster& c = clusters[k];
     if (c.track < 0 || c.age < options_.min_age || !c.v_WO.isZero(0.0)) continue;
     const Eigen::Matrix3Xd& p = cloud.cluster_points(k);
     const std::vector<int>& counts = cloud.cluster_point_counts(k);
     for (Eigen::Index i = 0; i < p.cols(); ++i) {
       Entry e;
       e.p_W = p.col(i);
-      e.key = VoxelKey(e.p_W, 1.0 / voxel_size_);
+      e.key = control::VoxelKey(e.p_W, 1.0 / voxel_size_);
       e.count = counts[i];
       e.seen = time;
       // a voxel still in memory is hidden now: it stays as it was last seen (its count does not take in this frame's

@@ -75,7 +75,7 @@ void RecordedCloud::Sense(const sim::World& world, rmp::Scene* scene) {
   if (tick != shown_) {
     const int frame = static_cast<int>(std::min<long>(tick, num_frames() - 1));
     // the frame's own time (its tick), not the control step's that noticed it: velocities from the recording's clock
-    const CloudUpdateStats& s = cloud_.UpdateInBaseFrame(frames_[frame], static_cast<double>(tick) / options_.rate,
+    const control::CloudUpdateStats& s = cloud_.UpdateInBaseFrame(frames_[frame], static_cast<double>(tick) / options_.rate,
                                                          world.q());
     shown_ = tick;
     ++updates_;

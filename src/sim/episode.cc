@@ -1,5 +1,6 @@
 // RunEpisode: scenario + controller + physics at their rates, with tracking, clearance and collision-event metrics.
 #include "rmpmarl/sim/episode.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 #include <fmt/format.h>
 
@@ -93,7 +94,7 @@ struct RunningStats {
 
 }  // namespace
 
-EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveController& controller,
+EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
                          Scenario& scenario, const FrameCallback& on_frame) {
   CheckOptions(options);
   if (controller.nq() != world.nq()) {
@@ -107,7 +108,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
   r.seed = options.seed;
 
   scenario.Reset(options.seed, world);
-  controller.Reset(world);
+  sim::ResetController(controller, world);
   rmp::Scene scene;
   scenario.FillScene(&scene);
   if (options.sensor != nullptr) options.sensor->Reset(world);
@@ -149,7 +150,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
     if (step % control_every == 0) {
       scenario.FillScene(&scene);
       if (options.sensor != nullptr) options.sensor->Sense(world, &scene);
-      controller.Step(world, scene);
+      sim::StepController(controller, world, scene);
       ++r.control_steps;
     }
     const StepResult stepped = world.Step();
@@ -171,7 +172,7 @@ EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveCo
   r.tracking_error_std_mm = 1000.0 * tracking.std();
   r.tracking_error_max_mm = 1000.0 * tracking.max;
   r.final_tracking_error_mm = 1000.0 * error;
-  const ControllerStats& stats = controller.stats();
+  const control::ControllerStats& stats = controller.stats();
   r.nonfinite_policy_outputs = stats.nonfinite_outputs;
   r.resyncs = stats.resyncs;
   r.control_step_mean_us = stats.mean_compute_us();

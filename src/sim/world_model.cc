@@ -96,6 +96,9 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
     lower_[i] = continuous ? -inf : model.limits()[i].lower;
     upper_[i] = continuous ? inf : model.limits()[i].upper;
   }
+  servos_ = control::ServosOf(robot_);
+  servos_.timestep = m->opt.timestep;
+  servos_.feedforward = (gains_.damping.array() / gains_.kp.array()).matrix();
   for (int k = 1; k < model.num_links(); ++k) {
     const kinematics::Link& link = model.link(k);
     if (link.mimic_dof < 0) continue;

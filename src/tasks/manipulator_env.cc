@@ -1,5 +1,6 @@
 // The manipulator environment: variant pool, scenario, per-joint basic layer or direct Δq, observations, eq (14).
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 #include <fmt/format.h>
 
@@ -142,18 +143,18 @@ TaskContext::TaskContext(TaskConfig config, ScenarioMaker scenario)
 
   // the spec
   spec_.task = std::string(TaskKindName(config_.task));
-  spec_.num_agents = NumAgents(config_.interface, nq_);
-  global_layout_ = GlobalStateLayout(config_.interface, nq_, config_.observation.max_obstacles);
+  spec_.num_agents = control::NumAgents(config_.interface, nq_);
+  global_layout_ = control::GlobalStateLayout(config_.interface, nq_, config_.observation.max_obstacles);
   spec_.global_state_dim = global_layout_.size;
   spec_.global_state_names = global_layout_.Names();
   if (config_.interface == InterfaceMode::kDirect) {
     spec_.local_obs_names = spec_.global_state_names;  // the single agent sees the whole state
   } else {
-    spec_.local_obs_names = PerJointObservationNames(config_.interface, config_.observation.lookahead > 0.0);
+    spec_.local_obs_names = control::PerJointObservationNames(config_.interface, config_.observation.lookahead > 0.0);
   }
   spec_.local_obs_dim = static_cast<int>(spec_.local_obs_names.size());
-  spec_.action = MakeActionSpec(config_, nq_);
-  spec_.reward_terms = RewardTermNames();
+  spec_.action = control::MakeActionSpec(AgentConfigOf(config_), nq_);
+  spec_.reward_terms = control::RewardTermNames();
   spec_.discount = config_.episode.discount;
   spec_.max_episode_steps = config_.episode.max_steps;
   const double timestep = config_.episode.physics_timestep;
@@ -186,9 +187,9 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context)
   const double timestep = config_.episode.physics_timestep;
   physics_steps_ = static_cast<int>(std::lround(1.0 / (config_.episode.control_rate * timestep)));
   control_period_ = physics_steps_ * timestep;
-  agents_ = std::make_unique<JointAgents>(config_, robot_);
+  agents_ = std::make_unique<control::JointAgents>(AgentConfigOf(config_), robot_);
   if (config_.interface == InterfaceMode::kPerJointRmp) {
-    controller_ = std::make_unique<sim::ReactiveController>(world_->model(), agents_->MakeLayerPolicy(), config_.controller);
+    controller_ = std::make_unique<control::ReactiveController>(world_->model().servos(), agents_->MakeLayerPolicy(), config_.controller);
   }
   scene_.obstacles.reserve(c.num_obstacles());
   const kinematics::Model& m = robot_->model;
@@ -213,7 +214,7 @@ ManipulatorEnv::ManipulatorEnv(std::shared_ptr<const TaskContext> context, Exter
   if (!external.make_policy) throw InputError("ManipulatorEnv: the external controller has no policy maker");
   external_ = std::move(external);
   external_.options.control_rate = config_.episode.control_rate;
-  sim::ValidateControllerOptions(external_.options, config_.episode.physics_timestep);
+  control::ValidateControllerOptions(external_.options, config_.episode.physics_timestep);
   external_controllers_.resize(context_->num_variants());
   sensors_.resize(context_->num_variants());
   // the agents' basic layer is never stepped when a baseline drives the robot: not reset every episode either
@@ -253,20 +254,20 @@ void ManipulatorEnv::StartEpisode(std::mt19937_64& rng) {
     world_->Reset(q0, qd0);
   }
   if (external_.make_policy) {
-    std::unique_ptr<sim::ReactiveController>& ext = external_controllers_[variant_];
+    std::unique_ptr<control::ReactiveController>& ext = external_controllers_[variant_];
     if (!ext) {
-      ext = std::make_unique<sim::ReactiveController>(world_->model(), external_.make_policy(*robot_),
+      ext = std::make_unique<control::ReactiveController>(world_->model().servos(), external_.make_policy(*robot_),
                                                       external_.options);
     }
     external_controller_ = ext.get();
-    external_controller_->Reset(*world_);
+    sim::ResetController(*external_controller_, *world_);
     if (external_.make_sensor) {
       std::unique_ptr<sim::ObstacleSensor>& sensor = sensors_[variant_];
       if (!sensor) sensor = external_.make_sensor(world_->model());
       sensor_ = sensor.get();
     }
   }
-  if (controller_) controller_->Reset(*world_);
+  if (controller_) sim::ResetController(*controller_, *world_);
   q_cmd_ = world_->q();
 
   agents_->Reset();
@@ -321,7 +322,7 @@ bool ManipulatorEnv::ValidActions(const float* actions) const {
   }
   if (a.num_options > 0) {
     for (int agent = 0; agent < num_agents_; ++agent) {
-      if (DecodeOptionIndex(actions[agent * size], a.num_options) < 0) return false;
+      if (control::DecodeOptionIndex(actions[agent * size], a.num_options) < 0) return false;
     }
   }
   return true;
@@ -339,7 +340,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
       sensed_scene_.obstacles = scene_.obstacles;  // the truth, for the sensor to score itself; replaced by Sense
       sensor_->Sense(*world_, &sensed_scene_);
     }
-    control_us_sum_ += external_controller_->Step(*world_, sensor_ != nullptr ? sensed_scene_ : scene_).compute_us;
+    control_us_sum_ += sim::StepController(*external_controller_, *world_, sensor_ != nullptr ? sensed_scene_ : scene_).compute_us;
     info_.qdd = external_controller_->qdd();
     info_.dq_command = external_controller_->q_cmd() - q_cmd_before_;
     std::fill(option_started, option_started + num_agents_, 0.0f);
@@ -349,7 +350,7 @@ void ManipulatorEnv::ApplyActions(const float* actions, float* option_started, f
     case InterfaceMode::kPerJointRmp: {
       q_cmd_before_ = controller_->q_cmd();
       agents_->Apply(actions, option_started, parameters_read);
-      control_us_sum_ += controller_->Step(*world_, scene_).compute_us;
+      control_us_sum_ += sim::StepController(*controller_, *world_, scene_).compute_us;
       info_.qdd = controller_->qdd();
       info_.dq_command = controller_->q_cmd() - q_cmd_before_;
       break;
@@ -420,7 +421,7 @@ void ManipulatorEnv::UpdateKinematics() {
 }
 
 void ManipulatorEnv::WriteGlobal(float* s) const {
-  const GlobalStateLayout& g = context_->global_layout();
+  const control::GlobalStateLayout& g = context_->global_layout();
   const kinematics::Model& m = robot_->model;
   const ObservationConfig& oc = config_.observation;
   const double l = oc.length_scale, vs = oc.speed_scale;
@@ -436,8 +437,8 @@ void ManipulatorEnv::WriteGlobal(float* s) const {
     s[g.joint_warning + 2 * i + 1] =
         agents_->warning(i).present ? static_cast<float>(agents_->warning(i).distance / oc.warning_distance) : 0.0f;
     if (g.has_options) {
-      const OptionMachine& om = agents_->option_machine(i);
-      for (int k = 0; k < kNumRmpOptions; ++k) s[g.joint_option + 4 * i + k] = om.option() == k ? 1.0f : 0.0f;
+      const control::OptionMachine& om = agents_->option_machine(i);
+      for (int k = 0; k < control::kNumRmpOptions; ++k) s[g.joint_option + 4 * i + k] = om.option() == k ? 1.0f : 0.0f;
       s[g.joint_option + 4 * i + 3] = om.phase_b() ? 1.0f : 0.0f;
     }
   }
@@ -446,12 +447,12 @@ void ManipulatorEnv::WriteGlobal(float* s) const {
   Put3(s + g.target_position, p_WT_ / l);
   Put3(s + g.target_velocity, v_WT_ / vs);
   Put3(s + g.ee_to_target, (agents_->p_WE() - p_WT_) / l);
-  s[g.log_distance] = static_cast<float>(LogDistanceFeature((agents_->p_WE() - p_WT_).norm()));
+  s[g.log_distance] = static_cast<float>(control::LogDistanceFeature((agents_->p_WE() - p_WT_).norm()));
   const sim::SceneSpec& spec = world_->model().scene();
   for (int j = 0; j < g.max_obstacles; ++j) {
-    float* slot = s + g.obstacles + GlobalStateLayout::kObstacleSlot * j;
+    float* slot = s + g.obstacles + control::GlobalStateLayout::kObstacleSlot * j;
     if (j >= context_->num_obstacles()) {
-      std::fill(slot, slot + GlobalStateLayout::kObstacleSlot, 0.0f);
+      std::fill(slot, slot + control::GlobalStateLayout::kObstacleSlot, 0.0f);
       continue;
     }
     const sim::ObstacleState& o = scenario_->obstacles()[j];

@@ -8,31 +8,17 @@
 #include <limits>
 #include <string>
 
+#include "../common/config_check.h"
+#include "../control/agent_config_internal.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::tasks {
 namespace {
 
-// throws "<where>: key '<key>': expected <expected>, got <got>" unless ok.
-class Checker {
- public:
-  explicit Checker(std::string_view where) : where_(where) {}
-  template <typename T>
-  void operator()(bool ok, std::string_view key, std::string_view expected, const T& got) const {
-    if (!ok) throw InputError(fmt::format("{}: key '{}': expected {}, got {}", where_, key, expected, got));
-  }
-  void Range(const std::array<double, 2>& r, std::string_view key, double lo, double hi) const {
-    (*this)(std::isfinite(r[0]) && std::isfinite(r[1]) && r[0] >= lo && r[0] <= r[1] && r[1] <= hi, key,
-            fmt::format("[min, max] with {} <= min <= max <= {}", lo, hi), fmt::format("[{}, {}]", r[0], r[1]));
-  }
-  const std::string& where() const { return where_; }
-
- private:
-  std::string where_;
-};
+using Checker = internal::ConfigChecker;
 
 void CheckWorkspace(const Checker& c, const sim::WorkspaceOptions& w, const std::string& key) {
   c(std::isfinite(w.near) && w.near >= 0.0 && w.near < w.far, key + ".near", "0 <= near < far", w.near);
@@ -41,18 +27,6 @@ void CheckWorkspace(const Checker& c, const sim::WorkspaceOptions& w, const std:
   c(std::isfinite(w.half_height) && w.half_height >= 0.0, key + ".half_height", ">= 0", w.half_height);
   c(std::isfinite(w.min_height), key + ".min_height", "a finite height", w.min_height);
   c(w.samples >= 1 && w.samples <= 1000000, key + ".samples", "an integer in [1, 1000000]", w.samples);
-}
-
-/// a clearance [m] compared with the look-ahead block's predicted passes (options.target_gate_clearance,
-/// reward.precision_pass_clearance): −inf (off, meaning `off`) or finite, and finite only with the block on and on an
-/// interface that has it (`interface_ok`, described as `interfaces`)
-void CheckPassClearance(const Checker& check, const TaskConfig& c, double clearance, const std::string& key,
-                        std::string_view off, bool interface_ok, std::string_view interfaces) {
-  check(!std::isnan(clearance) && clearance < std::numeric_limits<double>::infinity(), key,
-        fmt::format("a clearance [m] or -.inf ({})", off), clearance);
-  check(!std::isfinite(clearance) || (c.observation.lookahead > 0.0 && interface_ok), key,
-        fmt::format("-.inf unless the look-ahead block is on (observation.lookahead > 0, got {}) on {} interface "
-                    "(got {})", c.observation.lookahead, interfaces, InterfaceModeName(c.interface)), clearance);
 }
 
 int ScenarioObstacleCount(const TaskConfig& c) {
@@ -90,70 +64,13 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(c.task != TaskKind::kPretrain2Link || c.robot == "planar2", "robot",
         "'planar2' for task pretrain-2link (the paper's two-link pre-training arm)", fmt::format("'{}'", c.robot));
 
-  // episode and control
+  // the agents' sections (interface, episode clock, controller, options, direct, observation, basic layer)
+  control::ValidateAgentConfig(AgentConfigOf(c), where);
   const EpisodeConfig& e = c.episode;
-  check(e.max_steps >= 1 && e.max_steps <= 10000000, "episode.max_steps", "an integer in [1, 1e7]", e.max_steps);
-  check(std::isfinite(e.physics_timestep) && e.physics_timestep > 0.0 && e.physics_timestep <= 0.1,
-        "episode.physics_timestep", "a timestep in (0, 0.1] s", e.physics_timestep);
-  check(std::isfinite(e.control_rate) && e.control_rate > 0.0, "episode.control_rate", "a rate > 0 Hz",
-        e.control_rate);
-  const double ratio = 1.0 / (e.control_rate * e.physics_timestep);
-  check(std::round(ratio) >= 1.0 && std::abs(ratio - std::round(ratio)) <= 1e-6 * ratio, "episode.control_rate",
-        fmt::format("a control period that is a whole number of physics timesteps ({:g} Hz divided by an integer)",
-                    1.0 / e.physics_timestep),
-        fmt::format("{:g} Hz", e.control_rate));
   check(std::isfinite(e.discount) && e.discount > 0.0 && e.discount <= 1.0, "episode.discount", "a value in (0, 1]",
         e.discount);
   check(!std::isnan(e.success_max_final_error) && e.success_max_final_error > 0.0, "episode.success_max_final_error",
         "a distance > 0 m (.inf: not required)", e.success_max_final_error);
-  const sim::ControllerOptions& k = c.controller;
-  check(k.control_rate == e.control_rate, "controller.control_rate", "episode.control_rate", k.control_rate);
-  check(std::isfinite(k.max_substep) && k.max_substep > 0.0, "controller.max_substep", "a step > 0 s", k.max_substep);
-  check(std::isfinite(k.velocity_limit_scale) && k.velocity_limit_scale > 0.0, "controller.velocity_limit_scale",
-        "a number > 0", k.velocity_limit_scale);
-  check(!std::isnan(k.resync_threshold) && k.resync_threshold > 0.0, "controller.resync_threshold",
-        "a distance > 0 (.inf: never)", k.resync_threshold);
-
-  // agent interface
-  check(c.options.horizon >= 1 && c.options.horizon <= 100000, "options.horizon", "an integer in [1, 100000]",
-        c.options.horizon);
-  check(std::isfinite(c.options.gain_range) && c.options.gain_range >= 1.0 && c.options.gain_range <= 1e6,
-        "options.gain_range", "a factor in [1, 1e6]", c.options.gain_range);
-  check(std::isfinite(c.options.target_gain_range) &&
-            (c.options.target_gain_range == 0.0 ||
-             (c.options.target_gain_range >= 1.0 && c.options.target_gain_range <= 1e6)),
-        "options.target_gain_range", "0 (options.gain_range) or a factor in [1, 1e6]", c.options.target_gain_range);
-  check(std::isfinite(c.options.collision_target_weight) && c.options.collision_target_weight >= 0.0 &&
-            c.options.collision_target_weight <= 1.0,
-        "options.collision_target_weight", "a weight in [0, 1]", c.options.collision_target_weight);
-  check(std::isfinite(c.options.collision_length_exponent) && c.options.collision_length_exponent >= 0.0 &&
-            c.options.collision_length_exponent <= 4.0,
-        "options.collision_length_exponent", "an exponent in [0, 4]", c.options.collision_length_exponent);
-  check(c.options.parameter_period >= 1 && c.options.parameter_period <= 1000, "options.parameter_period",
-        "a period in steps in [1, 1000]", c.options.parameter_period);
-  check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
-        "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
-  const OptionConfig& op = c.options;
-  CheckPassClearance(check, c, op.target_gate_clearance, "options.target_gate_clearance", "no prior",
-                     c.interface == InterfaceMode::kPerJointRmp, "the per-joint-rmp");
-  check(std::isfinite(op.target_gate_clear) && std::abs(op.target_gate_clear) <= 1.0, "options.target_gate_clear",
-        "a parameter u in [-1, 1]", op.target_gate_clear);
-  check(std::isfinite(op.target_gate_threat) && std::abs(op.target_gate_threat) <= 1.0, "options.target_gate_threat",
-        "a parameter u in [-1, 1]", op.target_gate_threat);
-  check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
-            c.direct.max_speed_fraction <= 1.0,
-        "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);
-
-  // observation
-  const ObservationConfig& o = c.observation;
-  check(std::isfinite(o.length_scale) && o.length_scale > 0.0, "observation.length_scale", "a length > 0 m",
-        o.length_scale);
-  check(std::isfinite(o.speed_scale) && o.speed_scale > 0.0, "observation.speed_scale", "a speed > 0 m/s",
-        o.speed_scale);
-  check(std::isfinite(o.warning_distance) && o.warning_distance > 0.0 && o.warning_distance <= 1.0,
-        "observation.warning_distance", "a distance in (0, 1] m", o.warning_distance);
-  check(std::isfinite(o.lookahead) && o.lookahead >= 0.0 && o.lookahead <= 10.0, "observation.lookahead",
-        "a horizon in [0, 10] s (0: off)", o.lookahead);
 
   // reward
   const RewardConfig& w = c.reward;
@@ -181,7 +98,7 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a weight >= 0 [reward per step]", w.precision_weight);
   check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
         w.precision_length);
-  CheckPassClearance(check, c, w.precision_pass_clearance, "reward.precision_pass_clearance", "every step",
+  control::internal::CheckPassClearance(check, AgentConfigOf(c), w.precision_pass_clearance, "reward.precision_pass_clearance", "every step",
                      c.interface != InterfaceMode::kDirect, "a per-joint");
   // domain randomisation
   const RandomizationConfig& d = c.randomization;
@@ -282,14 +199,10 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   }
 
   const int scenario_obstacles = ScenarioObstacleCount(c);
+  const ObservationConfig& o = c.observation;
   check(o.max_obstacles >= scenario_obstacles && o.max_obstacles <= 64, "observation.max_obstacles",
         fmt::format("an integer in [{} (the scenario's obstacles), 64]", scenario_obstacles), o.max_obstacles);
 
-  // basic layer
-  rmp::ValidateTargetRmpParams(c.basic_layer.params.target, fmt::format("{}: rmp.target_rmp", where));
-  rmp::ValidateCollisionRmpParams(c.basic_layer.params.collision, fmt::format("{}: rmp.collision_rmp", where));
-  check(std::isfinite(c.basic_layer.relative_regularizer) && c.basic_layer.relative_regularizer > 0.0,
-        "rmp.relative_regularizer", "a number > 0", c.basic_layer.relative_regularizer);
 }
 
 }  // namespace rmpmarl::tasks

@@ -1,4 +1,5 @@
 #include "rmpmarl/viewer/live_sim.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 #include <fmt/format.h>
 #include <mujoco/mjdata.h>
@@ -9,8 +10,8 @@
 #include <limits>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/world.h"
 
 namespace rmpmarl::viewer {
@@ -50,8 +51,8 @@ struct LiveSim::Arm {
   std::string controller;  // "learned" or "rmpflow"
   std::string label;
   std::unique_ptr<sim::World> world;
-  std::unique_ptr<sim::ReactiveController> control;
-  rl::LearnedController* learned = nullptr;  // the controller's policy when learned
+  std::unique_ptr<control::ReactiveController> control;
+  control::LearnedController* learned = nullptr;  // the controller's policy when learned
   const sim::ContactReport* contacts = nullptr;
   double clearance = std::numeric_limits<double>::infinity();
   long collisions = 0;
@@ -59,7 +60,7 @@ struct LiveSim::Arm {
   double step_us = 0.0;
 };
 
-LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const rl::PolicyFile> policy, std::string policy_path,
+LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const control::PolicyFile> policy, std::string policy_path,
                  LiveSimOptions options)
     : robot_(std::move(robot)), policy_(std::move(policy)), policy_path_(std::move(policy_path)),
       options_(std::move(options)) {
@@ -118,18 +119,18 @@ std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, co
   arm->world->Reset(q, qd);
   const int max_obstacles = static_cast<int>(slots_.size());
   if (controller == "learned") {
-    std::unique_ptr<rl::LearnedController> learned =
-        rl::MakeLearnedController(robot_, *policy_, policy_path_, max_obstacles);
-    const sim::ControllerOptions options = learned->controller_options();
+    std::unique_ptr<control::LearnedController> learned =
+        control::MakeLearnedController(robot_, *policy_, policy_path_, max_obstacles);
+    const control::ControllerOptions options = learned->controller_options();
     arm->learned = learned.get();
     arm->label = policy_label_;
-    arm->control = std::make_unique<sim::ReactiveController>(*model_, std::move(learned), options);
+    arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(learned), options);
   } else {
     arm->label = "RMPflow";
-    arm->control = std::make_unique<sim::ReactiveController>(
-        *model_, std::make_unique<sim::RmpflowAccelerationPolicy>(robot_, max_obstacles));
+    arm->control = std::make_unique<control::ReactiveController>(
+        model_->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot_, max_obstacles));
   }
-  arm->control->Reset(*arm->world);
+  sim::ResetController(*arm->control, *arm->world);
   return arm;
 }
 
@@ -222,7 +223,7 @@ void LiveSim::FillScene() {
 void LiveSim::ControlStep() {
   FillScene();
   for (const auto& arm : arms_) {
-    const sim::ControlStepResult r = arm->control->Step(*arm->world, scene_);
+    const control::ControlStepResult r = sim::StepController(*arm->control, *arm->world, scene_);
     arm->step_us = r.compute_us;
   }
   for (int k = 0; k < physics_steps_; ++k) {
@@ -233,7 +234,7 @@ void LiveSim::ControlStep() {
         fmt::print(stderr, "rmpmarl view: the {} arm's simulation became non-finite at t = {:.3f} s; it restarts "
                            "from the start posture\n", arm->label, time_);
         arm->world->Reset(scenario_->q_start());
-        arm->control->Reset(*arm->world);
+        sim::ResetController(*arm->control, *arm->world);
       }
     }
     scenario_->Advance(dt_, no_contacts_, *shadow_);

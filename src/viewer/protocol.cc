@@ -11,9 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/sim/world.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 
 namespace rmpmarl::viewer {
 namespace {
@@ -416,9 +416,9 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
       fmt::format_to(o, R"(,"d":{:.4f}}})", dist);
     };
     if (arm.learned != nullptr) {
-      const tasks::JointAgents& agents = arm.learned->agents();
+      const control::JointAgents& agents = arm.learned->agents();
       for (int i = 0; i < agents.nq(); ++i) {
-        const tasks::JointWarning& w = agents.warning(i);
+        const control::JointWarning& w = agents.warning(i);
         if (w.present && w.partner == sim::PartnerKind::kObstacle) witness(i, w.p_W1, w.p_W2, w.distance);
       }
     } else if (arm.contacts != nullptr) {
@@ -445,10 +445,10 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
     if (arm.learned == nullptr) {
       out += "null";
     } else {
-      const tasks::JointAgents& agents = arm.learned->agents();
+      const control::JointAgents& agents = arm.learned->agents();
       out += '[';
       for (int i = 0; i < agents.nq(); ++i) {
-        const tasks::OptionMachine& m = agents.option_machine(i);
+        const control::OptionMachine& m = agents.option_machine(i);
         const rmp::JointLayerWeights& w = agents.layer_weights(i);
         fmt::format_to(o, R"({}{{"option":{},"phase_b":{},"params":[{:.3f},{:.3f},{:.3f},{:.3f}]}})", i > 0 ? "," : "",
                        m.option(), m.phase_b(), w.target_accel_scale, w.target_metric_scale, w.collision_accel_scale,

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "run_cli.h"
 
@@ -58,13 +58,13 @@ TEST(PolicyCli, UpgradeTurnsAFormat1FileIntoTheSameController) {
   const fs::path dir = TempDir("upgrade");
   // format 1 as written before: the same layout up to the weights, version 1, checksum over all preceding bytes
   const fs::path shipped = Shipped("marl-rmp.rmpp");
-  const rmpmarl::rl::PolicyFile file = rmpmarl::rl::LoadPolicyFile(shipped.string());
+  const rmpmarl::control::PolicyFile file = rmpmarl::control::LoadPolicyFile(shipped.string());
   const std::string bytes = ReadAll(shipped);
   const size_t weights_end = bytes.size() - 4 - (4 + file.task_yaml.size()) - (4 + file.provenance_yaml.size());
   std::string v1 = bytes.substr(0, weights_end);
   const std::uint32_t version = 1;
   std::memcpy(v1.data() + 8, &version, 4);
-  const std::uint32_t crc = rmpmarl::rl::Crc32c(v1.data(), v1.size());
+  const std::uint32_t crc = rmpmarl::control::Crc32c(v1.data(), v1.size());
   v1.append(reinterpret_cast<const char*>(&crc), 4);
   const fs::path old_file = dir / "old.rmpp", new_file = dir / "new.rmpp";
   std::ofstream(old_file, std::ios::binary) << v1;
@@ -94,7 +94,7 @@ TEST(PolicyCli, UpgradeTurnsAFormat1FileIntoTheSameController) {
                                               "'observation: {{max_obstacles: 6}}' --out {}",
                                               old_file.string(), new_file.string()));
   ASSERT_EQ(up.exit_code, 0) << up.output;
-  const rmpmarl::rl::PolicyFile upgraded = rmpmarl::rl::LoadPolicyFile(new_file.string());
+  const rmpmarl::control::PolicyFile upgraded = rmpmarl::control::LoadPolicyFile(new_file.string());
   EXPECT_EQ(upgraded.task_yaml, file.task_yaml);
   EXPECT_NE(upgraded.provenance_yaml.find("upgraded_from: old.rmpp"), std::string::npos) << upgraded.provenance_yaml;
   EXPECT_EQ(ReadAll(new_file).substr(12, weights_end - 12), bytes.substr(12, weights_end - 12));  // the network

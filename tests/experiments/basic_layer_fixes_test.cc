@@ -119,7 +119,7 @@ void ExpectSameEpisodes(const std::vector<EpisodeRecord>& a, const std::vector<E
 /// the composite option everywhere with the collision parameter u (s_a = 4^u)
 Method Composite(float u) {
   Method m = Method::FixedOption("composite", 2);
-  m.fixed_parameters[tasks::RmpActionLayout::kCollisionAccelScale - tasks::RmpActionLayout::kTargetAccelScale] = u;
+  m.fixed_parameters[control::RmpActionLayout::kCollisionAccelScale - control::RmpActionLayout::kTargetAccelScale] = u;
   return m;
 }
 

@@ -11,9 +11,10 @@
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::experiments {
 namespace {
@@ -51,7 +52,7 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
   }
   tasks::ExternalController rmpflow;
   rmpflow.make_policy = [](const kinematics::Robot& robot) {
-    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 4);
+    return std::make_unique<control::RmpflowAccelerationPolicy>(robot, 4);
   };
   envs.push_back(std::make_unique<tasks::ManipulatorEnv>(tasks::MakeTaskContext(base), rmpflow));
 
@@ -141,7 +142,7 @@ TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
   tasks::TaskConfig task = SmallTask(tasks::TaskKind::kLineCrossing, 150);
   task.scenario.line_speeds = {1.8};
   auto lookahead = [](tasks::TaskConfig& t) { t.observation.lookahead = 1.0; };
-  std::array<float, tasks::RmpActionLayout::kNumContinuous> clear{}, threat{};
+  std::array<float, control::RmpActionLayout::kNumContinuous> clear{}, threat{};
   clear[0] = 1.0f;    // target accel scale x4
   threat[2] = -1.0f;  // collision accel scale / 4
   Method clear_fixed = Method::FixedOption("clear", 2), threat_fixed = Method::FixedOption("threat", 2);
@@ -298,11 +299,11 @@ class PassThroughSensor final : public sim::ObstacleSensor {
 };
 
 // The controllers are told what a sensor gives them: through a sensor that passes the truth on, RMPflow's episodes
-// and the learned agents' (as rl::LearnedController) are the episodes without one, bit for bit; fixed-option methods,
+// and the learned agents' (as control::LearnedController) are the episodes without one, bit for bit; fixed-option methods,
 // which read MuJoCo's contacts, are refused.
 TEST(SensedEvaluationTest, APassThroughSensorChangesNothingAndFixedOptionsAreRefused) {
   const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  tasks::TaskConfig task = rl::PolicyTaskConfig(rl::LoadPolicyFile(path), path);
+  tasks::TaskConfig task = rl::PolicyTaskConfig(control::LoadPolicyFile(path), path);
   task.episode.max_steps = 60;
   std::atomic<long> senses{0};
   EvalProtocol exact;

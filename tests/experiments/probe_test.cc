@@ -9,10 +9,10 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/probe.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
 
 namespace rmpmarl::experiments {
 namespace {
@@ -38,18 +38,18 @@ std::string LinearPolicy(const tasks::TaskConfig& task, BlockWeights w_block, fl
                          int extra_obs = 0) {
   const auto context = tasks::MakeTaskContext(task);
   const int D = context->spec().local_obs_dim + extra_obs;
-  rl::PolicyWeights w;
+  control::PolicyWeights w;
   w.obs_dim = D;
-  w.num_options = tasks::kNumRmpOptions;
-  w.num_continuous = tasks::RmpActionLayout::kNumContinuous;
+  w.num_options = control::kNumRmpOptions;
+  w.num_continuous = control::RmpActionLayout::kNumContinuous;
   w.has_termination = true;
   w.head.weight = Eigen::MatrixXf::Zero(w.head_size(), D);
   w.head.bias = Eigen::VectorXf::Zero(w.head_size());
-  const int row = w.num_options + (tasks::RmpActionLayout::kTargetAccelScale - 1);
-  const int c = tasks::LookaheadOffset(tasks::InterfaceMode::kPerJointRmp);
-  w.head.weight(row, c + tasks::LocalObs::kLookaheadClearance) = w_block.clearance;
-  w.head.weight(row, c + tasks::LocalObs::kLookaheadTime) = w_block.time;
-  w.head.weight(row, c + tasks::LocalObs::kLookaheadSpeed) = w_block.speed;
+  const int row = w.num_options + (control::RmpActionLayout::kTargetAccelScale - 1);
+  const int c = control::LookaheadOffset(tasks::InterfaceMode::kPerJointRmp);
+  w.head.weight(row, c + control::LocalObs::kLookaheadClearance) = w_block.clearance;
+  w.head.weight(row, c + control::LocalObs::kLookaheadTime) = w_block.time;
+  w.head.weight(row, c + control::LocalObs::kLookaheadSpeed) = w_block.speed;
   w.head.bias(row) = b;
   w.obs_mean = Eigen::VectorXf::Zero(D);
   w.obs_inv_std = Eigen::VectorXf::Ones(D);
@@ -59,7 +59,7 @@ std::string LinearPolicy(const tasks::TaskConfig& task, BlockWeights w_block, fl
   // one file per process and test (ctest runs the tests of this file as separate processes, possibly at once)
   const fs::path path =
       fs::temp_directory_path() / ("rmpmarl_probe_test_" + name + "_" + std::to_string(::getpid()) + ".rmpp");
-  rl::SavePolicyFile({.weights = w}, path.string());
+  control::SavePolicyFile({.weights = w}, path.string());
   return path.string();
 }
 

@@ -11,8 +11,9 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/experiments/methods.h"
-#include "rmpmarl/tasks/agent_interface.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/agent_interface.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
 
 namespace rmpmarl::experiments {
 namespace {
@@ -45,8 +46,8 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";
-    const rl::PolicyFile file = rl::LoadPolicyFile(path.string());
-    EXPECT_EQ(file.weights.num_options, tasks::kNumRmpOptions);
+    const control::PolicyFile file = control::LoadPolicyFile(path.string());
+    EXPECT_EQ(file.weights.num_options, control::kNumRmpOptions);
     // the file carries the task it runs on: the shipped task with its method's basic layer
     const MethodSpec& method = FindMethod(c.method);
     EXPECT_EQ(method.shipped, c.file);

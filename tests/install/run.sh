@@ -12,7 +12,16 @@ RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/consumer-build/consum
 cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
 cmake --build "$prefix/example-build" >/dev/null
-RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/example-build/control_loop"
+example="$prefix/example-build/control_loop"
+# built against rmpmarl::control alone: no MuJoCo, libtorch, EGL or assimp library or symbol in it
+if ldd "$example" | grep -Ei 'mujoco|torch|c10|libEGL|assimp'; then
+  echo "control_loop links a library rmpmarl::control must not bring (above)" >&2; exit 1
+fi
+if nm -C "$example" | grep -E ' (mj[a-z]*_[A-Za-z]+|egl[A-Z][A-Za-z]+|ai[A-Z][A-Za-z]+)$| (Assimp|c10|at|torch)::'; then
+  echo "control_loop holds a MuJoCo, libtorch, EGL or assimp symbol (above)" >&2; exit 1
+fi
+RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$example"
+RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$example" rmpflow
 # the Python package as `make install` puts it (<prefix>/lib/python3/dist-packages), away from the source tree:
 # a shipped controller on a shipped robot
 if [[ -d "$prefix/lib/python3/dist-packages/rmpmarl" ]]; then

@@ -1,6 +1,6 @@
 // Point-cloud obstacles: distances equal brute force on every shipped arm, the self filter, clustering, tracking and
 // bad clouds.
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 
 #include <gtest/gtest.h>
 
@@ -90,7 +90,7 @@ TEST(CloudObstaclesTest, SelfFilterRemovesEveryPointOnTheRobotAndNoneTwoCentimet
     SCOPED_TRACE(name);
     const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
     // 1 mm voxels and single-voxel clusters: the filter's decision is seen point by point
-    CloudObstacles cloud(robot, {.voxel_size = 0.001,
+    control::CloudObstacles cloud(robot, {.voxel_size = 0.001,
                                  .workspace = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-3), Eigen::Vector3d::Constant(3)),
                                  .self_filter_margin = 0.01, .min_cluster_voxels = 1, .max_obstacles = 256});
     const Eigen::VectorXd q = testing::RandomConfiguration(robot.model, rng);
@@ -117,7 +117,7 @@ TEST(CloudObstaclesTest, SelfFilterRemovesEveryPointOnTheRobotAndNoneTwoCentimet
     Eigen::Matrix3Xd p(3, on.size() + off.size());
     for (size_t i = 0; i < on.size(); ++i) p.col(i) = on[i];
     for (size_t i = 0; i < off.size(); ++i) p.col(on.size() + i) = off[i];
-    const CloudUpdateStats& s = cloud.Update(p, 0.0, q);
+    const control::CloudUpdateStats& s = cloud.Update(p, 0.0, q);
     ASSERT_EQ(s.voxels, s.input_points);
     EXPECT_EQ(s.robot_voxels, static_cast<long>(on.size())) << "every point on the robot is dropped";
     const Eigen::Matrix3Xd& kept = cloud.points();
@@ -128,7 +128,7 @@ TEST(CloudObstaclesTest, SelfFilterRemovesEveryPointOnTheRobotAndNoneTwoCentimet
 
 TEST(CloudObstaclesTest, ClustersBecomeObstaclesWithTrackedVelocities) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  CloudObstacles cloud(robot, {});
+  control::CloudObstacles cloud(robot, {});
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(robot.model.nq());
   const Eigen::Vector3d v(0.0, 0.6, 0.0);  // m/s
   Eigen::Vector3d a(0.6, -0.4, 0.4);
@@ -145,7 +145,7 @@ TEST(CloudObstaclesTest, ClustersBecomeObstaclesWithTrackedVelocities) {
     ASSERT_EQ(scene.obstacles.size(), 2u);
     ASSERT_NO_THROW(rmp::ValidateScene(scene, "cloud scene"));
     for (int j = 0; j < 2; ++j) {
-      const CloudCluster& c = cloud.clusters()[j];
+      const control::CloudCluster& c = cloud.clusters()[j];
       const bool moving = (c.centroid_W - pa).norm() < 0.03;
       EXPECT_TRUE(moving || (c.centroid_W - b).norm() < 0.03);
       EXPECT_LT((rmp::Centre(scene.obstacles[j]) - (moving ? pa : b)).norm(), 0.03);
@@ -165,15 +165,15 @@ TEST(CloudObstaclesTest, ClustersBecomeObstaclesWithTrackedVelocities) {
 
 TEST(CloudObstaclesTest, ClustersBeyondTheSlotsAreMergedIntoTheLastAndNoPointIsLost) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  CloudObstacles cloud(robot, {.max_obstacles = 3});
+  control::CloudObstacles cloud(robot, {.max_obstacles = 3});
   Eigen::Matrix3Xd p(3, 5 * 600);
   for (int j = 0; j < 5; ++j) p.middleCols(600 * j, 600) = BoxSurface(Eigen::Vector3d(0.3 + 0.2 * j, 0.6, 0.3), 0.04, 10);
-  const CloudUpdateStats& s = cloud.Update(p, 0.0, Eigen::VectorXd::Zero(robot.model.nq()));
+  const control::CloudUpdateStats& s = cloud.Update(p, 0.0, Eigen::VectorXd::Zero(robot.model.nq()));
   EXPECT_EQ(s.clusters, 5);
   EXPECT_EQ(s.merged_clusters, 3);
   ASSERT_EQ(cloud.num_obstacles(), 3);
   int voxels = 0;
-  for (const CloudCluster& c : cloud.clusters()) voxels += c.voxels;
+  for (const control::CloudCluster& c : cloud.clusters()) voxels += c.voxels;
   EXPECT_EQ(voxels, s.voxels - s.robot_voxels);
   EXPECT_EQ(cloud.points().cols(), voxels);
   EXPECT_LE(cloud.clusters()[0].clearance, cloud.clusters()[1].clearance) << "nearest the arm first";
@@ -183,7 +183,7 @@ TEST(CloudObstaclesTest, ClustersBeyondTheSlotsAreMergedIntoTheLastAndNoPointIsL
 TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(robot.model.nq());
-  CloudObstacles cloud(robot, {.max_points = 100000});
+  control::CloudObstacles cloud(robot, {.max_points = 100000});
   // empty: no obstacles
   EXPECT_EQ(cloud.Update(Eigen::Matrix3Xd(3, 0), 0.0, q).voxels, 0);
   EXPECT_EQ(cloud.num_obstacles(), 0);
@@ -192,7 +192,7 @@ TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   p(0, 3) = std::numeric_limits<double>::quiet_NaN();
   p(2, 7) = std::numeric_limits<double>::infinity();
   p(2, 9) = -0.5;  // under the floor
-  const CloudUpdateStats& s = cloud.Update(p, 0.1, q);
+  const control::CloudUpdateStats& s = cloud.Update(p, 0.1, q);
   EXPECT_EQ(s.nonfinite_points, 2);
   EXPECT_EQ(s.outside_points, 1);
   EXPECT_EQ(cloud.num_obstacles(), 1);
@@ -213,17 +213,17 @@ TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   }
   EXPECT_THROW(cloud.Update(p, 0.05, q), InputError) << "time went backwards";
   EXPECT_THROW(cloud.Update(p, 0.5, Eigen::VectorXd::Zero(3)), InputError);
-  for (const CloudObstacleOptions& bad : {CloudObstacleOptions{.voxel_size = 0.0}, CloudObstacleOptions{.min_cluster_voxels = 0},
-                                          CloudObstacleOptions{.max_obstacles = 0}, CloudObstacleOptions{.velocity_window = 1}}) {
-    EXPECT_THROW(CloudObstacles(robot, bad), InputError);
+  for (const control::CloudObstacleOptions& bad : {control::CloudObstacleOptions{.voxel_size = 0.0}, control::CloudObstacleOptions{.min_cluster_voxels = 0},
+                                          control::CloudObstacleOptions{.max_obstacles = 0}, control::CloudObstacleOptions{.velocity_window = 1}}) {
+    EXPECT_THROW(control::CloudObstacles(robot, bad), InputError);
   }
   // a cloud of ten million points, downsampled by the caller's limit: handled when the limit allows it
-  CloudObstacles big(robot, {.max_points = 10'000'000});
+  control::CloudObstacles big(robot, {.max_points = 10'000'000});
   std::mt19937_64 rng(9);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::Matrix3Xd many(3, 10'000'000);
   for (long i = 0; i < many.cols(); ++i) many.col(i) = Eigen::Vector3d(0.5 + 0.1 * u(rng), 0.5 + 0.1 * u(rng), 0.4 + 0.1 * u(rng));
-  const CloudUpdateStats& sb = big.Update(many, 0.0, q);
+  const control::CloudUpdateStats& sb = big.Update(many, 0.0, q);
   EXPECT_EQ(sb.input_points, 10'000'000);
   EXPECT_LE(sb.voxels, 6 * 6 * 6);
   EXPECT_EQ(big.num_obstacles(), 1);

@@ -1,6 +1,7 @@
 // Obstacles through a simulated depth camera and through recorded clouds, in MuJoCo episodes: the sensed distances
 // against the true shapes, tracked velocities against the scenario's, and controllers that never see the truth.
 #include "rmpmarl/perception/depth_perception.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/perception/cloud_io.h"
 #include "rmpmarl/perception/recorded_cloud.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
 
@@ -53,7 +54,7 @@ TEST(DepthPerceptionTest, SensedClearancesFollowTheTrueShapesThroughACrossingEpi
   std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, options);
   if (!sensor) GTEST_SKIP() << "offscreen rendering is not available here";
   sim::World world(model);
-  sim::ReactiveController controller(*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8));
+  control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, 8));
   // a frame callback compares, at every frame, what the controller was told with the truth
   int compared = 0;
   double min_truth = 1e9;
@@ -96,7 +97,7 @@ struct ClutteredRig {
   std::shared_ptr<const sim::WorldModel> model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   std::unique_ptr<DepthPerception> sensor = MakeOrSkip(*model, {});
   sim::World world{model};
-  sim::ReactiveController controller{*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8)};
+  control::ReactiveController controller{model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, 8)};
 };
 
 TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
@@ -215,7 +216,7 @@ TEST(RecordedCloudTest, AFileOrAFolderOfFramesReplaysAsObstacles) {
   EXPECT_EQ(frames.num_frames(), 10);
   EXPECT_EQ(frames.total_points(), 6000);
   // a RunEpisode with it: the frames advance at 30 Hz and the box's velocity is 0.01 m × 30 Hz = 0.3 m/s
-  sim::ReactiveController controller(*model, std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 8));
+  control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, 8));
   sim::EpisodeOptions episode{.duration = 0.25};
   episode.sensor = &frames;
   const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario);

@@ -99,7 +99,7 @@ TEST(OcclusionMemoryTest, ClassifiesPointsAgainstTheImage) {
 }
 
 // the least distance from p to the update's obstacle points (infinity when there are none)
-double Nearest(const CloudObstacles& cloud, const Eigen::Vector3d& p) {
+double Nearest(const control::CloudObstacles& cloud, const Eigen::Vector3d& p) {
   double d = std::numeric_limits<double>::infinity();
   for (Eigen::Index i = 0; i < cloud.points().cols(); ++i) d = std::min(d, (cloud.points().col(i) - p).norm());
   return d;
@@ -121,12 +121,12 @@ class Pipeline {
     cloud_.Update(fresh.leftCols(n), time, q_, memory_.points(), memory_.counts());
     memory_.Remember(cloud_, time);
   }
-  const CloudObstacles& cloud() const { return cloud_; }
+  const control::CloudObstacles& cloud() const { return cloud_; }
   const OcclusionMemory& memory() const { return memory_; }
 
  private:
   kinematics::Robot robot_;
-  CloudObstacles cloud_;
+  control::CloudObstacles cloud_;
   OcclusionMemory memory_;
   Eigen::VectorXd q_;
   std::vector<DepthImage> images_;
@@ -169,9 +169,9 @@ TEST(OcclusionMemoryTest, AHalfHiddenCubeKeepsItsCentroidAndStaysAtRest) {
     Pipeline p(on);
     double t = 0.0;
     for (int k = 0; k < 4; ++k, t += 1.0 / 30.0) p.Frame({kWall, kCube}, t);
-    auto cube = [&]() -> const CloudCluster& {
-      const CloudCluster* best = nullptr;
-      for (const CloudCluster& c : p.cloud().clusters()) {
+    auto cube = [&]() -> const control::CloudCluster& {
+      const control::CloudCluster* best = nullptr;
+      for (const control::CloudCluster& c : p.cloud().clusters()) {
         if (best == nullptr || (c.centroid_W - kCube.centre).norm() < (best->centroid_W - kCube.centre).norm()) best = &c;
       }
       return *best;

@@ -17,7 +17,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/planning/rrt.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
@@ -331,17 +331,17 @@ TEST(RrtPolicyTest, MovedObstacleInvalidatesThePathAndTriggersAReplan) {
 struct Rig {
   Rig(const sim::Scenario& scenario, RrtOptions options)
       : model(std::make_shared<const sim::WorldModel>(scenario.robot(), scenario.scene_spec())), world(model) {
-    const sim::ControllerOptions controller_options;
+    const control::ControllerOptions controller_options;
     const double period = 1.0 / controller_options.control_rate;
     options.evaluation_period = period / std::ceil(period / controller_options.max_substep - 1e-9);
     auto rrt = std::make_unique<RrtPolicy>(scenario.robot(), options);
     policy = rrt.get();
-    controller = std::make_unique<sim::ReactiveController>(*model, std::move(rrt), controller_options);
+    controller = std::make_unique<control::ReactiveController>(model->servos(), std::move(rrt), controller_options);
   }
   std::shared_ptr<const sim::WorldModel> model;
   sim::World world;
   RrtPolicy* policy = nullptr;
-  std::unique_ptr<sim::ReactiveController> controller;
+  std::unique_ptr<control::ReactiveController> controller;
 };
 
 std::pair<double, double> MeanMaxMs(const std::vector<double>& times) {

@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/learned_controller.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/vec_env.h"
 #include "rmpmarl/rmp/rmpflow.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/world.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/tasks/task_config.h"
@@ -89,22 +89,22 @@ int Controller(char** argv) {
     return 2;
   }
   auto world = std::make_shared<const sim::WorldModel>(robot);
-  auto make = [&]() -> std::pair<std::unique_ptr<sim::AccelerationPolicy>, sim::ControllerOptions> {
+  auto make = [&]() -> std::pair<std::unique_ptr<control::AccelerationPolicy>, control::ControllerOptions> {
     if (which == "rmpflow") {
-      return {std::make_unique<sim::RmpflowAccelerationPolicy>(world->robot(), rmp::LoadRmpflowOptions(world->robot()),
+      return {std::make_unique<control::RmpflowAccelerationPolicy>(world->robot(), rmp::LoadRmpflowOptions(world->robot()),
                                                                4),
-              sim::ControllerOptions{}};
+              control::ControllerOptions{}};
     }
-    const rl::PolicyFile file = rl::LoadPolicyFile(which);
-    rl::LearnedControllerOptions options;
+    const control::PolicyFile file = control::LoadPolicyFile(which);
+    control::LearnedControllerOptions options;
     options.max_obstacles = 4;
-    auto learned = rl::MakeLearnedController(world->robot(), file, which, options);
-    const sim::ControllerOptions controller_options = learned->controller_options();
+    auto learned = control::MakeLearnedController(world->robot(), file, which, options);
+    const control::ControllerOptions controller_options = learned->controller_options();
     return {std::move(learned), controller_options};
   };
   auto [policy, unused] = make();
   auto [loop_policy, options] = make();
-  sim::ReactiveController controller(*world, std::move(loop_policy), options);
+  control::ReactiveController controller(world->servos(), std::move(loop_policy), options);
   std::ofstream out(argv[6], std::ios::binary);
   Eigen::VectorXd qdd(nq);
   rmp::Scene scene;

@@ -1,7 +1,8 @@
-// rl::LearnedController — the learned agents in a user's loop — against the env they were trained in: the same
+// control::LearnedController — the learned agents in a user's loop — against the env they were trained in: the same
 // observations and actions on the same state (its warnings from the capsules' geometry, the env's from MuJoCo), and
 // a whole episode in a plain control loop without the env.
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/rl/policy_task.h"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +25,7 @@ std::string ShippedDefault() {
 // the env's first observations and the controller's on the same reset state agree (float tolerance: MuJoCo's
 // narrow phase against math::CapsuleBoxDistance), so do the actions, for several episodes and two arms
 TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
-  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const control::PolicyFile file = control::LoadPolicyFile(ShippedDefault());
   for (const char* robot : {"panda", "ur5e"}) {
     SCOPED_TRACE(robot);
     TaskMove move;
@@ -35,7 +36,7 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
     const auto context = tasks::MakeTaskContext(config);
     tasks::ManipulatorEnv env(context);
     tasks::StepBuffers buffers(env.spec());
-    PolicyRuntime runtime(file.weights, context->nq());
+    control::PolicyRuntime runtime(file.weights, context->nq());
     std::vector<float> env_actions(static_cast<size_t>(context->nq()) * env.spec().action.size());
     int compared_warnings = 0;
     std::vector<double> max_diff(env.spec().local_obs_dim, 0.0);
@@ -49,9 +50,9 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
         env.Step(env_actions.data(), rng, buffers.out());
       }
       const kinematics::Robot& r = env.world().model().robot();
-      LearnedControllerOptions options;
+      control::LearnedControllerOptions options;
       options.max_obstacles = context->num_obstacles();
-      LearnedController controller(r, config, file.weights, options);
+      control::LearnedController controller(r, tasks::AgentConfigOf(config), file.weights, options);
       controller.Reset(env.world().q());
       rmp::Scene scene;
       env.scenario().FillScene(&scene);
@@ -59,19 +60,19 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
       const int d = env.spec().local_obs_dim;
       for (int i = 0; i < context->nq(); ++i) {
         for (int k = 0; k < d; ++k) {
-          if (k == tasks::LocalObs::kProgress || (k >= tasks::LocalObs::kOption && k < tasks::LocalObs::kRmpSize)) continue;  // episode state
+          if (k == control::LocalObs::kProgress || (k >= control::LocalObs::kOption && k < control::LocalObs::kRmpSize)) continue;  // episode state
           const double diff = std::abs(controller.observations()[i * d + k] - buffers.local_obs[i * d + k]);
           max_diff[k] = std::max(max_diff[k], diff);
         }
-        compared_warnings += buffers.local_obs[i * d + tasks::LocalObs::kWarningFlag] > 0.5f;
+        compared_warnings += buffers.local_obs[i * d + control::LocalObs::kWarningFlag] > 0.5f;
       }
       runtime.Act(buffers.local_obs.data(), context->nq(), env_actions.data());
       // the controller's observations with the episode state (progress, running option) the fresh controller cannot
       // know: the actions they give
       std::vector<float> obs = controller.observations(), actions(env_actions.size());
       for (int i = 0; i < context->nq(); ++i) {
-        for (int k : {tasks::LocalObs::kProgress, tasks::LocalObs::kOption, tasks::LocalObs::kOption + 1, tasks::LocalObs::kOption + 2,
-                      tasks::LocalObs::kOptionPhaseB, tasks::LocalObs::kOptionAge}) {
+        for (int k : {control::LocalObs::kProgress, control::LocalObs::kOption, control::LocalObs::kOption + 1, control::LocalObs::kOption + 2,
+                      control::LocalObs::kOptionPhaseB, control::LocalObs::kOptionAge}) {
           obs[i * d + k] = buffers.local_obs[i * d + k];
         }
       }
@@ -88,10 +89,10 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
     // MuJoCo's narrow phase and math:: agree on the distances to 0.2 mm; the witness points of near-parallel
     // capsules (a link beside its neighbour) are not unique, and MuJoCo picks others: their direction and lever differ
     for (int k = 0; k < static_cast<int>(max_diff.size()); ++k) {
-      const bool witness = (k >= tasks::LocalObs::kWarningDirection && k < tasks::LocalObs::kWarningDistance) ||
-                           (k >= tasks::LocalObs::kWitnessLever && k < tasks::LocalObs::kDistanceGradient + 1);
-      const double tolerance = witness ? 0.05 : k == tasks::LocalObs::kWarningDistance ? 1e-3 : 2e-5;
-      EXPECT_LE(max_diff[k], tolerance) << tasks::PerJointObservationNames(config.interface, true)[k];
+      const bool witness = (k >= control::LocalObs::kWarningDirection && k < control::LocalObs::kWarningDistance) ||
+                           (k >= control::LocalObs::kWitnessLever && k < control::LocalObs::kDistanceGradient + 1);
+      const double tolerance = witness ? 0.05 : k == control::LocalObs::kWarningDistance ? 1e-3 : 2e-5;
+      EXPECT_LE(max_diff[k], tolerance) << control::PerJointObservationNames(config.interface, true)[k];
     }
     EXPECT_LE(max_action_diff, 0.05);  // the parameters the agents read from those observations
     EXPECT_GT(compared_warnings, 0);  // the warning features were compared where they are set
@@ -101,19 +102,20 @@ TEST(LearnedControllerTest, ObservesAndActsAsTheAgentsInTheEnv) {
 // over whole episodes the controller, fed the env's measured state every control step, keeps the agents' episode
 // state as the env does (progress, running option, its age) and sees and acts as they do all along
 TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisodes) {
-  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const control::PolicyFile file = control::LoadPolicyFile(ShippedDefault());
   tasks::TaskConfig config = PolicyTaskConfig(file, ShippedDefault());
   config.randomization.variants = 1;
   const auto context = tasks::MakeTaskContext(config);
   tasks::ManipulatorEnv env(context);
   tasks::StepBuffers buffers(env.spec());
-  PolicyRuntime runtime(file.weights, context->nq());
+  control::PolicyRuntime runtime(file.weights, context->nq());
   const int nq = context->nq(), d = env.spec().local_obs_dim;
   const tasks::ActionSpec& a = env.spec().action;
   std::vector<float> env_actions(static_cast<size_t>(nq) * a.size());
-  LearnedControllerOptions options;
+  control::LearnedControllerOptions options;
   options.max_obstacles = context->num_obstacles();
-  LearnedController controller(env.world().model().robot(), config, file.weights, options);
+  control::LearnedController controller(env.world().model().robot(), tasks::AgentConfigOf(config), file.weights,
+                                        options);
   int steps = 0, read_actions = 0;
   double max_state_diff = 0.0, max_joint_diff = 0.0, max_action_diff = 0.0;
   for (int episode = 0; episode < 2; ++episode) {
@@ -128,11 +130,11 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
       for (int i = 0; i < nq; ++i) {
         const float* mine = controller.observations().data() + static_cast<size_t>(i) * d;
         const float* env_obs = buffers.local_obs.data() + static_cast<size_t>(i) * d;
-        for (int k : {tasks::LocalObs::kProgress, tasks::LocalObs::kOption, tasks::LocalObs::kOption + 1, tasks::LocalObs::kOption + 2,
-                      tasks::LocalObs::kOptionPhaseB, tasks::LocalObs::kOptionAge}) {
+        for (int k : {control::LocalObs::kProgress, control::LocalObs::kOption, control::LocalObs::kOption + 1, control::LocalObs::kOption + 2,
+                      control::LocalObs::kOptionPhaseB, control::LocalObs::kOptionAge}) {
           max_state_diff = std::max(max_state_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
-        for (int k = tasks::LocalObs::kJointPosition; k <= tasks::LocalObs::kJointIndex; ++k) {
+        for (int k = control::LocalObs::kJointPosition; k <= control::LocalObs::kJointIndex; ++k) {
           max_joint_diff = std::max(max_joint_diff, static_cast<double>(std::abs(mine[k] - env_obs[k])));
         }
         // the controller reads an action where the env's step does, and runs its network only then
@@ -161,9 +163,9 @@ TEST(LearnedControllerTest, StaysInLockstepWithTheAgentsInTheEnvOverWholeEpisode
 // target features are zero at once (not those of a target left over from the last step), and when the arm moves on
 // they point back to the held position
 TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
-  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const control::PolicyFile file = control::LoadPolicyFile(ShippedDefault());
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
-  LearnedController controller(robot, PolicyTaskConfig(file, ShippedDefault()), file.weights);
+  control::LearnedController controller(robot, control::PolicyAgentConfig(file, ShippedDefault()), file.weights);
   const int nq = robot.model.nq(), d = controller.observations().size() / nq;
   Eigen::VectorXd q = robot.home.size() == nq ? robot.home : Eigen::VectorXd::Zero(nq);
   const Eigen::VectorXd qd = Eigen::VectorXd::Zero(nq);
@@ -172,12 +174,12 @@ TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
   scene.has_target = true;
   scene.p_WT = Eigen::Vector3d(0.3, 0.3, 0.3);
   controller.BeginControlStep(q, qd, scene);
-  EXPECT_GT(std::abs(controller.observations()[tasks::LocalObs::kEeToTarget]), 0.01);
+  EXPECT_GT(std::abs(controller.observations()[control::LocalObs::kEeToTarget]), 0.01);
   scene.has_target = false;
   q[0] += 0.5;  // the arm moved: the end effector is elsewhere, and that is the target now
   controller.BeginControlStep(q, qd, scene);
   for (int i = 0; i < nq; ++i) {
-    for (int k = tasks::LocalObs::kEeToTarget; k < tasks::LocalObs::kEeToTarget + 4; ++k) {
+    for (int k = control::LocalObs::kEeToTarget; k < control::LocalObs::kEeToTarget + 4; ++k) {
       EXPECT_NEAR(controller.observations()[static_cast<size_t>(i) * d + k], 0.0, 1e-6) << "joint " << i << " feature " << k;
     }
   }
@@ -187,7 +189,7 @@ TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
   q[1] += 0.3;  // moved again: the held position stays where it was
   controller.BeginControlStep(q, qd, scene);
   double feature = 0.0;
-  for (int k = tasks::LocalObs::kEeToTarget; k < tasks::LocalObs::kEeToTarget + 3; ++k) {
+  for (int k = control::LocalObs::kEeToTarget; k < control::LocalObs::kEeToTarget + 3; ++k) {
     feature = std::max(feature, std::abs(static_cast<double>(controller.observations()[k])));
   }
   EXPECT_GT(feature, 0.01);
@@ -201,23 +203,23 @@ TEST(LearnedControllerTest, WithoutATargetHoldsTheEndEffectorWhereItIs) {
 // a user's loop: World + scenario + ReactiveController, no env. On the sim's own crossing scene (four cubes) the
 // learned controller runs as RMPflow does, in the same place, without a collision and tracking as close
 TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {
-  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const control::PolicyFile file = control::LoadPolicyFile(ShippedDefault());
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("crossing", robot);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   double learned_mm = 0.0, rmpflow_mm = 0.0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    auto learned = MakeLearnedController(robot, file, ShippedDefault(), scenario->num_obstacles());
-    const sim::ControllerOptions options = learned->controller_options();
+    auto learned = control::MakeLearnedController(robot, file, ShippedDefault(), scenario->num_obstacles());
+    const control::ControllerOptions options = learned->controller_options();
     for (const bool is_learned : {true, false}) {
       sim::World world(world_model);
-      std::unique_ptr<sim::AccelerationPolicy> policy;
+      std::unique_ptr<control::AccelerationPolicy> policy;
       if (is_learned) {
         policy = std::move(learned);
       } else {
-        policy = std::make_unique<sim::RmpflowAccelerationPolicy>(robot, scenario->num_obstacles());
+        policy = std::make_unique<control::RmpflowAccelerationPolicy>(robot, scenario->num_obstacles());
       }
-      sim::ReactiveController controller(*world_model, std::move(policy), is_learned ? options : sim::ControllerOptions{});
+      control::ReactiveController controller(world_model->servos(), std::move(policy), is_learned ? options : control::ControllerOptions{});
       sim::EpisodeOptions episode;
       episode.duration = 5.0;
       episode.seed = seed;
@@ -237,23 +239,23 @@ TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {
 }
 
 TEST(LearnedControllerTest, RefusesWhatDoesNotFit) {
-  const PolicyFile file = LoadPolicyFile(ShippedDefault());
+  const control::PolicyFile file = control::LoadPolicyFile(ShippedDefault());
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   tasks::TaskConfig direct = PolicyTaskConfig(file, ShippedDefault());
   direct.interface = tasks::InterfaceMode::kPerJointDirect;
-  EXPECT_THROW(LearnedController(robot, direct, file.weights), InputError);
+  EXPECT_THROW(control::LearnedController(robot, tasks::AgentConfigOf(direct), file.weights), InputError);
   tasks::TaskConfig no_lookahead = PolicyTaskConfig(file, ShippedDefault());
   no_lookahead.observation.lookahead = 0.0;
   no_lookahead.options.target_gate_clearance = -INFINITY;
   try {
-    LearnedController c(robot, no_lookahead, file.weights);
+    control::LearnedController c(robot, tasks::AgentConfigOf(no_lookahead), file.weights);
     ADD_FAILURE() << "expected an InputError";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("observations"), std::string::npos) << e.what();
   }
-  LearnedControllerOptions one_obstacle;
+  control::LearnedControllerOptions one_obstacle;
   one_obstacle.max_obstacles = 1;
-  LearnedController c(robot, PolicyTaskConfig(file, ShippedDefault()), file.weights, one_obstacle);
+  control::LearnedController c(robot, control::PolicyAgentConfig(file, ShippedDefault()), file.weights, one_obstacle);
   c.Reset(Eigen::VectorXd::Zero(robot.model.nq()));
   rmp::Scene scene;
   scene.obstacles.assign(2, rmp::Obstacle::MakeSphere(Eigen::Vector3d(1, 1, 1), 0.05));

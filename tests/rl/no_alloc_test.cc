@@ -3,7 +3,8 @@
 
 #include "../support/alloc_counter.h"
 #include "rl_test_util.h"
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/sim/controlled_world.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 
 namespace rmpmarl::rl {
@@ -48,21 +49,21 @@ TEST(NoAllocTest, EnvStepDoesNotAllocate) {
 // coupled basic layer at every substep) allocates nothing either
 TEST(NoAllocTest, LearnedControllerStepDoesNotAllocate) {
   const std::string path = (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
-  const PolicyFile file = LoadPolicyFile(path);
+  const control::PolicyFile file = control::LoadPolicyFile(path);
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario("crossing", robot);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
   sim::World world(world_model);
-  auto learned = MakeLearnedController(robot, file, path, scenario->num_obstacles());
-  const sim::ControllerOptions options = learned->controller_options();
-  sim::ReactiveController controller(*world_model, std::move(learned), options);
+  auto learned = control::MakeLearnedController(robot, file, path, scenario->num_obstacles());
+  const control::ControllerOptions options = learned->controller_options();
+  control::ReactiveController controller(world_model->servos(), std::move(learned), options);
   scenario->Reset(7, world);
-  controller.Reset(world);
+  sim::ResetController(controller, world);
   rmp::Scene scene;
   scene.obstacles.reserve(scenario->num_obstacles());
   auto step = [&] {
     scenario->FillScene(&scene);
-    controller.Step(world, scene);
+    sim::StepController(controller, world, scene);
     world.Step(controller.physics_steps_per_control());
     scenario->Advance(controller.control_period(), world.QueryContacts(), world);
   };

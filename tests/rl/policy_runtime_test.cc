@@ -1,6 +1,6 @@
-// rl::PolicyRuntime::ActWhere against Act: the agents asked for get Act's actions bit for bit, in the AVX2
+// control::PolicyRuntime::ActWhere against Act: the agents asked for get Act's actions bit for bit, in the AVX2
 // kernel and in the portable one, and the agents left out keep what their action rows held.
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_runtime.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +13,7 @@ namespace rmpmarl::rl {
 namespace {
 
 // an actor of the shipped default's shape (41 → 128 → 128 → 128 → 3 options + 4 continuous), random weights
-PolicyWeights RandomWeights(std::uint64_t seed) {
+control::PolicyWeights RandomWeights(std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<float> normal(0.0f, 1.0f);
   auto random = [&](Eigen::Index rows, Eigen::Index cols, float scale) {
@@ -21,7 +21,7 @@ PolicyWeights RandomWeights(std::uint64_t seed) {
     for (Eigen::Index i = 0; i < m.size(); ++i) m.data()[i] = scale * normal(rng);
     return m;
   };
-  PolicyWeights w;
+  control::PolicyWeights w;
   w.obs_dim = 41;
   w.num_options = 3;
   w.num_continuous = 4;
@@ -43,10 +43,10 @@ PolicyWeights RandomWeights(std::uint64_t seed) {
 // 11 agents, so that the AVX2 kernel's batches of 8 are split differently in the two calls; random subsets,
 // the empty and the full one included; compared bit for bit
 TEST(PolicyRuntimeTest, ActWhereGivesActsActionsForTheAgentsItEvaluates) {
-  const PolicyWeights w = RandomWeights(3);
+  const control::PolicyWeights w = RandomWeights(3);
   constexpr int kAgents = 11;
   for (const bool avx2 : {true, false}) {
-    PolicyRuntime runtime(w, kAgents);
+    control::PolicyRuntime runtime(w, kAgents);
     if (!avx2) runtime.DisableAvx2();
     SCOPED_TRACE(runtime.uses_avx2());
     std::mt19937_64 rng(11);

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/torch/trainer.h"
 
 extern char** environ;
@@ -119,10 +119,10 @@ TEST(CheckpointKillTest, SigkillDuringACheckpointWriteResumesFromThePreviousOne)
   ASSERT_EQ(RunCli({"train", whole_config, "--quiet"}, {}, log).code, 0) << ReadAll(log);
   // the same controller: network and task bit for bit (the provenance names each run)
   auto controller = [&](const fs::path& policy) {
-    PolicyFile file = LoadPolicyFile(policy.string());
+    control::PolicyFile file = control::LoadPolicyFile(policy.string());
     file.provenance_yaml.clear();
     const fs::path bare = dir / "bare.rmpp";
-    SavePolicyFile(file, bare.string());
+    control::SavePolicyFile(file, bare.string());
     return ReadAll(bare);
   };
   const std::string resumed_policy = controller(run / "policy.rmpp");

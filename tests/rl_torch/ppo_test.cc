@@ -12,8 +12,9 @@
 #include <random>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/rl/torch/tensorboard.h"
 #include "rmpmarl/rl/torch/toy_reach.h"
 
@@ -264,8 +265,8 @@ std::unique_ptr<Ppo> TrainedLookingLearner() {
 
 TEST(PolicyRuntimeTest, MatchesLibtorchWithin1em5) {
   auto ppo = TrainedLookingLearner();
-  const PolicyWeights weights = ppo->Export();
-  PolicyRuntime avx(weights, 9), portable(weights, 9);
+  const control::PolicyWeights weights = ppo->Export();
+  control::PolicyRuntime avx(weights, 9), portable(weights, 9);
   portable.DisableAvx2();
   const int d = weights.obs_dim, hs = weights.head_size();
   for (int agents = 1; agents <= 9; ++agents) {
@@ -273,7 +274,7 @@ TEST(PolicyRuntimeTest, MatchesLibtorchWithin1em5) {
     const torch::Tensor obs = torch::randn({agents, d}) * 4.0;
     const HeadOutputs head = ppo->actor()->forward(ppo->obs_norm().Normalize(obs, 10.0));
     const torch::Tensor want = torch::cat({head.option_logits, head.mean, head.termination_logit.unsqueeze(1)}, 1);
-    for (PolicyRuntime* rt : {&avx, &portable}) {
+    for (control::PolicyRuntime* rt : {&avx, &portable}) {
       std::vector<float> got(static_cast<size_t>(agents) * hs);
       rt->EvaluateHead(obs.contiguous().data_ptr<float>(), agents, got.data());
       double max_error = 0.0;
@@ -288,7 +289,7 @@ TEST(PolicyRuntimeTest, MatchesLibtorchWithin1em5) {
 
 TEST(PolicyRuntimeTest, ActionsEqualTheDeterministicLibtorchActions) {
   auto ppo = TrainedLookingLearner();
-  PolicyRuntime rt(ppo->Export(), 7);
+  control::PolicyRuntime rt(ppo->Export(), 7);
   torch::manual_seed(5);
   const torch::Tensor obs = torch::randn({7, rt.obs_dim()}) * 2.0;
   const ActResult r = ppo->Act(obs, torch::zeros({1, ppo->spec().global_state_dim}), false, true);
@@ -304,16 +305,16 @@ TEST(PolicyRuntimeTest, ActionsEqualTheDeterministicLibtorchActions) {
 
 TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
   auto ppo = TrainedLookingLearner();
-  const PolicyWeights w = ppo->Export();
+  const control::PolicyWeights w = ppo->Export();
   const std::string path = ::testing::TempDir() + "/runtime_test.rmpp";
-  PolicyFile file;
+  control::PolicyFile file;
   file.weights = w;
   file.task_yaml = ControllerTaskYaml(tasks::TaskConfigPath("reach-avoid"), "{options: {gain_range: 3}, scenario: "
                                       "{num_obstacles: 1}}", "per-joint-direct");
   file.provenance_yaml = "{seed: 4, commit: abc}";
-  SavePolicyFile(file, path);
-  const PolicyFile loaded = LoadPolicyFile(path);
-  const PolicyWeights& back = loaded.weights;
+  control::SavePolicyFile(file, path);
+  const control::PolicyFile loaded = control::LoadPolicyFile(path);
+  const control::PolicyWeights& back = loaded.weights;
   EXPECT_EQ(loaded.provenance_yaml, file.provenance_yaml);
   // the controller sections keep the training overrides, the scene goes back to the shipped task's
   const tasks::TaskConfig task = PolicyTaskConfig(loaded, path);
@@ -336,7 +337,7 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
     const std::string bad = ::testing::TempDir() + "/runtime_test_bad.rmpp";
     std::ofstream(bad, std::ios::binary | std::ios::trunc) << content;
     try {
-      LoadPolicyFile(bad);
+      control::LoadPolicyFile(bad);
       ADD_FAILURE() << "accepted a bad file (" << words << ")";
     } catch (const InputError& e) {
       EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
@@ -361,21 +362,21 @@ TEST(PolicyRuntimeTest, FileRoundTripAndCorruptFilesRefused) {
     const std::size_t texts = 8 + file.task_yaml.size() + file.provenance_yaml.size();
     v1 += weights_bytes.substr(0, weights_bytes.size() - 4 - texts);
   }
-  const std::uint32_t crc = Crc32c(v1.data(), v1.size());
+  const std::uint32_t crc = control::Crc32c(v1.data(), v1.size());
   v1.append(reinterpret_cast<const char*>(&crc), 4);
   expect_refused(v1, "rmpmarl policy upgrade");
   const std::string v1_path = ::testing::TempDir() + "/runtime_test_v1.rmpp";
   std::ofstream(v1_path, std::ios::binary | std::ios::trunc) << v1;
-  EXPECT_EQ(LoadPolicyFileV1(v1_path).head.weight, w.head.weight);
+  EXPECT_EQ(control::LoadPolicyFileV1(v1_path).head.weight, w.head.weight);
   // a text that is not a mapping is refused when saved
-  PolicyFile not_a_map = file;
+  control::PolicyFile not_a_map = file;
   not_a_map.provenance_yaml = "[1, 2]";
-  EXPECT_THROW(SavePolicyFile(not_a_map, path), InputError);
+  EXPECT_THROW(control::SavePolicyFile(not_a_map, path), InputError);
 }
 
 // ---------------------------------------------------------------------------------------------------- tensorboard
 TEST(TensorBoardTest, MaskedCrcAndEventEncoding) {
-  EXPECT_EQ(Crc32c("123456789", 9), 0xE3069283u);  // the CRC-32C check value
+  EXPECT_EQ(control::Crc32c("123456789", 9), 0xE3069283u);  // the CRC-32C check value
   EXPECT_EQ(MaskedCrc32c("123456789", 9), 0xC78AB0E5u);
   // Event{wall_time 1.0, step 2, summary{value{tag "a", simple_value 0.5}}}, encoded by hand:
   const std::string want = std::string("\x09\x00\x00\x00\x00\x00\x00\xF0\x3F", 9) + std::string("\x10\x02", 2) +

@@ -28,14 +28,14 @@ std::vector<kinematics::Robot> ArmsAndPlanar2() {
 
 // a world for the scenario and an RMPflow controller (robot's shipped config) with default options.
 struct Rig {
-  Rig(const Scenario& scenario, ControllerOptions options = {})
+  Rig(const Scenario& scenario, control::ControllerOptions options = {})
       : model(std::make_shared<const WorldModel>(scenario.robot(), scenario.scene_spec())),
         world(model),
-        controller(*model, std::make_unique<RmpflowAccelerationPolicy>(scenario.robot(), scenario.num_obstacles()),
+        controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(scenario.robot(), scenario.num_obstacles()),
                    options) {}
   std::shared_ptr<const WorldModel> model;
   World world;
-  ReactiveController controller;
+  control::ReactiveController controller;
 };
 
 Eigen::Vector3d EndEffector(const World& world) { return world.EndEffectorPosition(); }
@@ -128,7 +128,7 @@ TEST(ClosedLoopTest, StaysFiniteFromSingularPosturesAndJointLimits) {
             {.duration = 3.0, .seed = 1, .video_fps = 100.0}, rig.world, rig.controller, *scenario,
             [&](const FrameInfo& f) {
               ++frames;
-              const ReactiveController& c = rig.controller;
+              const control::ReactiveController& c = rig.controller;
               ASSERT_TRUE(f.world->q().allFinite() && f.world->qd().allFinite()) << robot.name;
               ASSERT_TRUE(c.q_cmd().allFinite() && c.qd_cmd().allFinite() && c.servo_target().allFinite());
               ASSERT_TRUE(c.qdd().allFinite()) << robot.name << " " << scenario->name() << " t " << f.time;
@@ -164,7 +164,7 @@ TEST(ClosedLoopTest, LineCrossingStopsACollidingObstacleAtThePointOfImpact) {
                                               .through = p_E0});
         auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
         World world(model);
-        ReactiveController controller(*model, std::make_unique<testing::HoldPolicy>(robot.model.nq()));
+        control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(robot.model.nq()));
         const int n = scenario.num_obstacles();
         std::vector<std::vector<Eigen::Vector3d>> poses(n);
         std::vector<int> first_hit(n, -1);

@@ -8,6 +8,7 @@
 
 #include "../support/alloc_counter.h"
 #include "rmpmarl/sim/episode.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 namespace rmpmarl::sim {
 namespace {
@@ -30,10 +31,10 @@ TEST(ControlNoAllocTest, ControlStepScenarioAndPhysicsDoNotAllocate) {
     const std::unique_ptr<Scenario> scenario = MakeScenario(name, robot);
     auto model = std::make_shared<const WorldModel>(robot, scenario->scene_spec());
     World world(model);
-    ReactiveController controller(*model,
-                                  std::make_unique<RmpflowAccelerationPolicy>(robot, scenario->num_obstacles()));
+    control::ReactiveController controller(model->servos(),
+                                  std::make_unique<control::RmpflowAccelerationPolicy>(robot, scenario->num_obstacles()));
     scenario->Reset(2, world);
-    controller.Reset(world);
+    sim::ResetController(controller, world);
     rmp::Scene scene;
     scenario->FillScene(&scene);  // sizes the obstacle list once
     const ContactReport* contacts = &world.QueryContacts();
@@ -42,7 +43,7 @@ TEST(ControlNoAllocTest, ControlStepScenarioAndPhysicsDoNotAllocate) {
     for (int step = 0; step < 2500; ++step) {  // 5 s
       if (step % controller.physics_steps_per_control() == 0) {
         scenario->FillScene(&scene);
-        controller.Step(world, scene);
+        sim::StepController(controller, world, scene);
       }
       ASSERT_TRUE(world.Step().ok);
       contacts = &world.QueryContacts();
@@ -51,7 +52,7 @@ TEST(ControlNoAllocTest, ControlStepScenarioAndPhysicsDoNotAllocate) {
     }
     EXPECT_EQ(AllocationCount() - before, 0) << name;
     EXPECT_GT(scenario->time(), 4.9);
-    const ControllerStats& s = controller.stats();
+    const control::ControllerStats& s = controller.stats();
     EXPECT_EQ(s.steps, 500);
     EXPECT_EQ(s.nonfinite_outputs, 0);
     std::printf("[ cost     ] panda %-13s %d obstacles, RMPflow, %d substeps: control step mean %.1f us, max %.1f us "
@@ -65,7 +66,7 @@ TEST(ControlNoAllocTest, EpisodeLoopDoesNotAllocate) {
   LineCrossingScenario scenario(robot, {.speed = 1.8});
   auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
   World world(model);
-  ReactiveController controller(*model, std::make_unique<RmpflowAccelerationPolicy>(robot, scenario.num_obstacles()));
+  control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, scenario.num_obstacles()));
   long at_first_frame = -1, at_last_frame = -1;
   const EpisodeResult r = RunEpisode({.duration = 4.0, .seed = 1, .video_fps = 10.0}, world, controller, scenario,
                                      [&](const FrameInfo& f) {

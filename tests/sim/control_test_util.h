@@ -6,12 +6,12 @@
 #include <string>
 #include <utility>
 
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::sim::testing {
 
 // q̈ = a, a constant vector (NaN entries allowed: the controller must catch them).
-class ConstantPolicy final : public AccelerationPolicy {
+class ConstantPolicy final : public control::AccelerationPolicy {
  public:
   explicit ConstantPolicy(Eigen::VectorXd a) : a_(std::move(a)) {}
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>&,
@@ -26,7 +26,7 @@ class ConstantPolicy final : public AccelerationPolicy {
 };
 
 // q̈ = −k q̇: brakes and then holds still whatever happens around it (a robot that cannot avoid anything).
-class HoldPolicy final : public AccelerationPolicy {
+class HoldPolicy final : public control::AccelerationPolicy {
  public:
   explicit HoldPolicy(int nq, double k = 20.0) : nq_(nq), k_(k) {}
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>&, const Eigen::Ref<const Eigen::VectorXd>& qd,
@@ -42,9 +42,9 @@ class HoldPolicy final : public AccelerationPolicy {
 };
 
 // RMPflow for the first `good_calls` evaluations, then NaN (or +inf) in one joint.
-class FailingPolicy final : public AccelerationPolicy {
+class FailingPolicy final : public control::AccelerationPolicy {
  public:
-  FailingPolicy(std::unique_ptr<AccelerationPolicy> inner, long good_calls, bool infinity = false)
+  FailingPolicy(std::unique_ptr<control::AccelerationPolicy> inner, long good_calls, bool infinity = false)
       : inner_(std::move(inner)), good_calls_(good_calls), infinity_(infinity) {}
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) override {
@@ -62,7 +62,7 @@ class FailingPolicy final : public AccelerationPolicy {
   int nq() const override { return inner_->nq(); }
 
  private:
-  std::unique_ptr<AccelerationPolicy> inner_;
+  std::unique_ptr<control::AccelerationPolicy> inner_;
   long good_calls_;
   bool infinity_;
   long calls_ = 0;

@@ -1,6 +1,7 @@
 // ReactiveController: semi-implicit Euler on the commanded state against the closed-form sum, velocity/position
 // clamps, velocity feed-forward, non-finite policy output never reaching MuJoCo, re-synchronisation, rates, errors.
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
+#include "rmpmarl/sim/controlled_world.h"
 
 #include <gtest/gtest.h>
 
@@ -42,8 +43,8 @@ TEST(ControllerTest, PeriodAndSubstepsFollowTheRates) {
   };
   for (const Case& c : {Case{100.0, 0.002, 5, 5}, Case{100.0, 0.01, 5, 1}, Case{100.0, 0.003, 5, 4},
                         Case{250.0, 0.002, 2, 2}, Case{500.0, 0.002, 1, 1}, Case{50.0, 0.002, 10, 10}}) {
-    ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()),
-                           ControllerOptions{.control_rate = c.rate, .max_substep = c.max_substep});
+    control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()),
+                           control::ControllerOptions{.control_rate = c.rate, .max_substep = c.max_substep});
     EXPECT_EQ(ctl.physics_steps_per_control(), c.physics_steps) << c.rate;
     EXPECT_EQ(ctl.substeps(), c.substeps) << c.rate << " " << c.max_substep;
     EXPECT_NEAR(ctl.control_period(), 1.0 / c.rate, 1e-15);
@@ -57,17 +58,17 @@ TEST(ControllerTest, IntegratesSemiImplicitEulerOnTheCommandedState) {
   auto wm = Planar2World();
   World world(wm);
   const Eigen::Vector2d a(0.7, -1.3);
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(a),
-                         ControllerOptions{.control_rate = 100.0, .max_substep = 0.002, .velocity_feedforward = false});
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(a),
+                         control::ControllerOptions{.control_rate = 100.0, .max_substep = 0.002, .velocity_feedforward = false});
   const Eigen::Vector2d q0(0.2, -0.4);
   world.Reset(q0);
-  ctl.Reset(world);
+  sim::ResetController(ctl, world);
   const rmp::Scene scene;
   const int n = ctl.substeps();
   const double h = ctl.substep();
   Eigen::Vector2d q_expected = q0, v_expected = Eigen::Vector2d::Zero();
   for (int step = 1; step <= 4; ++step) {
-    const ControlStepResult r = ctl.Step(world, scene);
+    const control::ControlStepResult r = sim::StepController(ctl, world, scene);
     EXPECT_TRUE(r.finite);
     EXPECT_FALSE(r.resynced);
     q_expected += n * h * v_expected + h * h * a * (n * (n + 1) / 2.0);
@@ -85,11 +86,11 @@ TEST(ControllerTest, IntegratesSemiImplicitEulerOnTheCommandedState) {
 TEST(ControllerTest, VelocityFeedForwardAddsDampingOverStiffnessTimesVelocity) {
   auto wm = Planar2World();
   World world(wm);
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d(2.0, -1.0)));
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d(2.0, -1.0)));
   ASSERT_TRUE(ctl.options().velocity_feedforward);
   world.Reset(Eigen::Vector2d(0.1, 0.2));
-  ctl.Reset(world);
-  ctl.Step(world, rmp::Scene{});
+  sim::ResetController(ctl, world);
+  sim::StepController(ctl, world, rmp::Scene{});
   const ServoGains& g = wm->servo_gains();
   for (int i = 0; i < 2; ++i) {
     const double expected = ctl.q_cmd()[i] + g.damping[i] / g.kp[i] * ctl.qd_cmd()[i];
@@ -102,17 +103,17 @@ TEST(ControllerTest, ClampsVelocityAndZeroesItAtAJointLimit) {
   const kinematics::Robot robot = kinematics::MakePlanar2();  // |q| ≤ 3 rad, |q̇| ≤ 3 rad/s
   auto wm = std::make_shared<const WorldModel>(robot);
   World world(wm);
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d(40.0, -40.0)),
-                         ControllerOptions{.velocity_limit_scale = 0.5});
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d(40.0, -40.0)),
+                         control::ControllerOptions{.velocity_limit_scale = 0.5});
   EXPECT_DOUBLE_EQ(ctl.velocity_limits()[0], 1.5);
   world.Reset(Eigen::Vector2d(2.0, -2.0));
-  ctl.Reset(world);
+  sim::ResetController(ctl, world);
   const rmp::Scene scene;
   long velocity_clamps = 0, position_clamps = 0;
   bool reached = false;
   for (int step = 0; step < 200; ++step) {
     const Eigen::Vector2d q_before = ctl.q_cmd();
-    const ControlStepResult r = ctl.Step(world, scene);
+    const control::ControlStepResult r = sim::StepController(ctl, world, scene);
     velocity_clamps += r.velocity_clamps;
     position_clamps += r.position_clamps;
     EXPECT_LE(ctl.qd_cmd().cwiseAbs().maxCoeff(), 1.5 + 1e-15);
@@ -141,15 +142,15 @@ TEST(ControllerTest, NonFinitePolicyOutputHoldsPositionAndNeverReachesMujoco) {
   for (const bool infinity : {false, true}) {
     World world(wm);
     const long good = 60;  // 12 control steps of 5 substeps
-    ReactiveController ctl(*wm, std::make_unique<testing::FailingPolicy>(
-                                    std::make_unique<RmpflowAccelerationPolicy>(robot, 0), good, infinity));
+    control::ReactiveController ctl(wm->servos(), std::make_unique<testing::FailingPolicy>(
+                                    std::make_unique<control::RmpflowAccelerationPolicy>(robot, 0), good, infinity));
     world.Reset(ReadyConfiguration(robot));
-    ctl.Reset(world);
+    sim::ResetController(ctl, world);
     rmp::Scene scene;
     scene.p_WT = Eigen::Vector3d(0.3, 0.3, 0.3);  // far enough to be moving when the policy fails
     Eigen::VectorXd held;
     for (int step = 0; step < 50; ++step) {
-      const ControlStepResult r = ctl.Step(world, scene);
+      const control::ControlStepResult r = sim::StepController(ctl, world, scene);
       EXPECT_EQ(r.finite, step < good / ctl.substeps()) << step;
       ASSERT_TRUE(world.joint_targets().allFinite());
       ASSERT_TRUE(ctl.q_cmd().allFinite());
@@ -172,12 +173,12 @@ TEST(ControllerTest, NonFinitePolicyOutputHoldsPositionAndNeverReachesMujoco) {
 TEST(ControllerTest, ResynchronisesWithTheMeasuredStateWhenPushedAway) {
   auto wm = Planar2World();
   World world(wm);
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()),
-                         ControllerOptions{.resync_threshold = 0.2});
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()),
+                         control::ControllerOptions{.resync_threshold = 0.2});
   world.Reset(Eigen::Vector2d(0.5, 0.5));
-  ctl.Reset(world);
+  sim::ResetController(ctl, world);
   const rmp::Scene scene;
-  ControlStepResult r = ctl.Update(Eigen::Vector2d(0.6, 0.4), Eigen::Vector2d(0.3, 0.0), scene);
+  control::ControlStepResult r = ctl.Update(Eigen::Vector2d(0.6, 0.4), Eigen::Vector2d(0.3, 0.0), scene);
   EXPECT_FALSE(r.resynced);  // within the threshold: the commanded state is kept
   EXPECT_EQ(ctl.q_cmd(), Eigen::Vector2d(0.5, 0.5));
   r = ctl.Update(Eigen::Vector2d(0.9, 0.4), Eigen::Vector2d(0.3, -5.0), scene);
@@ -193,11 +194,11 @@ TEST(ControllerTest, ResynchronisesWithTheMeasuredStateWhenPushedAway) {
 TEST(ControllerTest, MeasuredInputEvaluatesOncePerControlStep) {
   auto wm = Planar2World();
   World world(wm);
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d(1.0, 1.0)),
-                         ControllerOptions{.policy_input = PolicyInput::kMeasured});
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d(1.0, 1.0)),
+                         control::ControllerOptions{.policy_input = control::PolicyInput::kMeasured});
   world.Reset(Eigen::Vector2d::Zero());
-  ctl.Reset(world);
-  ctl.Step(world, rmp::Scene{});
+  sim::ResetController(ctl, world);
+  sim::StepController(ctl, world, rmp::Scene{});
   EXPECT_EQ(static_cast<ConstantPolicy&>(ctl.policy()).calls, 1);
   // q̈ held over the substeps: the same closed form as above from rest
   const int n = ctl.substeps();
@@ -207,7 +208,7 @@ TEST(ControllerTest, MeasuredInputEvaluatesOncePerControlStep) {
 
 TEST(ControllerTest, RmpflowAdapterEqualsRmpflowPolicy) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("xarm6");
-  RmpflowAccelerationPolicy adapter(robot, 2);
+  control::RmpflowAccelerationPolicy adapter(robot, 2);
   rmp::RmpflowPolicy direct(robot, rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name)), 2);
   std::mt19937_64 rng(3);
   rmp::Scene scene;
@@ -231,8 +232,8 @@ TEST(ControllerTest, RmpflowAdapterEqualsRmpflowPolicy) {
 
 TEST(ControllerTest, BadInputThrowsInputErrorWithExpectedVsGot) {
   auto wm = Planar2World();
-  auto make = [&](ControllerOptions o) {
-    ReactiveController(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()), o);
+  auto make = [&](control::ControllerOptions o) {
+    control::ReactiveController(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()), o);
   };
   ExpectInputError([&] { make({.control_rate = 300.0}); }, {"control_rate", "whole number", "300"});
   ExpectInputError([&] { make({.control_rate = 1000.0}); }, {"control_rate", "whole number", "1000"});
@@ -241,10 +242,10 @@ TEST(ControllerTest, BadInputThrowsInputErrorWithExpectedVsGot) {
   ExpectInputError([&] { make({.velocity_limit_scale = NAN}); }, {"velocity_limit_scale"});
   ExpectInputError([&] { make({.resync_threshold = 0.0}); }, {"resync_threshold", "+inf"});
   EXPECT_NO_THROW(make({.resync_threshold = std::numeric_limits<double>::infinity()}));
-  ExpectInputError([&] { ReactiveController(*wm, nullptr); }, {"AccelerationPolicy", "null"});
-  ExpectInputError([&] { ReactiveController(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector3d::Zero())); },
+  ExpectInputError([&] { control::ReactiveController(wm->servos(), nullptr); }, {"AccelerationPolicy", "null"});
+  ExpectInputError([&] { control::ReactiveController(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector3d::Zero())); },
                    {"3 joints", "planar2", "has 2"});
-  ReactiveController ctl(*wm, std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()));
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(Eigen::Vector2d::Zero()));
   ExpectInputError([&] { ctl.Update(Eigen::Vector3d::Zero(), Eigen::Vector2d::Zero(), rmp::Scene{}); },
                    {"2 finite entries", "sizes 3 and 2"});
   ExpectInputError([&] { ctl.Update(Eigen::Vector2d(NAN, 0.0), Eigen::Vector2d::Zero(), rmp::Scene{}); },

@@ -77,7 +77,7 @@ TEST(EpisodeTest, MetricsOfAHeldArmMatchDirectReferences) {
   StaticScenario scenario(robot, options);
   auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
   World world(model);
-  ReactiveController controller(*model, std::make_unique<testing::HoldPolicy>(robot.model.nq()));
+  control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(robot.model.nq()));
   const EpisodeResult r =
       RunEpisode({.duration = 1.0, .seed = 0, .video_fps = 25.0}, world, controller, scenario, {});
   EXPECT_EQ(r.scenario, "static");
@@ -136,7 +136,7 @@ TEST(EpisodeTest, StopOnCollisionEndsAtTheFirstImpact) {
   LineCrossingScenario scenario(robot, {.speed = 2.8, .target_speed = 0.0, .repeat = false, .through = p_E0});
   auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
   World world(model);
-  ReactiveController controller(*model, std::make_unique<testing::HoldPolicy>(robot.model.nq()));
+  control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(robot.model.nq()));
   double first_impact = -1.0;
   const EpisodeResult full = RunEpisode({.duration = 2.0, .video_fps = 500.0}, world, controller, scenario,
                                         [&](const FrameInfo& f) {
@@ -158,7 +158,7 @@ TEST(EpisodeTest, BadInputThrowsInputError) {
   StaticReachScenario scenario(robot);
   auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
   World world(model);
-  ReactiveController controller(*model, std::make_unique<testing::HoldPolicy>(2));
+  control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(2));
   EXPECT_THROW(RunEpisode({.duration = 0.0}, world, controller, scenario), InputError);
   EXPECT_THROW(RunEpisode({.duration = NAN}, world, controller, scenario), InputError);
   EXPECT_THROW(RunEpisode({.video_fps = -1.0}, world, controller, scenario), InputError);
@@ -166,7 +166,7 @@ TEST(EpisodeTest, BadInputThrowsInputError) {
   EXPECT_THROW(RunEpisode({.tracking_warmup = -1.0}, world, controller, scenario), InputError);
   const kinematics::Robot panda = kinematics::LoadShippedRobot("panda");
   auto panda_model = std::make_shared<const WorldModel>(panda, scenario.scene_spec());
-  ReactiveController panda_controller(*panda_model, std::make_unique<testing::HoldPolicy>(7));
+  control::ReactiveController panda_controller(panda_model->servos(), std::make_unique<testing::HoldPolicy>(7));
   EXPECT_THROW(RunEpisode({}, world, panda_controller, scenario), InputError);
   World panda_world(panda_model);
   EXPECT_THROW(RunEpisode({}, panda_world, panda_controller, scenario), InputError);  // scenario of planar2

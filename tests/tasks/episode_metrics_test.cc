@@ -10,7 +10,7 @@
 #include "../rl/rl_test_util.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/tasks/manipulator_env.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::tasks {
 namespace {
@@ -87,7 +87,7 @@ TEST(EpisodeMetricsTest, ExternalControllerDrivesTheRobotAndIgnoresTheActions) {
   const auto context = MakeTaskContext(c);
   ExternalController external;
   external.make_policy = [](const kinematics::Robot& robot) {
-    return std::make_unique<sim::RmpflowAccelerationPolicy>(robot, 4);
+    return std::make_unique<control::RmpflowAccelerationPolicy>(robot, 4);
   };
   ManipulatorEnv rmpflow(context, external);
   ManipulatorEnv agents(context);

@@ -41,7 +41,7 @@ std::vector<int> StartedPattern(OptionTermination termination, int horizon, cons
     started.push_back(static_cast<int>(b.option_started[0]));
     // the observation shows the running option (zeros once it ended)
     const bool running = !env.option_machine(0).idle();
-    EXPECT_EQ(b.obs(s, 0, LocalObs::kOption), running ? 1.0f : 0.0f);
+    EXPECT_EQ(b.obs(s, 0, control::LocalObs::kOption), running ? 1.0f : 0.0f);
     EXPECT_EQ(b.option_started[1], started.size() == 1 || (termination == OptionTermination::kFixed &&
                                                             (started.size() - 1) % horizon == 0)
                                        ? 1.0f

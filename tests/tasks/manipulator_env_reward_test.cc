@@ -144,7 +144,7 @@ TEST(ManipulatorEnvTest, PrecisionPassClearanceGatesTheKernelOnTheLookaheadBlock
   a.Reset(rng_a, ba.out());
   b.Reset(rng_b, bb.out());
   std::vector<float> actions(spec.num_agents * spec.action.size());
-  const int clearance_feature = LookaheadOffset(gated.interface) + LocalObs::kLookaheadClearance;
+  const int clearance_feature = control::LookaheadOffset(gated.interface) + control::LocalObs::kLookaheadClearance;
   int paid = 0, withheld = 0;
   for (int step = 0; step < 300 && !bb.terminated && !bb.truncated; ++step) {
     RandomActions(spec, arng, actions.data());
@@ -208,7 +208,7 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
     b.Reset(rng_b, bb.out());
     raw.Reset(rng_r, br.out());
     std::vector<float> actions(spec.num_agents * as.size()), fed(actions.size()), kept(actions.size(), 0.0f);
-    const int clearance_feature = LookaheadOffset(prior.interface) + LocalObs::kLookaheadClearance;
+    const int clearance_feature = control::LookaheadOffset(prior.interface) + control::LocalObs::kLookaheadClearance;
     int clear = 0, threat = 0, clipped = 0, holds = 0;
     double raw_gap = 0.0;
     for (int step = 0; step < 300 && !ba.terminated && !ba.truncated; ++step) {
@@ -232,7 +232,7 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
           ++holds;
         }
         std::copy_n(kept.begin() + row, as.num_continuous, fed.begin() + row);
-        float& u = fed[i * as.size() + RmpActionLayout::kTargetAccelScale];
+        float& u = fed[i * as.size() + control::RmpActionLayout::kTargetAccelScale];
         const float sum = u + (fires[i] ? -0.5f : 1.0f);
         if (std::abs(sum) > 1.0f) ++clipped;
         u = std::clamp(sum, -1.0f, 1.0f);
@@ -444,8 +444,8 @@ TEST(ManipulatorEnvTest, TargetGainRangeOneIgnoresTheTargetScales) {
       RandomActions(s, arng, actions.data());
       other = actions;
       for (int i = 0; i < s.num_agents; ++i) {
-        other[i * as.size() + RmpActionLayout::kTargetAccelScale] = u(arng);
-        other[i * as.size() + RmpActionLayout::kTargetMetricScale] = u(arng);
+        other[i * as.size() + control::RmpActionLayout::kTargetAccelScale] = u(arng);
+        other[i * as.size() + control::RmpActionLayout::kTargetMetricScale] = u(arng);
       }
       a.Step(actions.data(), rng_a, ba.out());
       b.Step(other.data(), rng_b, bb.out());

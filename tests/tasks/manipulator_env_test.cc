@@ -34,7 +34,7 @@ TEST(ManipulatorEnvTest, PerJointSpecIsIdenticalAtEveryJointOfEveryArm) {
     auto context = MakeTaskContext(c);
     const EnvSpec& s = context->spec();
     EXPECT_EQ(s.num_agents, nq);
-    EXPECT_EQ(s.local_obs_dim, LocalObs::kRmpSize);
+    EXPECT_EQ(s.local_obs_dim, control::LocalObs::kRmpSize);
     EXPECT_EQ(s.local_obs_names.size(), static_cast<size_t>(s.local_obs_dim));
     if (names.empty()) names = s.local_obs_names;
     EXPECT_EQ(s.local_obs_names, names);  // same size and meaning on every arm
@@ -53,10 +53,10 @@ TEST(ManipulatorEnvTest, PerJointSpecIsIdenticalAtEveryJointOfEveryArm) {
     std::mt19937_64 rng(3);
     env.Reset(rng, b.out());
     for (int i = 0; i < nq; ++i) {
-      const Eigen::Vector3d axis(b.obs(s, i, LocalObs::kAxis), b.obs(s, i, LocalObs::kAxis + 1),
-                                 b.obs(s, i, LocalObs::kAxis + 2));
+      const Eigen::Vector3d axis(b.obs(s, i, control::LocalObs::kAxis), b.obs(s, i, control::LocalObs::kAxis + 1),
+                                 b.obs(s, i, control::LocalObs::kAxis + 2));
       EXPECT_NEAR(axis.norm(), 1.0, 1e-6);
-      EXPECT_NEAR(b.obs(s, i, LocalObs::kJointIndex), static_cast<float>(i) / (nq - 1), 1e-6);
+      EXPECT_NEAR(b.obs(s, i, control::LocalObs::kJointIndex), static_cast<float>(i) / (nq - 1), 1e-6);
       for (int k = 0; k < s.local_obs_dim; ++k) EXPECT_TRUE(std::isfinite(b.obs(s, i, k)));
     }
 
@@ -65,7 +65,7 @@ TEST(ManipulatorEnvTest, PerJointSpecIsIdenticalAtEveryJointOfEveryArm) {
     const auto direct_context = MakeTaskContext(c);
     const EnvSpec& d = direct_context->spec();
     EXPECT_EQ(d.num_agents, nq);
-    EXPECT_EQ(d.local_obs_dim, LocalObs::kBaseSize);
+    EXPECT_EQ(d.local_obs_dim, control::LocalObs::kBaseSize);
     EXPECT_EQ(d.action.size(), 1);
     EXPECT_EQ(d.action.num_options, 0);
     c.interface = InterfaceMode::kDirect;
@@ -149,28 +149,28 @@ void ExpectPlanarFeatures(const Planar2Setup& p, const Buffers& b, const EnvSpec
     const double a = angles[i];
     const Eigen::Vector3d& o = origins[i];
     const double tol = 2e-6;
-    EXPECT_TRUE(Feature3(b, s, i, LocalObs::kEeToTarget).isApprox(InFrame(a, (pE - p.p_WT) / l), tol));
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kLogDistance), std::log1p((pE - p.p_WT).norm() / 0.001) / std::log(1001.0), tol);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kEeVelocity) - InFrame(a, vE)).norm(), 1e-5);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kLever) - InFrame(a, (pE - o) / l)).norm(), tol);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kAxis) - Eigen::Vector3d::UnitZ()).norm(), tol);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kEeJacobian) - InFrame(a, z.cross(pE - o) / l)).norm(), tol);
+    EXPECT_TRUE(Feature3(b, s, i, control::LocalObs::kEeToTarget).isApprox(InFrame(a, (pE - p.p_WT) / l), tol));
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kLogDistance), std::log1p((pE - p.p_WT).norm() / 0.001) / std::log(1001.0), tol);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kEeVelocity) - InFrame(a, vE)).norm(), 1e-5);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kLever) - InFrame(a, (pE - o) / l)).norm(), tol);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kAxis) - Eigen::Vector3d::UnitZ()).norm(), tol);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kEeJacobian) - InFrame(a, z.cross(pE - o) / l)).norm(), tol);
     // both joints move link 2, whose capsule is 0.06 m from the sphere (link 1's is beyond the warning distance)
-    EXPECT_EQ(b.obs(s, i, LocalObs::kWarningFlag), 1.0f);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kWarningDirection) - InFrame(a, -n)).norm(), 1e-5);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kWarningDistance), distance / warning, 1e-5);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kClosingSpeed), -n.dot(v_witness), 1e-5);
-    EXPECT_LT((Feature3(b, s, i, LocalObs::kWitnessLever) - InFrame(a, (w_robot - o) / l)).norm(), 1e-5);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kDistanceGradient), n.dot(z.cross(w_robot - o)) / l, 1e-5);
-    EXPECT_EQ(b.obs(s, i, LocalObs::kWarningIsSelf), 0.0f);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointPosition), q[i] / 3.0, tol);  // limits ±3 rad
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointSin), std::sin(q[i]), tol);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointCos), std::cos(q[i]), tol);
-    EXPECT_NEAR(b.obs(s, i, LocalObs::kJointVelocity), qd[i] / 3.0, 1e-5);  // v_max 3 rad/s
-    EXPECT_EQ(b.obs(s, i, LocalObs::kJointIndex), static_cast<float>(i));
+    EXPECT_EQ(b.obs(s, i, control::LocalObs::kWarningFlag), 1.0f);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kWarningDirection) - InFrame(a, -n)).norm(), 1e-5);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kWarningDistance), distance / warning, 1e-5);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kClosingSpeed), -n.dot(v_witness), 1e-5);
+    EXPECT_LT((Feature3(b, s, i, control::LocalObs::kWitnessLever) - InFrame(a, (w_robot - o) / l)).norm(), 1e-5);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kDistanceGradient), n.dot(z.cross(w_robot - o)) / l, 1e-5);
+    EXPECT_EQ(b.obs(s, i, control::LocalObs::kWarningIsSelf), 0.0f);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kJointPosition), q[i] / 3.0, tol);  // limits ±3 rad
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kJointSin), std::sin(q[i]), tol);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kJointCos), std::cos(q[i]), tol);
+    EXPECT_NEAR(b.obs(s, i, control::LocalObs::kJointVelocity), qd[i] / 3.0, 1e-5);  // v_max 3 rad/s
+    EXPECT_EQ(b.obs(s, i, control::LocalObs::kJointIndex), static_cast<float>(i));
   }
   // the sphere–link-2 witness distance in the global state too
-  const GlobalStateLayout g(InterfaceMode::kPerJointRmp, 2, 1);
+  const control::GlobalStateLayout g(InterfaceMode::kPerJointRmp, 2, 1);
   (void)g;
 }
 
@@ -184,10 +184,10 @@ TEST(ManipulatorEnvTest, ObservationMatchesHandComputedPlanarFeatures) {
   env.Reset(rng, b.out());
   ASSERT_NEAR(env.world().q()[0], p.q0[0], 1e-12);
   ExpectPlanarFeatures(p, b, s, p.q0, Eigen::Vector2d::Zero());
-  EXPECT_NEAR(b.obs(s, 0, LocalObs::kWarningDistance), 0.06 / 0.15, 1e-6);
-  EXPECT_NEAR(b.obs(s, 1, LocalObs::kWitnessLever), 0.25 / 0.5, 1e-6);      // middle of link 2 ...
-  EXPECT_NEAR(b.obs(s, 1, LocalObs::kWitnessLever + 1), 0.04 / 0.5, 1e-6);  // ... on the capsule's surface
-  EXPECT_NEAR(b.obs(s, 1, LocalObs::kDistanceGradient), -0.25 / 0.5, 1e-6);
+  EXPECT_NEAR(b.obs(s, 0, control::LocalObs::kWarningDistance), 0.06 / 0.15, 1e-6);
+  EXPECT_NEAR(b.obs(s, 1, control::LocalObs::kWitnessLever), 0.25 / 0.5, 1e-6);      // middle of link 2 ...
+  EXPECT_NEAR(b.obs(s, 1, control::LocalObs::kWitnessLever + 1), 0.04 / 0.5, 1e-6);  // ... on the capsule's surface
+  EXPECT_NEAR(b.obs(s, 1, control::LocalObs::kDistanceGradient), -0.25 / 0.5, 1e-6);
 
   // global state at the reset
   const std::vector<std::string>& gn = s.global_state_names;
@@ -222,9 +222,9 @@ TEST(ManipulatorEnvTest, LookaheadBlockMatchesSampledPaths) {
   auto context = MakeTaskContext(c);
   ManipulatorEnv env(context);
   const EnvSpec& s = env.spec();
-  ASSERT_EQ(s.local_obs_dim, LocalObs::kRmpSize + LocalObs::kLookaheadSize);
-  EXPECT_EQ(s.local_obs_names[LocalObs::kRmpSize + LocalObs::kLookaheadTime], "lookahead_time");
-  const int base = LocalObs::kRmpSize;
+  ASSERT_EQ(s.local_obs_dim, control::LocalObs::kRmpSize + control::LocalObs::kLookaheadSize);
+  EXPECT_EQ(s.local_obs_names[control::LocalObs::kRmpSize + control::LocalObs::kLookaheadTime], "lookahead_time");
+  const int base = control::LocalObs::kRmpSize;
   const double l = c.observation.length_scale, T = c.observation.lookahead;
   Buffers b(s);
   std::mt19937_64 rng(5);
@@ -240,7 +240,7 @@ TEST(ManipulatorEnvTest, LookaheadBlockMatchesSampledPaths) {
         const sim::SceneSpec& scene = env.scenario().scene_spec();
         for (int i = 0; i < s.num_agents; ++i) {
           // the block's time of closest approach, as a sample index of the paths
-          const int k_obs = static_cast<int>(std::lround(20000.0 * b.obs(s, i, base + LocalObs::kLookaheadTime)));
+          const int k_obs = static_cast<int>(std::lround(20000.0 * b.obs(s, i, base + control::LocalObs::kLookaheadTime)));
           double best = std::numeric_limits<double>::infinity(), best_speed = 0.0;
           double at_block_time = std::numeric_limits<double>::infinity();  // smallest clearance at that instant
           for (int j = 0; j < env.scenario().num_obstacles(); ++j) {
@@ -262,9 +262,9 @@ TEST(ManipulatorEnvTest, LookaheadBlockMatchesSampledPaths) {
           }
           ++checked;
           if (best < 0.3) ++threatened;
-          EXPECT_NEAR(b.obs(s, i, base + LocalObs::kLookaheadClearance), std::clamp(best / l, -1.0, 2.0), 5e-4)
+          EXPECT_NEAR(b.obs(s, i, base + control::LocalObs::kLookaheadClearance), std::clamp(best / l, -1.0, 2.0), 5e-4)
               << "episode " << episode << " step " << step << " joint " << i;
-          EXPECT_NEAR(b.obs(s, i, base + LocalObs::kLookaheadSpeed), best_speed / c.observation.speed_scale, 1e-5);
+          EXPECT_NEAR(b.obs(s, i, base + control::LocalObs::kLookaheadSpeed), best_speed / c.observation.speed_scale, 1e-5);
           // at the block's time some path passes at the smallest clearance (the time of a flat minimum, a path parallel
           // to a capsule axis, is any time of the flat part)
           if (std::isfinite(best)) {
@@ -285,12 +285,12 @@ TEST(ManipulatorEnvTest, LookaheadBlockMatchesSampledPaths) {
   Buffers bs(still.spec());
   still.Reset(rng, bs.out());
   for (int i = 0; i < still.spec().num_agents; ++i) {
-    EXPECT_EQ(bs.obs(still.spec(), i, base + LocalObs::kLookaheadClearance), 2.0f);
-    EXPECT_EQ(bs.obs(still.spec(), i, base + LocalObs::kLookaheadTime), 1.0f);
-    EXPECT_EQ(bs.obs(still.spec(), i, base + LocalObs::kLookaheadSpeed), 0.0f);
+    EXPECT_EQ(bs.obs(still.spec(), i, base + control::LocalObs::kLookaheadClearance), 2.0f);
+    EXPECT_EQ(bs.obs(still.spec(), i, base + control::LocalObs::kLookaheadTime), 1.0f);
+    EXPECT_EQ(bs.obs(still.spec(), i, base + control::LocalObs::kLookaheadSpeed), 0.0f);
   }
   // off by default: the paper's local observation size
-  EXPECT_EQ(MakeTaskContext(SmallConfig(TaskKind::kLineCrossing, "panda", 1))->spec().local_obs_dim, LocalObs::kRmpSize);
+  EXPECT_EQ(MakeTaskContext(SmallConfig(TaskKind::kLineCrossing, "panda", 1))->spec().local_obs_dim, control::LocalObs::kRmpSize);
 }
 
 // a learning task on a user's robot: `robot: <file>.urdf` loads it as `demo --urdf` does — here a URDF

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/reward.h"
 
 namespace rmpmarl::tasks {
@@ -70,36 +70,36 @@ TEST(RewardTest, TermsSum) {
 }
 
 TEST(ActionTest, GainScaleMapsTheUnitIntervalToOneQuarterToFour) {
-  EXPECT_NEAR(GainScale(0.0, 4.0), 1.0, 1e-12);
-  EXPECT_NEAR(GainScale(1.0, 4.0), 4.0, 1e-12);
-  EXPECT_NEAR(GainScale(-1.0, 4.0), 0.25, 1e-12);
-  EXPECT_NEAR(GainScale(0.5, 4.0), 2.0, 1e-12);
-  EXPECT_NEAR(GainScale(7.0, 4.0), 4.0, 1e-12);  // clipped
-  EXPECT_NEAR(GainScale(-3.0, 4.0), 0.25, 1e-12);
+  EXPECT_NEAR(control::GainScale(0.0, 4.0), 1.0, 1e-12);
+  EXPECT_NEAR(control::GainScale(1.0, 4.0), 4.0, 1e-12);
+  EXPECT_NEAR(control::GainScale(-1.0, 4.0), 0.25, 1e-12);
+  EXPECT_NEAR(control::GainScale(0.5, 4.0), 2.0, 1e-12);
+  EXPECT_NEAR(control::GainScale(7.0, 4.0), 4.0, 1e-12);  // clipped
+  EXPECT_NEAR(control::GainScale(-3.0, 4.0), 0.25, 1e-12);
 }
 
 TEST(ActionTest, OptionIndicesMustBeIntegersInRange) {
-  EXPECT_EQ(DecodeOptionIndex(0.0f, 3), 0);
-  EXPECT_EQ(DecodeOptionIndex(2.0f, 3), 2);
-  EXPECT_EQ(DecodeOptionIndex(1.0004f, 3), 1);
-  EXPECT_EQ(DecodeOptionIndex(1.5f, 3), -1);
-  EXPECT_EQ(DecodeOptionIndex(3.0f, 3), -1);
-  EXPECT_EQ(DecodeOptionIndex(-1.0f, 3), -1);
-  EXPECT_EQ(DecodeOptionIndex(std::numeric_limits<float>::quiet_NaN(), 3), -1);
-  EXPECT_EQ(DecodeOptionIndex(std::numeric_limits<float>::infinity(), 3), -1);
+  EXPECT_EQ(control::DecodeOptionIndex(0.0f, 3), 0);
+  EXPECT_EQ(control::DecodeOptionIndex(2.0f, 3), 2);
+  EXPECT_EQ(control::DecodeOptionIndex(1.0004f, 3), 1);
+  EXPECT_EQ(control::DecodeOptionIndex(1.5f, 3), -1);
+  EXPECT_EQ(control::DecodeOptionIndex(3.0f, 3), -1);
+  EXPECT_EQ(control::DecodeOptionIndex(-1.0f, 3), -1);
+  EXPECT_EQ(control::DecodeOptionIndex(std::numeric_limits<float>::quiet_NaN(), 3), -1);
+  EXPECT_EQ(control::DecodeOptionIndex(std::numeric_limits<float>::infinity(), 3), -1);
 }
 
-constexpr int kTarget = static_cast<int>(RmpOption::kTarget);
-constexpr int kCollision = static_cast<int>(RmpOption::kCollision);
-constexpr int kComposite = static_cast<int>(RmpOption::kTargetThenCollision);
+constexpr int kTarget = static_cast<int>(control::RmpOption::kTarget);
+constexpr int kCollision = static_cast<int>(control::RmpOption::kCollision);
+constexpr int kComposite = static_cast<int>(control::RmpOption::kTargetThenCollision);
 
 TEST(OptionMachineTest, FixedHorizonRunsExactlyHorizonSteps) {
-  OptionMachine m(OptionTermination::kFixed, 3);
+  control::OptionMachine m(OptionTermination::kFixed, 3);
   m.Reset();
   std::vector<int> started;
   for (int step = 0; step < 9; ++step) {
     // the chosen index changes every step: only the first step of each option reads it
-    const OptionSelection s = m.Begin(step % 2 == 0 ? kTarget : kComposite, false);
+    const control::OptionSelection s = m.Begin(step % 2 == 0 ? kTarget : kComposite, false);
     started.push_back(s.started);
     EXPECT_TRUE(s.use_target);
     EXPECT_FALSE(s.use_collision);
@@ -109,7 +109,7 @@ TEST(OptionMachineTest, FixedHorizonRunsExactlyHorizonSteps) {
 }
 
 TEST(OptionMachineTest, LearnedTerminationEndsAfterTheFlaggedStep) {
-  OptionMachine m(OptionTermination::kLearned, 10);
+  control::OptionMachine m(OptionTermination::kLearned, 10);
   m.Reset();
   const bool flags[] = {false, false, true, false, true, true, false};
   std::vector<int> started;
@@ -122,10 +122,10 @@ TEST(OptionMachineTest, LearnedTerminationEndsAfterTheFlaggedStep) {
 }
 
 TEST(OptionMachineTest, CollisionOptionNeedsAWarningAndEndsWithIt) {
-  OptionMachine m(OptionTermination::kLearned, 10);
+  control::OptionMachine m(OptionTermination::kLearned, 10);
   m.Reset();
   // outside its initiation set: not applicable, the target RMP runs this step and the option ends after it
-  OptionSelection s = m.Begin(kCollision, /*warning=*/false);
+  control::OptionSelection s = m.Begin(kCollision, /*warning=*/false);
   EXPECT_TRUE(s.started);
   EXPECT_TRUE(s.use_target);
   EXPECT_FALSE(s.use_collision);
@@ -142,9 +142,9 @@ TEST(OptionMachineTest, CollisionOptionNeedsAWarningAndEndsWithIt) {
 }
 
 TEST(OptionMachineTest, CompositeRunsTargetThenCollision) {
-  OptionMachine m(OptionTermination::kLearned, 10);
+  control::OptionMachine m(OptionTermination::kLearned, 10);
   m.Reset();
-  OptionSelection s = m.Begin(kComposite, false);
+  control::OptionSelection s = m.Begin(kComposite, false);
   EXPECT_TRUE(s.started && s.use_target && !s.use_collision);
   EXPECT_FALSE(m.End(false, false));
   s = m.Begin(kTarget, false);

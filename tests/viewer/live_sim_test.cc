@@ -10,7 +10,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/viewer/live_sim.h"
 
 namespace rmpmarl::viewer {
@@ -20,8 +20,8 @@ std::string PolicyPath() {
   return (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string();
 }
 
-std::shared_ptr<const rl::PolicyFile> Policy() {
-  static const auto file = std::make_shared<const rl::PolicyFile>(rl::LoadPolicyFile(PolicyPath()));
+std::shared_ptr<const control::PolicyFile> Policy() {
+  static const auto file = std::make_shared<const control::PolicyFile>(control::LoadPolicyFile(PolicyPath()));
   return file;
 }
 

@@ -16,7 +16,7 @@
 
 #include "rmpmarl/planning/rrt.h"
 #include "rmpmarl/sim/episode.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/env.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rmp/rmpflow.h"
@@ -37,17 +37,17 @@ struct Method {
   MethodKind kind = MethodKind::kRmpflow;
   std::string policy_path;                                  ///< kPolicy: the .rmpp file
   tasks::InterfaceMode interface = tasks::InterfaceMode::kPerJointRmp;  ///< kPolicy: the mode it was trained on
-  int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (tasks::RmpOption order)
-  /// kFixedOption: the raw continuous parameters u of every joint (tasks::RmpActionLayout order: target accel, target
+  int fixed_option = 0;  ///< kFixedOption: 0 target, 1 collision, 2 target-then-collision (control::RmpOption order)
+  /// kFixedOption: the raw continuous parameters u of every joint (control::RmpActionLayout order: target accel, target
   /// metric, collision accel, collision metric); 0 = unit scales
-  std::array<float, tasks::RmpActionLayout::kNumContinuous> fixed_parameters{};
+  std::array<float, control::RmpActionLayout::kNumContinuous> fixed_parameters{};
   /// kFixedOption, a hand rule on the look-ahead block of the local observation (needs observation.lookahead > 0):
   /// joint i acts with `parameters` while a moving obstacle is predicted to pass within `clearance` [m] of a capsule
   /// joint i moves, and with fixed_parameters otherwise. The rule compares the clipped feature (clearance / ℓ in
   /// [−1, 2]), so a clearance ≥ 2ℓ always fires; an obstacle moving away counts with its current clearance.
   struct ThreatGate {
     double clearance = 0.0;
-    std::array<float, tasks::RmpActionLayout::kNumContinuous> parameters{};
+    std::array<float, control::RmpActionLayout::kNumContinuous> parameters{};
   };
   std::optional<ThreatGate> threat_gate;
   /// kRmpflow: changes to the robot's RMPflow config (configs/rmpflow) for this method (e.g. tuned gains); empty: none
@@ -70,11 +70,11 @@ struct EvalProtocol {
   int jobs = 2;  ///< worker threads (one env and one runtime each); results do not depend on it
   /// what the controllers know of the obstacles: empty, the exact shapes; else a sensor per env and robot variant
   /// (perception::DepthPerception). RMPflow and RRT are told what it senses; learned methods then run as
-  /// rl::LearnedController (warnings from the sensed obstacles, not from MuJoCo's contacts); fixed-option methods,
+  /// control::LearnedController (warnings from the sensed obstacles, not from MuJoCo's contacts); fixed-option methods,
   /// which read MuJoCo's contacts, are refused.
   std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> make_sensor{};
   int sensor_obstacle_slots = 8;  ///< with make_sensor: the controllers' obstacle slots (the sensor's clusters)
-  /// learned methods run as rl::LearnedController (as with a sensor) also on the exact shapes: the baseline that
+  /// learned methods run as control::LearnedController (as with a sensor) also on the exact shapes: the baseline that
   /// separates what perception costs from what the controller's own warnings change
   bool learned_as_controller = false;
 };

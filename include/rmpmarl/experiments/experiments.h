@@ -39,10 +39,10 @@ struct ExperimentOptions {
   /// ones, labelled by their file stem
   std::vector<std::string> urdfs;
   /// what the controllers know of the obstacles: "truth" (exact shapes) or "depth" (perception::DepthPerception with
-  /// `depth`; fixed-option methods are then left out, learned ones run as rl::LearnedController)
+  /// `depth`; fixed-option methods are then left out, learned ones run as control::LearnedController)
   std::string perception = "truth";
   perception::DepthPerceptionOptions depth;
-  /// learned methods run as rl::LearnedController also with "truth" (the baseline of a depth run's learned rows)
+  /// learned methods run as control::LearnedController also with "truth" (the baseline of a depth run's learned rows)
   bool as_controller = false;
 };
 

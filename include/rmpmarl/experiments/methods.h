@@ -41,7 +41,7 @@ struct MethodSpec {
   std::string layer;              ///< configs/layers/<layer>.yaml ("" the task's own layer)
   std::string layer_yaml;         ///< that file's overrides as a YAML flow mapping
   int option = 0;                 ///< kBasicLayer: 0 target, 1 collision, 2 target-then-collision
-  std::array<float, tasks::RmpActionLayout::kNumContinuous> parameters{};  ///< kBasicLayer: raw u (0: unit scales)
+  std::array<float, control::RmpActionLayout::kNumContinuous> parameters{};  ///< kBasicLayer: raw u (0: unit scales)
   std::optional<Method::ThreatGate> gate;  ///< kBasicLayer: the hand rule on the look-ahead block
   std::string evaluate;           ///< kBasicLayer: evaluation task overrides after the layer ("" none)
   std::string rmpflow;            ///< kRmpflow: overrides of the robot's configs/rmpflow file ("" none)

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::experiments {
@@ -19,7 +19,7 @@ namespace rmpmarl::experiments {
 struct ProbeOptions {
   int episodes = 10;
   std::uint64_t eval_seed = 7;    ///< episodes as EvaluateMethod's under this seed (7: the selection seed)
-  int parameter = tasks::RmpActionLayout::kTargetAccelScale;  ///< which RMP parameter (RmpActionLayout index 1..4)
+  int parameter = control::RmpActionLayout::kTargetAccelScale;  ///< which RMP parameter (RmpActionLayout index 1..4)
   double threat_clearance = 0.0;  ///< [m] the substituted pass: predicted clearance ...
   double threat_time = 0.3;       ///< [s] ... time of closest approach (≤ observation.lookahead) ...
   double threat_speed = 2.8;      ///< [m/s] ... and the obstacle's speed

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 #include "rmpmarl/perception/depth_camera.h"
 #include "rmpmarl/perception/occlusion_memory.h"
 #include "rmpmarl/sim/episode.h"
@@ -21,7 +21,7 @@ struct DepthPerceptionOptions {
   /// the cameras (all at the first one's rate); default: one 320 × 240 camera at DepthCameraOptions' default pose
   std::vector<DepthCameraOptions> cameras{DepthCameraOptions{}};
   int stride = 1;  ///< back-project every stride-th pixel in u and v, ≥ 1
-  CloudObstacleOptions cloud{};
+  control::CloudObstacleOptions cloud{};
   /// static obstacles remembered while the arm hides them from the cameras (OcclusionMemory)
   OcclusionMemoryOptions memory{};
 };
@@ -41,7 +41,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   const Eigen::Matrix3Xd& points() const override { return cloud_.points(); }
   sim::SensorSummary Summary() const override;
 
-  const CloudObstacles& cloud() const { return cloud_; }
+  const control::CloudObstacles& cloud() const { return cloud_; }
   const OcclusionMemory& memory() const { return memory_; }
   const DepthPerceptionOptions& options() const { return options_; }
   /// the last rendered image of camera k.
@@ -58,7 +58,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   std::vector<Eigen::Matrix3Xd> camera_points_;
   std::vector<int> counts_;
   Eigen::Matrix3Xd all_points_;
-  CloudObstacles cloud_;
+  control::CloudObstacles cloud_;
   OcclusionMemory memory_;
   double period_ = 1.0 / 30.0;
   double next_time_ = 0.0;

@@ -22,7 +22,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 #include "rmpmarl/perception/depth_camera.h"
 
 namespace rmpmarl::perception {
@@ -87,7 +87,7 @@ class OcclusionMemory {
   long size() const { return static_cast<long>(points_.cols()); }
   /// remembers the points of the update's obstacles that the tracker holds at rest (age ≥ min_age), seen at `time`;
   /// a voxel still in memory (hidden since Forget) keeps its point, count and last-seen time. Replaces the memory.
-  void Remember(const CloudObstacles& cloud, double time);
+  void Remember(const control::CloudObstacles& cloud, double time);
 
   const OcclusionMemoryStats& stats() const { return stats_; }
   const OcclusionMemoryOptions& options() const { return options_; }

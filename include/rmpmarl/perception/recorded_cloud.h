@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/world.h"
 
@@ -15,7 +15,7 @@ namespace rmpmarl::perception {
 /// Options of RecordedCloud.
 struct RecordedCloudOptions {
   double rate = 30.0;  ///< [Hz] updates per simulated second (a folder's frames advance at this rate), > 0
-  CloudObstacleOptions cloud{};
+  control::CloudObstacleOptions cloud{};
 };
 
 /// the .ply/.pcd files a path names: the file itself, or a folder's files in name order. Throws InputError for a
@@ -39,7 +39,7 @@ class RecordedCloud final : public sim::ObstacleSensor {
  private:
   RecordedCloudOptions options_;
   std::vector<Eigen::Matrix3Xd> frames_;  // base frame
-  CloudObstacles cloud_;
+  control::CloudObstacles cloud_;
   long shown_ = -1;  // rate tick of the last update
   long updates_ = 0;
   double update_us_ = 0.0, points_ = 0.0, obstacles_ = 0.0;

@@ -1,7 +1,7 @@
 #pragma once
 /// The paper's sampling-based baseline (Wang, Sagawa & Yoshiyasu, IEEE Access 2023, section IV.B–C, Fig. 6b): a
 /// joint-space RRT-Connect planner (Kuffner & LaValle, ICRA 2000; OMPL's ompl::geometric::RRTConnect) run as a
-/// reactive replanner behind the same sim::AccelerationPolicy interface as RMPflow, so sim::ReactiveController drives
+/// reactive replanner behind the same control::AccelerationPolicy interface as RMPflow, so control::ReactiveController drives
 /// it unchanged.
 ///
 /// One replan: (1) goal configuration by damped-least-squares IK of the end-effector position onto the target
@@ -46,7 +46,7 @@
 
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::planning {
 
@@ -107,7 +107,7 @@ struct IkResult {
 };
 
 /// The RRT baseline as an acceleration policy (see the file comment).
-class RrtPolicy final : public sim::AccelerationPolicy {
+class RrtPolicy final : public control::AccelerationPolicy {
  public:
   /// a planner for (a copy of) `robot`. Throws InputError for bad options (ValidateRrtOptions) or a dof without a
   /// finite velocity limit > 0.

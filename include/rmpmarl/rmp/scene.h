@@ -21,7 +21,7 @@ struct Obstacle {
   math::Sphere sphere;                            ///< used when shape == kSphere
   math::Box box;                                  ///< used when shape == kBox
   /// used when shape == kPoints: the points' index, not owned — it must outlive every use of the Scene holding it
-  /// (perception::CloudObstacles owns its clusters' indices until its next update).
+  /// (control::CloudObstacles owns its clusters' indices until its next update).
   const math::PointCloudIndex* points = nullptr;
   double point_radius = 0.0;                       ///< kPoints: each point is a sphere of this radius [m], ≥ 0
   Eigen::Vector3d v_WO = Eigen::Vector3d::Zero();  ///< linear velocity [m/s] in W

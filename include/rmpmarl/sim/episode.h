@@ -7,7 +7,8 @@
 #include <limits>
 #include <string>
 
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
+#include "rmpmarl/sim/controlled_world.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
 
@@ -111,11 +112,11 @@ struct EpisodeResult {
   bool success = false;   ///< no collision event and no divergence
 };
 
-/// runs one episode: scenario.Reset(seed, world), controller.Reset(world), then per physics step: the controller
+/// runs one episode: scenario.Reset(seed, world), sim::ResetController(controller, world), then per physics step: the controller
 /// every physics_steps_per_control() steps, World::Step, contacts and metrics, the frame callback when due, and
 /// scenario.Advance. Throws InputError for bad options or mismatched parts (controller and world of different
 /// robots).
-EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, ReactiveController& controller,
+EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
                          Scenario& scenario, const FrameCallback& on_frame = {});
 
 }  // namespace rmpmarl::sim

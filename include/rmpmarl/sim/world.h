@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/control/servos.h"
+#include "rmpmarl/control/warning.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/sim/mjcf.h"
 
@@ -50,6 +52,9 @@ class WorldModel {
   const std::string& mjcf() const { return mjcf_; }
   /// servo gains per dof, as compiled.
   const ServoGains& servo_gains() const { return gains_; }
+  /// the joints as a control::ReactiveController commands them: limits, the physics timestep, the servos'
+  /// velocity feed-forward d_i / kp_i.
+  const control::ServoSpec& servos() const { return servos_; }
 
   int nq() const { return robot_.model.nq(); }
   int num_obstacles() const { return static_cast<int>(scene_.obstacles.size()); }
@@ -92,6 +97,7 @@ class WorldModel {
   SceneSpec scene_;
   WorldOptions options_;
   ServoGains gains_;
+  control::ServoSpec servos_;
   std::string mjcf_;
   std::shared_ptr<const mjModel> mj_model_;
   std::vector<int> dof_qpos_adr_, dof_vel_adr_, dof_actuator_, link_body_, capsule_geom_;
@@ -116,24 +122,8 @@ struct StepResult {
   double time = 0.0;                  ///< simulation time after the step [s]
 };
 
-/// What the other side of a robot contact is.
-enum class PartnerKind { kObstacle, kLink, kFloor };
-
-/// One contact reported within the warning margin: robot geom (shape 1) vs obstacle, floor or another link
-/// (shape 2). Same sign and normal conventions as math::DistanceResult: p_W1 ≈ p_W2 + distance · n_W.
-struct WarningContact {
-  int robot_geom = -1;                ///< MuJoCo geom id of the robot capsule
-  int other_geom = -1;                ///< MuJoCo geom id of the other side
-  int link = -1;                      ///< robot link of robot_geom
-  int capsule = -1;                   ///< Robot::capsules index of robot_geom
-  PartnerKind other_kind = PartnerKind::kObstacle;
-  int other_index = -1;               ///< obstacle index, link index, or -1 for the floor
-  int other_capsule = -1;             ///< capsule index when other_kind == kLink
-  double distance = 0.0;              ///< signed distance, negative in penetration [m]
-  Eigen::Vector3d p_W1 = Eigen::Vector3d::Zero();  ///< witness point on the robot capsule
-  Eigen::Vector3d p_W2 = Eigen::Vector3d::Zero();  ///< witness point on the other shape
-  Eigen::Vector3d n_W = Eigen::Vector3d::UnitZ();  ///< unit normal from shape 2 to shape 1
-};
+using control::PartnerKind;
+using control::WarningContact;
 
 /// A pair in real penetration (distance < 0). For link–link pairs link < other_index.
 struct CollidingPair {

@@ -16,12 +16,12 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/env.h"
-#include "rmpmarl/tasks/joint_agents.h"
+#include "rmpmarl/control/joint_agents.h"
 #include "rmpmarl/tasks/reward.h"
 #include "rmpmarl/tasks/task_config.h"
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
@@ -66,7 +66,7 @@ class TaskContext {
   int num_scenario_settings() const { return num_settings_; }
   /// a fresh scenario for variant k and setting s (envs call this lazily, once per pair).
   std::unique_ptr<sim::Scenario> MakeScenario(int variant, int setting) const;
-  const GlobalStateLayout& global_layout() const { return global_layout_; }
+  const control::GlobalStateLayout& global_layout() const { return global_layout_; }
 
  private:
   TaskConfig config_;
@@ -77,7 +77,7 @@ class TaskContext {
   int num_obstacles_ = 0;
   int num_settings_ = 1;
   std::vector<RobotVariant> variants_;
-  GlobalStateLayout global_layout_{InterfaceMode::kDirect, 0, 0};
+  control::GlobalStateLayout global_layout_{InterfaceMode::kDirect, 0, 0};
 };
 
 /// std::make_shared<const TaskContext>(config, scenario).
@@ -99,12 +99,12 @@ struct StepInfo {
 };
 
 /// A controller that drives the robot in place of the agents (the baselines of the experiments: RMPflow, RRT): an
-/// acceleration policy made once per robot variant, run through sim::ReactiveController with its own options, the
+/// acceleration policy made once per robot variant, run through control::ReactiveController with its own options, the
 /// same way as `rmpmarl demo`. Episodes, metrics and rewards are the task's own, so baselines and agents are measured
 /// on identical episodes.
 struct ExternalController {
-  std::function<std::unique_ptr<sim::AccelerationPolicy>(const kinematics::Robot& variant_robot)> make_policy;
-  sim::ControllerOptions options;  ///< control_rate is replaced by the task's
+  std::function<std::unique_ptr<control::AccelerationPolicy>(const kinematics::Robot& variant_robot)> make_policy;
+  control::ControllerOptions options;  ///< control_rate is replaced by the task's
   /// what the controller is told of the obstacles: empty, the scenario's exact shapes; else a sensor made per robot
   /// variant (e.g. perception::DepthPerception), which replaces them before every control step. The agents'
   /// observations and the metrics keep the truth.
@@ -135,11 +135,11 @@ class ManipulatorEnv final : public Env {
   int variant() const { return variant_; }
   /// the scenario setting of the current episode (line-crossing: index into the speeds).
   int scenario_setting() const { return setting_; }
-  const OptionMachine& option_machine(int agent) const { return agents_->option_machine(agent); }
+  const control::OptionMachine& option_machine(int agent) const { return agents_->option_machine(agent); }
   /// the per-joint agents' state (sensing, observations, options).
-  const JointAgents& agents() const { return *agents_; }
+  const control::JointAgents& agents() const { return *agents_; }
   /// the external controller's policy of the current episode (nullptr when the agents act).
-  const sim::AccelerationPolicy* external_policy() const {
+  const control::AccelerationPolicy* external_policy() const {
     return external_controller_ != nullptr ? &external_controller_->policy() : nullptr;
   }
   const StepInfo& last_step() const { return info_; }
@@ -174,14 +174,14 @@ class ManipulatorEnv final : public Env {
   std::vector<std::unique_ptr<sim::Scenario>> scenarios_;  // [variant * settings + setting], made lazily
   sim::Scenario* scenario_ = nullptr;
   const kinematics::Robot* robot_ = nullptr;               // the current variant's robot
-  std::unique_ptr<JointAgents> agents_;                    // sensing, observations, options, the basic layer's weights
-  std::unique_ptr<sim::ReactiveController> controller_;    // per-joint-rmp: drives the agents' basic layer
+  std::unique_ptr<control::JointAgents> agents_;                    // sensing, observations, options, the basic layer's weights
+  std::unique_ptr<control::ReactiveController> controller_;    // per-joint-rmp: drives the agents' basic layer
   ExternalController external_;                            // baselines (make_policy empty: the agents act)
-  std::vector<std::unique_ptr<sim::ReactiveController>> external_controllers_;  // per variant, made lazily
+  std::vector<std::unique_ptr<control::ReactiveController>> external_controllers_;  // per variant, made lazily
   std::vector<std::unique_ptr<sim::ObstacleSensor>> sensors_;  // per variant with ExternalController::make_sensor
   sim::ObstacleSensor* sensor_ = nullptr;                        // the current variant's, or null
   rmp::Scene sensed_scene_;                                      // what the external controller is told
-  sim::ReactiveController* external_controller_ = nullptr; // the current variant's
+  control::ReactiveController* external_controller_ = nullptr; // the current variant's
   int physics_steps_ = 1;
   double control_period_ = 0.0;
   rmp::Scene scene_;

@@ -12,24 +12,24 @@
 #include <string_view>
 #include <vector>
 
+#include "rmpmarl/control/agent_config.h"
 #include "rmpmarl/rmp/joint_layer.h"
-#include "rmpmarl/sim/controller.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::tasks {
 
-/// How the agents act (the three learners of the paper's comparison).
-enum class InterfaceMode {
-  kPerJointRmp,     ///< `per-joint-rmp`: one agent per joint choosing an RMP option + gain/priority scales (MARL-RMP)
-  kDirect,          ///< `direct`: one agent commanding every Δq_i, no RMPs (the PPO baseline)
-  kPerJointDirect,  ///< `per-joint-direct`: one agent per joint commanding its own Δq_i, no RMPs (MARL-PPO)
-};
-
-/// How a running option ends (besides its built-in conditions, docs/environments.md).
-enum class OptionTermination {
-  kLearned,  ///< the action's termination flag (≥ 0.5) ends the option after the step
-  kFixed,    ///< the option runs exactly `horizon` steps (no termination flag in the action)
-};
+// the controller sections of a task (control/agent_config.h)
+using control::AgentConfig;
+using control::BasicLayerConfig;
+using control::DirectConfig;
+using control::InterfaceMode;
+using control::InterfaceModeName;
+using control::ObservationConfig;
+using control::OptionConfig;
+using control::OptionTermination;
+using control::OptionTerminationName;
+using control::OptionWarnings;
+using control::ParseInterfaceMode;
 
 /// Which scenario moves target and obstacles.
 enum class TaskKind {
@@ -45,21 +45,11 @@ enum class ScenarioUpdate {
   kControlStep,  ///< once per env step by the control period (cheaper; obstacles jump v·T)
 };
 
-/// "per-joint-rmp", "direct", "per-joint-direct".
-std::string_view InterfaceModeName(InterfaceMode mode);
-/// the interface called `name`; throws InputError "interface: expected per-joint-rmp, direct or per-joint-direct,
-/// got '<name>'".
-InterfaceMode ParseInterfaceMode(std::string_view name);
-/// "learned", "fixed".
-std::string_view OptionTerminationName(OptionTermination termination);
 /// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".
 std::string_view TaskKindName(TaskKind kind);
 
-/// Episode timing and ending.
-struct EpisodeConfig {
-  int max_steps = 500;                  ///< truncation horizon [env steps], ≥ 1
-  double control_rate = 100.0;          ///< env steps per simulated second [Hz]; period = whole physics timesteps
-  double physics_timestep = 0.002;      ///< MuJoCo timestep [s]
+/// Episode timing and ending: the agents' horizon and clock (control::AgentEpisode) and how training runs them.
+struct EpisodeConfig : control::AgentEpisode {
   /// MuJoCo integrator. Euler (joint damping implicit) tracks the servos like `implicit` (after a 0.3 rad step on
   /// every shipped arm: errors at 0.4 s within 3e-4 rad, peak speeds within 1 %) at half the cost per physics step
   /// (docs/environments.md, "Cost").
@@ -69,76 +59,6 @@ struct EpisodeConfig {
   ScenarioUpdate scenario_update = ScenarioUpdate::kPhysicsStep;
   /// success also needs the final tracking error below this [m] (+inf: success = no collision, not invalid).
   double success_max_final_error = std::numeric_limits<double>::infinity();
-};
-
-/// Which warning contacts make up W_i, the warning set of the options' initiation and termination.
-enum class OptionWarnings {
-  /// obstacles within the warning distance of a capsule joint i moves: what the collision RMPs act on (default)
-  kObstacles,
-  /// every warning contact, the floor and the robot's own links included (the first implementation: self-contacts
-  /// within 15 cm warned 78 % of Panda agent-steps without any obstacle, and the collision option then coasted)
-  kAll,
-};
-
-/// The per-joint-rmp action (options, docs/environments.md).
-struct OptionConfig {
-  OptionTermination termination = OptionTermination::kLearned;
-  /// fixed: the option length [steps]; learned: only the normaliser of the `option_age` observation. ≥ 1.
-  int horizon = 10;
-  /// scale = exp(clip(u, −1, 1) · ln gain_range) for every gain/priority parameter u, so scale ∈ [1/g, g]. ≥ 1.
-  double gain_range = 4.0;
-  /// the gain range of the target RMP's two scales (accel, metric) alone; 0: `gain_range`. 1: the target RMP keeps
-  /// unit scales whatever the action (the agents modulate the collision RMPs only, so an arm with no obstacle near
-  /// tracks exactly as the unscaled layer does). 0 or in [1, 1e6].
-  double target_gain_range = 0.0;
-  /// the gain range the target RMP's scales use: target_gain_range, or gain_range when it is 0
-  double TargetGainRange() const { return target_gain_range > 0.0 ? target_gain_range : gain_range; }
-  /// priority of the target RMP while the collision RMPs run (collision option, composite phase b): the target RMP
-  /// stays active with its metric × this weight, so it only prevails where the collision RMPs' metric has faded
-  /// (obstacle receding or beyond the warning distance) and an arm inside the warning band returns to tracking
-  /// instead of stalling. 0: the collision RMPs alone. In [0, 1].
-  double collision_target_weight = 1e-4;
-  /// e: the collision RMPs' acceleration length scales l_p, l_d (eq 8) are multiplied by s_a^e, where s_a is the
-  /// agent's collision accel scale, so one learned parameter sets how strongly AND how far ahead the arm evades
-  /// (0: gains only, the length scales stay as configured). In [0, 4].
-  double collision_length_exponent = 0.0;
-  /// ≥ 0: every joint always runs this option (0 target, 1 collision, 2 target-then-collision) and the action's option
-  /// index is ignored — the agents learn the RMP parameters only (an ablation of the option layer); −1: learned.
-  int fixed_option = -1;
-  /// how often a joint reads the RMP parameters (the action's continuous part): at the start of an option, when the
-  /// joint's warning set W_i empties or fills, and every `parameter_period` steps; held in between (temporally
-  /// consistent exploration; the learner counts their log-probability only where read,
-  /// StepOutput::parameters_read). 1: every step (the paper). In [1, 1000].
-  int parameter_period = 1;
-  OptionWarnings warnings = OptionWarnings::kObstacles;
-  /// A hand prior under the learned target accel scale (residual learning over the hand threat gate,
-  /// docs/method.md): joint i's target accel parameter is u_agent + target_gate_clear while no moving obstacle is
-  /// predicted by the look-ahead block (observation.lookahead) to pass within target_gate_clearance [m] of a capsule
-  /// joint i moves, and u_agent + target_gate_threat while one is; the sum is clipped to [−1, 1]. The prior is read
-  /// every step, the agent's part as options.parameter_period says. With u_agent = 0 the layer is the hand gate
-  /// experiments::Method::ThreatGate for clearances in (−ℓ, 2ℓ] (ℓ = observation.length_scale), where the gate's clipped
-  /// feature and the metres compared here agree.
-  /// −inf: off (the agent's u alone). Needs observation.lookahead > 0 and the per-joint-rmp interface.
-  double target_gate_clearance = -std::numeric_limits<double>::infinity();
-  double target_gate_clear = 0.0;   ///< the prior's u with no pass predicted, in [−1, 1]
-  double target_gate_threat = 0.0;  ///< the prior's u while a pass is predicted, in [−1, 1]
-  bool TargetGated() const { return std::isfinite(target_gate_clearance); }
-};
-
-/// The direct and per-joint-direct actions: Δq_i = clip(u_i, −1, 1) · max_speed_fraction · v_max,i · T.
-struct DirectConfig {
-  double max_speed_fraction = 1.0;  ///< (0, 1]
-};
-
-/// Observation scaling (every feature O(1), docs/environments.md).
-struct ObservationConfig {
-  double length_scale = 0.5;      ///< ℓ [m]: positions and levers are divided by it
-  double speed_scale = 1.0;       ///< v_s [m/s]: linear velocities are divided by it
-  double warning_distance = 0.15; ///< [m] the sensing margin of the World (paper: 15 cm warning distance)
-  int max_obstacles = 4;          ///< obstacle slots of the global state (≥ the scenario's obstacle count)
-  /// [s] horizon T of the moving-obstacle look-ahead block of every local observation (LocalObs::kLookahead…);
-  /// 0: off (the block is absent and the local observation keeps its paper size)
-  double lookahead = 0.0;
 };
 
 /// Reward of eq (14): r = Σ δ_i R_i + γ_d R_d + R_t − φ (every term logged separately).
@@ -221,15 +141,6 @@ struct ScenarioConfig {
   std::vector<double> line_speeds = {0.2, 0.6, 1.2, 1.8, 2.8};
 };
 
-/// The basic movement layer (paper RMPs, eqs 5–9) under the agents.
-struct BasicLayerConfig {
-  rmp::BasicRmpParams params;          ///< target_rmp, collision_rmp (defaults: see DefaultTaskConfig)
-  double relative_regularizer = 1e-6;  ///< λ rule of EvaluateJointLayer, > 0
-  /// `resolve`: per-joint (the paper) or coupled (one resolve of every joint's RMPs on top of the robot's RMPflow
-  /// C-space, joint-limit and self-collision leaves, configs/rmpflow; rmp::EvaluateCoupledLayer)
-  rmp::LayerResolve resolve = rmp::LayerResolve::kPerJoint;
-};
-
 /// A whole task.
 struct TaskConfig {
   std::string source = "<defaults>";  ///< file it was loaded from (error messages)
@@ -240,7 +151,7 @@ struct TaskConfig {
   std::string collision;
   InterfaceMode interface = InterfaceMode::kPerJointRmp;
   EpisodeConfig episode;
-  sim::ControllerOptions controller;  ///< control_rate is taken from episode.control_rate
+  control::ControllerOptions controller;  ///< control_rate is taken from episode.control_rate
   OptionConfig options;
   DirectConfig direct;
   ObservationConfig observation;
@@ -250,6 +161,11 @@ struct TaskConfig {
   ScenarioConfig scenario;
   BasicLayerConfig basic_layer;
 };
+
+/// the controller sections of `config` (what its agents are built from).
+control::AgentConfig AgentConfigOf(const TaskConfig& config);
+/// sets the controller sections of `config` to `agent`.
+void SetAgentConfig(TaskConfig& config, const control::AgentConfig& agent);
 
 /// the task names in order: pretrain-2link, reach-avoid, line-crossing, cluttered.
 std::vector<std::string> TaskNames();

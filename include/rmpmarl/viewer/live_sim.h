@@ -1,6 +1,6 @@
 #pragma once
 /// What the viewer shows (docs/viewer.md): a source of frames that the page can steer. `LiveSim` is a MuJoCo scene
-/// of one or two arms (the learned controller and/or RMPflow, each a sim::ReactiveController in its own World) fed
+/// of one or two arms (the learned controller and/or RMPflow, each a control::ReactiveController in its own World) fed
 /// the same target and obstacles: a scenario moves them until the page takes one over (drags it, adds or removes
 /// obstacles). `ReplaySource` (recording.h) plays back a recorded episode. Both are driven by viewer::Realtime (realtime.h) on one
 /// thread; nothing here is thread-safe.
@@ -11,11 +11,11 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/viewer/protocol.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 class LearnedController;
 }
 
@@ -81,7 +81,7 @@ class LiveSim final : public FrameSource {
   /// `policy` (may be null: RMPflow only) is the learned controller's file, `policy_path` names it. Throws
   /// InputError for an unknown scenario, a controller file that does not fit the robot, or a learned controller
   /// asked for without a file.
-  LiveSim(kinematics::Robot robot, std::shared_ptr<const rl::PolicyFile> policy, std::string policy_path,
+  LiveSim(kinematics::Robot robot, std::shared_ptr<const control::PolicyFile> policy, std::string policy_path,
           LiveSimOptions options = {});
   ~LiveSim() override;
 
@@ -131,7 +131,7 @@ class LiveSim final : public FrameSource {
   std::string ActiveIds() const;
 
   kinematics::Robot robot_;
-  std::shared_ptr<const rl::PolicyFile> policy_;
+  std::shared_ptr<const control::PolicyFile> policy_;
   std::string policy_path_, policy_label_;
   LiveSimOptions options_;
   CommandLimits limits_;

@@ -15,7 +15,7 @@
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/viewer/visuals.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 class LearnedController;
 }
 namespace rmpmarl::sim {
@@ -115,7 +115,7 @@ struct ArmView {
   /// the world's last contact report (its robot–obstacle warnings are the witness points of an arm without a
   /// learned controller); may be null
   const sim::ContactReport* contacts = nullptr;
-  const rl::LearnedController* learned = nullptr;
+  const control::LearnedController* learned = nullptr;
   Eigen::Vector3d p_WE = Eigen::Vector3d::Zero();
   double clearance = 0.0;  ///< smallest robot–obstacle distance [m] (Clearance); +inf: no obstacle
   long collisions = 0;     ///< control steps that began a collision

@@ -256,9 +256,9 @@ SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, 
   return s;
 }
 
-PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
+control::PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
                           float obs_clip, const tasks::ActionSpec& spec) {
-  PolicyWeights w;
+  control::PolicyWeights w;
   const HeadLayout& layout = actor->layout();
   w.obs_dim = actor->obs_dim();
   w.num_options = layout.num_options;
@@ -268,7 +268,7 @@ PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const E
   auto to_layer = [](const torch::nn::Linear& linear) {
     const torch::Tensor W = linear->weight.detach().contiguous().to(torch::kFloat);
     const torch::Tensor b = linear->bias.detach().contiguous().to(torch::kFloat);
-    DenseLayer layer;
+    control::DenseLayer layer;
     layer.weight = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
         W.data_ptr<float>(), W.size(0), W.size(1));
     layer.bias = Eigen::Map<const Eigen::VectorXf>(b.data_ptr<float>(), b.size(0));
@@ -650,7 +650,7 @@ void Ppo::Load(torch::serialize::InputArchive& archive) {
   generator_.set_state(state);
 }
 
-PolicyWeights Ppo::Export() {
+control::PolicyWeights Ppo::Export() {
   const int d = spec_.local_obs_dim;
   Eigen::VectorXf mean = Eigen::VectorXf::Zero(d), inv_std = Eigen::VectorXf::Ones(d);
   float clip = 0.0f;

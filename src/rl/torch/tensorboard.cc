@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/policy_file.h"
+#include "rmpmarl/control/policy_file.h"
 
 namespace rmpmarl::rl {
 namespace {
@@ -51,7 +51,7 @@ double Now() {
 }  // namespace
 
 std::uint32_t MaskedCrc32c(const void* data, std::size_t size) {
-  const std::uint32_t crc = Crc32c(data, size);
+  const std::uint32_t crc = control::Crc32c(data, size);
   return ((crc >> 15) | (crc << 17)) + 0xa282ead8u;
 }
 

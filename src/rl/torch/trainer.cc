@@ -25,8 +25,9 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/rl/policy_task.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/tensor_archive.h"
@@ -72,7 +73,7 @@ std::string WrapPayload(const std::string& payload) {
   std::string out(kCheckpointMagic, 8);
   const std::uint32_t version = kCheckpointVersion;
   const std::uint64_t size = payload.size();
-  const std::uint32_t crc = Crc32c(payload.data(), payload.size());
+  const std::uint32_t crc = control::Crc32c(payload.data(), payload.size());
   out.append(reinterpret_cast<const char*>(&version), 4);
   out.append(reinterpret_cast<const char*>(&size), 8);
   out.append(reinterpret_cast<const char*>(&crc), 4);
@@ -103,7 +104,7 @@ CheckpointPayload ReadCheckpointPayload(const std::string& path) {
     throw InputError(fmt::format("checkpoint {} is corrupt: expected a {}-byte payload, got {} bytes (truncated?)",
                                  path, size, bytes.size() - kCheckpointHeader));
   }
-  const std::uint32_t computed = Crc32c(bytes.data() + kCheckpointHeader, size);
+  const std::uint32_t computed = control::Crc32c(bytes.data() + kCheckpointHeader, size);
   if (computed != crc) {
     throw InputError(fmt::format("checkpoint {} is corrupt: checksum mismatch (stored crc32c {:08x}, computed {:08x})",
                                  path, crc, computed));
@@ -505,9 +506,9 @@ std::uint32_t Trainer::LearnerChecksum() const {
       *impl_->ppo,
       [&](const torch::Tensor& t) {
         const torch::Tensor c = t.detach().contiguous();
-        crc = Crc32c(c.data_ptr(), c.numel() * c.element_size(), crc);
+        crc = control::Crc32c(c.data_ptr(), c.numel() * c.element_size(), crc);
       },
-      [&](double x) { crc = Crc32c(&x, sizeof(x), crc); });
+      [&](double x) { crc = control::Crc32c(&x, sizeof(x), crc); });
   return crc;
 }
 
@@ -591,8 +592,8 @@ void Trainer::Resume(const std::string& path) {
 namespace {
 
 // the controller file of a learner: its actor, the task it runs on (the manipulator tasks) and its provenance.
-PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::int64_t env_steps) {
-  PolicyFile file;
+control::PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::int64_t env_steps) {
+  control::PolicyFile file;
   file.weights = ppo.Export();
   const std::vector<std::string> manipulator = tasks::TaskNames();
   if (std::find(manipulator.begin(), manipulator.end(), config.task.name) != manipulator.end()) {
@@ -617,7 +618,7 @@ PolicyFile MakePolicyFile(Ppo& ppo, const TrainConfig& config, int update, std::
 }  // namespace
 
 void Trainer::ExportPolicy(const std::string& path) const {
-  SavePolicyFile(MakePolicyFile(*impl_->ppo, impl_->config, impl_->update, impl_->env_steps), path);
+  control::SavePolicyFile(MakePolicyFile(*impl_->ppo, impl_->config, impl_->update, impl_->env_steps), path);
 }
 
 std::vector<double> Trainer::StateVector() const {
@@ -690,7 +691,7 @@ void UpgradeCheckpoint(const std::string& path, const std::string& out_path) {
 
 void ExportCheckpointPolicy(const std::string& checkpoint_path, const std::string& policy_path) {
   LoadedCheckpoint loaded = LoadLearner(checkpoint_path);
-  SavePolicyFile(MakePolicyFile(*loaded.ppo, loaded.config, loaded.update, loaded.env_steps), policy_path);
+  control::SavePolicyFile(MakePolicyFile(*loaded.ppo, loaded.config, loaded.update, loaded.env_steps), policy_path);
 }
 
 // ------------------------------------------------------------------------------------------------- RunTraining

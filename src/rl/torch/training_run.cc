@@ -24,8 +24,8 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/tensor_archive.h"
@@ -215,7 +215,7 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
 
   std::function<void(const Batch&, float*)> act;
   LoadedCheckpoint loaded;
-  std::unique_ptr<PolicyRuntime> runtime;
+  std::unique_ptr<control::PolicyRuntime> runtime;
   if (is_checkpoint) {
     loaded = LoadLearner(policy_path);
     if (SpecFingerprint(loaded.spec) != SpecFingerprint(spec) &&
@@ -236,14 +236,14 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
     };
   } else {
     if (options.stochastic) throw InputError("stochastic evaluation needs a checkpoint (.ckpt), not a policy file");
-    const PolicyWeights weights = LoadPolicyFile(policy_path).weights;
+    const control::PolicyWeights weights = control::LoadPolicyFile(policy_path).weights;
     if (weights.obs_dim != d || weights.action_size() != as) {
       throw InputError(fmt::format("policy {} does not fit task {}: it takes obs {} and gives {} action floats, the "
                                    "env has obs {} and actions of {}", policy_path, spec.task, weights.obs_dim,
                                    weights.action_size(), d, as));
     }
-    runtime = std::make_unique<PolicyRuntime>(weights, A);
-    PolicyRuntime* rt = runtime.get();
+    runtime = std::make_unique<control::PolicyRuntime>(weights, A);
+    control::PolicyRuntime* rt = runtime.get();
     act = [=](const Batch& b, float* actions) {
       for (int k = 0; k < N; ++k) rt->Act(b.local_obs.data() + static_cast<size_t>(k) * A * d, A, actions + k * A * as);
     };

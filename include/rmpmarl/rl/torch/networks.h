@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "rmpmarl/tasks/env.h"
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_runtime.h"
 #include "rmpmarl/rl/torch/ppo_options.h"
 
 namespace rmpmarl::rl {
@@ -129,7 +129,7 @@ SampledActions SampleActions(const HeadOutputs& head, const HeadLayout& layout, 
                              bool deterministic);
 
 /// the actor as plain arrays for the torch-free runtime (observation normaliser and action bounds supplied).
-PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
+control::PolicyWeights ExportActor(Actor& actor, const Eigen::VectorXf& obs_mean, const Eigen::VectorXf& obs_inv_std,
                           float obs_clip, const tasks::ActionSpec& spec);
 
 }  // namespace rmpmarl::rl

@@ -219,7 +219,7 @@ class Ppo {
   torch::Generator& generator() { return generator_; }
   torch::optim::Adam& optimizer() { return *optimizer_; }
   /// the exported actor (observation normaliser folded in) for the torch-free runtime.
-  PolicyWeights Export();
+  control::PolicyWeights Export();
 
  private:
   tasks::EnvSpec spec_;

@@ -1,5 +1,5 @@
 // Action layouts, the option state machine, observation/state layouts.
-#include "rmpmarl/tasks/agent_interface.h"
+#include "rmpmarl/control/agent_interface.h"
 
 #include <fmt/format.h>
 
@@ -8,11 +8,11 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::control {
 
 int NumAgents(InterfaceMode mode, int nq) { return mode == InterfaceMode::kDirect ? 1 : nq; }
 
-ActionSpec MakeActionSpec(const TaskConfig& config, int nq) {
+ActionSpec MakeActionSpec(const AgentConfig& config, int nq) {
   ActionSpec a;
   switch (config.interface) {
     case InterfaceMode::kPerJointRmp:
@@ -192,4 +192,4 @@ std::vector<std::string> GlobalStateLayout::Names() const {
 
 std::vector<std::string> RewardTermNames() { return {"joint_reach", "distance", "time", "collision"}; }
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::control

@@ -27,7 +27,7 @@
 #include "rmpmarl/math/point_cloud.h"
 #include "rmpmarl/rmp/scene.h"
 
-namespace rmpmarl::perception {
+namespace rmpmarl::control {
 
 /// Options of CloudObstacles.
 struct CloudObstacleOptions {
@@ -178,4 +178,4 @@ class CloudObstacles {
   CloudUpdateStats stats_;
 };
 
-}  // namespace rmpmarl::perception
+}  // namespace rmpmarl::control

@@ -1,6 +1,6 @@
 // The per-joint agents: sensing (nearest warning, look-ahead), local observations, options and held parameters, and
 // the basic layer their actions set. Shared by ManipulatorEnv and LearnedController.
-#include "rmpmarl/tasks/joint_agents.h"
+#include "rmpmarl/control/joint_agents.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,7 @@
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::control {
 namespace {
 
 // velocity of the material point of link L at p_W.
@@ -33,7 +33,7 @@ void Put3(float* o, const Eigen::Vector3d& v) {
 
 /// The per-joint agents' basic layer as the controller's acceleration policy: q̈_i = EvaluateJointLayer at joint i
 /// with the RMPs and scales of agent i's option, or the coupled resolve of every joint's terms.
-class JointAgents::Layer final : public sim::AccelerationPolicy {
+class JointAgents::Layer final : public AccelerationPolicy {
  public:
   Layer(const kinematics::Robot* robot, const BasicLayerConfig& config)
       : robot_(robot), config_(config), kin_(robot->model), coupled_(robot->model.nq()), weights(robot->model.nq()) {
@@ -101,7 +101,7 @@ const kinematics::Robot* NonNull(const kinematics::Robot* robot) {
 
 }  // namespace
 
-JointAgents::JointAgents(const TaskConfig& config, const kinematics::Robot* robot)
+JointAgents::JointAgents(const AgentConfig& config, const kinematics::Robot* robot)
     : config_(config), action_(MakeActionSpec(config, NonNull(robot)->model.nq())), robot_(robot),
       nq_(robot->model.nq()), kin_(robot->model) {
   const kinematics::Model& m = robot_->model;
@@ -135,9 +135,9 @@ void JointAgents::set_robot(const kinematics::Robot* robot) {
 namespace {
 
 // a ReactiveController's handle on the agents' basic layer (owned by the agents).
-class LayerHandle final : public sim::AccelerationPolicy {
+class LayerHandle final : public AccelerationPolicy {
  public:
-  explicit LayerHandle(sim::AccelerationPolicy* layer) : layer_(layer) {}
+  explicit LayerHandle(AccelerationPolicy* layer) : layer_(layer) {}
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) override {
     layer_->Evaluate(q, qd, scene, qdd);
@@ -146,12 +146,12 @@ class LayerHandle final : public sim::AccelerationPolicy {
   int nq() const override { return layer_->nq(); }
 
  private:
-  sim::AccelerationPolicy* layer_;
+  AccelerationPolicy* layer_;
 };
 
 }  // namespace
 
-std::unique_ptr<sim::AccelerationPolicy> JointAgents::MakeLayerPolicy() {
+std::unique_ptr<AccelerationPolicy> JointAgents::MakeLayerPolicy() {
   RMPMARL_ASSERT(layer_ != nullptr, "JointAgents::MakeLayerPolicy: the per-joint-rmp interface only");
   return std::make_unique<LayerHandle>(layer_.get());
 }
@@ -163,7 +163,7 @@ void JointAgents::Reset() {
 
 void JointAgents::Sense(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                         const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT,
-                        std::span<const sim::WarningContact> contacts, const rmp::Scene& scene) {
+                        std::span<const WarningContact> contacts, const rmp::Scene& scene) {
   SenseState(q, qd, p_WT, v_WT);
   SenseContacts(contacts, scene);
 }
@@ -182,20 +182,20 @@ void JointAgents::SenseState(const Eigen::Ref<const Eigen::VectorXd>& q, const E
   kinematics::CalcPointJacobian(m, kin_, ee.link, ee.X_LE.translation(), J_WE_);
 }
 
-void JointAgents::SenseContacts(std::span<const sim::WarningContact> contacts, const rmp::Scene& scene) {
+void JointAgents::SenseContacts(std::span<const WarningContact> contacts, const rmp::Scene& scene) {
   const kinematics::Model& m = robot_->model;
 
   for (JointWarning& w : warnings_) w = JointWarning{};
   const bool all_warnings = config_.options.warnings == OptionWarnings::kAll;
   std::fill(option_warning_.begin(), option_warning_.end(), 0);
-  for (const sim::WarningContact& c : contacts) {
-    const int other_link = c.other_kind == sim::PartnerKind::kLink ? c.other_index : -1;
+  for (const WarningContact& c : contacts) {
+    const int other_link = c.other_kind == PartnerKind::kLink ? c.other_index : -1;
     for (int i = 0; i < nq_; ++i) {
       const bool moves_robot_side = m.DofMovesLink(i, c.link);
       const bool moves_other_side = other_link >= 0 && m.DofMovesLink(i, other_link);
       if (moves_robot_side == moves_other_side) continue;  // joint i moves both rigidly, or neither
       // W_i of the options: what the collision RMPs act on (obstacles), or every warning (options.warnings: all)
-      if (all_warnings || c.other_kind == sim::PartnerKind::kObstacle) option_warning_[i] = 1;
+      if (all_warnings || c.other_kind == PartnerKind::kObstacle) option_warning_[i] = 1;
       JointWarning& w = warnings_[i];
       if (c.distance >= w.distance) continue;
       w.present = true;
@@ -212,7 +212,7 @@ void JointAgents::SenseContacts(std::span<const sim::WarningContact> contacts, c
         w.p_W1 = c.p_W2;
         w.p_W2 = c.p_W1;
         w.n_W = -c.n_W;
-        w.partner = sim::PartnerKind::kLink;
+        w.partner = PartnerKind::kLink;
         w.partner_index = c.link;
       }
     }
@@ -221,11 +221,11 @@ void JointAgents::SenseContacts(std::span<const sim::WarningContact> contacts, c
     JointWarning& w = warnings_[i];
     if (!w.present) continue;
     Eigen::Vector3d v_other = Eigen::Vector3d::Zero();
-    if (w.partner == sim::PartnerKind::kObstacle) {
+    if (w.partner == PartnerKind::kObstacle) {
       RMPMARL_ASSERT(w.partner_index >= 0 && w.partner_index < static_cast<int>(scene.obstacles.size()),
                      "JointAgents::Sense: a warning names an obstacle the scene does not hold");
       v_other = scene.obstacles[w.partner_index].v_WO;
-    } else if (w.partner == sim::PartnerKind::kLink) {
+    } else if (w.partner == PartnerKind::kLink) {
       v_other = MaterialVelocity(kin_, w.partner_index, w.p_W2);
     }
     w.closing_speed = -w.n_W.dot(MaterialVelocity(kin_, w.link, w.p_W1) - v_other);
@@ -292,7 +292,7 @@ void JointAgents::WriteLocal(int i, int step, float* o) const {
     o[LocalObs::kClosingSpeed] = static_cast<float>(w.closing_speed / vs);
     Put3(o + LocalObs::kWitnessLever, R_JW * (w.p_W1 - o_W) / l);
     o[LocalObs::kDistanceGradient] = static_cast<float>(w.gradient / l);
-    o[LocalObs::kWarningIsSelf] = w.partner == sim::PartnerKind::kLink ? 1.0f : 0.0f;
+    o[LocalObs::kWarningIsSelf] = w.partner == PartnerKind::kLink ? 1.0f : 0.0f;
   } else {
     std::fill(o + LocalObs::kWarningFlag, o + LocalObs::kJointPosition, 0.0f);
   }
@@ -390,4 +390,4 @@ void JointAgents::End() {
   for (int i = 0; i < nq_; ++i) options_[i].End(terminate_flags_[i] != 0, option_warning_[i] != 0);
 }
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::control

@@ -12,14 +12,14 @@
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/tasks/agent_interface.h"
-#include "rmpmarl/tasks/task_config.h"
+#include "rmpmarl/control/agent_interface.h"
+#include "rmpmarl/control/agent_config.h"
 #include "rmpmarl/rmp/joint_layer.h"
 #include "rmpmarl/rmp/scene.h"
-#include "rmpmarl/sim/controller.h"
-#include "rmpmarl/sim/world.h"
+#include "rmpmarl/control/controller.h"
+#include "rmpmarl/control/warning.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::control {
 
 /// The nearest warning contact of joint i (W_i): among the robot contacts within the warning distance whose robot
 /// capsule joint i moves while the partner (obstacle, floor, or a link) is not moved by it.
@@ -30,7 +30,7 @@ struct JointWarning {
   Eigen::Vector3d p_W1 = Eigen::Vector3d::Zero();  ///< witness point on that link's capsule
   Eigen::Vector3d p_W2 = Eigen::Vector3d::Zero();  ///< witness point on the partner
   Eigen::Vector3d n_W = Eigen::Vector3d::Zero();   ///< unit normal from partner to robot
-  sim::PartnerKind partner = sim::PartnerKind::kObstacle;
+  PartnerKind partner = PartnerKind::kObstacle;
   int partner_index = -1;                          ///< obstacle or link index
   double closing_speed = 0.0;                      ///< −ḋ [m/s]
   double gradient = 0.0;                           ///< ∂d/∂q_i [m/rad or m/m]
@@ -49,7 +49,7 @@ class JointAgents {
  public:
   /// `config` is copied; `robot` must outlive the agents (or be replaced by set_robot). One agent per joint of
   /// `robot`, whatever the config was trained on (the agents share their parameters).
-  JointAgents(const TaskConfig& config, const kinematics::Robot* robot);
+  JointAgents(const AgentConfig& config, const kinematics::Robot* robot);
   ~JointAgents();
   JointAgents(const JointAgents&) = delete;
   JointAgents& operator=(const JointAgents&) = delete;
@@ -57,7 +57,7 @@ class JointAgents {
   /// switches to another link-length variant of the same robot (same joints).
   void set_robot(const kinematics::Robot* robot);
   const kinematics::Robot& robot() const { return *robot_; }
-  const TaskConfig& config() const { return config_; }
+  const AgentConfig& config() const { return config_; }
   int nq() const { return nq_; }
 
   /// starts an episode: every option idle, every joint reads its parameters at the next Apply.
@@ -67,14 +67,14 @@ class JointAgents {
   /// `scene`, whose velocities give the closing speeds) and, with observation.lookahead > 0, the look-ahead of the
   /// moving obstacles of `scene`.
   void Sense(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
-             const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT, std::span<const sim::WarningContact> warnings,
+             const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT, std::span<const WarningContact> warnings,
              const rmp::Scene& scene);
   /// the first half of Sense: kinematics and the end effector against the target (the capsules' poses are then
   /// kinematics().X_WL, for a caller that computes the warning contacts itself).
   void SenseState(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                   const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT);
   /// the second half: the joints' nearest warnings and the look-ahead. \pre SenseState.
-  void SenseContacts(std::span<const sim::WarningContact> warnings, const rmp::Scene& scene);
+  void SenseContacts(std::span<const WarningContact> warnings, const rmp::Scene& scene);
   /// joint i's local observation after Sense, at env step `step` (the progress feature: step / episode.max_steps,
   /// at most 1). \pre Sense.
   void WriteLocal(int i, int step, float* o) const;
@@ -93,7 +93,7 @@ class JointAgents {
 
   /// per-joint-rmp: the basic layer (its weights set by Apply) as an acceleration policy for a ReactiveController;
   /// it refers to the agents' layer, so the agents must outlive it. \pre per-joint-rmp.
-  std::unique_ptr<sim::AccelerationPolicy> MakeLayerPolicy();
+  std::unique_ptr<AccelerationPolicy> MakeLayerPolicy();
 
   const kinematics::Data& kinematics() const { return kin_; }
   const Eigen::Vector3d& p_WE() const { return p_WE_; }
@@ -119,7 +119,7 @@ class JointAgents {
   /// first step, when the period elapsed, or when the warning set emptied or filled since the last read
   bool ParametersDue(int i) const;
 
-  TaskConfig config_;
+  AgentConfig config_;
   ActionSpec action_;
   const kinematics::Robot* robot_;
   int nq_;
@@ -141,4 +141,4 @@ class JointAgents {
   std::unique_ptr<Layer> layer_;  // per-joint-rmp
 };
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::control

@@ -1,6 +1,6 @@
 // The learned per-joint agents as an acceleration policy: warning contacts from the capsules and the scene, the
 // agents' observations and actions at the control rate, their basic layer at every substep.
-#include "rmpmarl/rl/learned_controller.h"
+#include "rmpmarl/control/learned_controller.h"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/math/geometry.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 namespace {
 
 math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCapsule& lc) {
@@ -19,28 +19,28 @@ math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCa
 
 }  // namespace
 
-LearnedController::LearnedController(const kinematics::Robot& robot, const tasks::TaskConfig& config,
+LearnedController::LearnedController(const kinematics::Robot& robot, const AgentConfig& config,
                                      const PolicyWeights& weights, LearnedControllerOptions options)
     : options_(std::move(options)),
       robot_(robot),
       agents_(config, &robot),
       runtime_(weights, robot.model.nq()) {
-  if (config.interface != tasks::InterfaceMode::kPerJointRmp) {
+  if (config.interface != InterfaceMode::kPerJointRmp) {
     throw InputError(fmt::format("learned controller '{}': the per-joint-rmp interface runs as a controller, got {} "
                                  "(evaluate it in its task with `rmpmarl eval`)", options_.name,
-                                 tasks::InterfaceModeName(config.interface)));
+                                 InterfaceModeName(config.interface)));
   }
   if (!(options_.max_obstacles >= 0)) {
     throw InputError(fmt::format("learned controller '{}': max_obstacles: expected >= 0, got {}", options_.name,
                                  options_.max_obstacles));
   }
   const int nq = robot.model.nq();
-  obs_dim_ = static_cast<int>(tasks::PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size());
-  action_size_ = tasks::MakeActionSpec(config, nq).size();
+  obs_dim_ = static_cast<int>(PerJointObservationNames(config.interface, config.observation.lookahead > 0.0).size());
+  action_size_ = MakeActionSpec(config, nq).size();
   if (runtime_.obs_dim() != obs_dim_ || runtime_.action_size() != action_size_) {
     throw InputError(fmt::format("learned controller '{}': the actor takes {} observations and gives {} action "
                                  "floats; its task ({}, lookahead {}) has {} and {}", options_.name,
-                                 runtime_.obs_dim(), runtime_.action_size(), tasks::InterfaceModeName(config.interface),
+                                 runtime_.obs_dim(), runtime_.action_size(), InterfaceModeName(config.interface),
                                  config.observation.lookahead, obs_dim_, action_size_));
   }
   layer_ = agents_.MakeLayerPolicy();
@@ -67,8 +67,8 @@ LearnedController::~LearnedController() = default;
 
 int LearnedController::nq() const { return robot_.model.nq(); }
 
-sim::ControllerOptions LearnedController::controller_options() const {
-  sim::ControllerOptions o = agents_.config().controller;
+ControllerOptions LearnedController::controller_options() const {
+  ControllerOptions o = agents_.config().controller;
   o.control_rate = agents_.config().episode.control_rate;
   return o;
 }
@@ -84,9 +84,9 @@ void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
   const kinematics::Data& kin = agents_.kinematics();
   const double margin = agents_.config().observation.warning_distance;
   contacts_.clear();
-  auto add = [&](int capsule, sim::PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
+  auto add = [&](int capsule, PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
     if (!(r.distance < margin)) return;
-    sim::WarningContact c;
+    WarningContact c;
     c.link = robot_.capsules[capsule].link;
     c.capsule = capsule;
     c.other_kind = kind;
@@ -102,7 +102,7 @@ void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
   for (int c = 0; c < nc; ++c) {
     const math::Capsule cap = WorldCapsule(kin, robot_.capsules[c]);
     for (int j = 0; j < static_cast<int>(scene.obstacles.size()); ++j) {
-      add(c, sim::PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
+      add(c, PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
     }
     if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
       // the capsule's lowest axis end point against the plane z = floor_height
@@ -113,13 +113,13 @@ void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
       r.n_W = Eigen::Vector3d::UnitZ();
       r.p_W1 = axis_point - cap.radius * r.n_W;
       r.p_W2 = Eigen::Vector3d(axis_point.x(), axis_point.y(), options_.floor_height);
-      add(c, sim::PartnerKind::kFloor, -1, -1, r);
+      add(c, PartnerKind::kFloor, -1, -1, r);
     }
   }
   for (const auto& [c, d] : self_pairs_) {
     const math::DistanceResult r = math::CapsuleCapsuleDistance(WorldCapsule(kin, robot_.capsules[c]),
                                                                 WorldCapsule(kin, robot_.capsules[d]));
-    add(c, sim::PartnerKind::kLink, robot_.capsules[d].link, d, r);
+    add(c, PartnerKind::kLink, robot_.capsules[d].link, d, r);
   }
 }
 
@@ -175,7 +175,7 @@ void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
 
 std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,
                                                          const std::string& path, LearnedControllerOptions options) {
-  tasks::TaskConfig config = PolicyTaskConfig(file, path);
+  const AgentConfig config = PolicyAgentConfig(file, path);
   if (options.name == "learned") options.name = std::filesystem::path(path).stem().string();
   try {
     return std::make_unique<LearnedController>(robot, config, file.weights, options);
@@ -191,4 +191,4 @@ std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot
   return MakeLearnedController(robot, file, path, options);
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::control

@@ -1,7 +1,7 @@
 // The torch-free policy runtime: the batch-1 forward pass of the shared per-joint actor.
 // The AVX2/FMA kernel packs each layer's weights in blocks of 8 outputs (in × 8 floats, contiguous) so that one
 // weight load feeds one FMA per agent; the portable path is plain Eigen.
-#include "rmpmarl/rl/policy_runtime.h"
+#include "rmpmarl/control/policy_runtime.h"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -23,7 +23,7 @@
 #include "rmpmarl/common/cpu.h"
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 namespace {
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -309,4 +309,4 @@ int PolicyRuntime::ActWhere(const float* obs, int num_agents, const float* read,
   return n;
 }
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::control

@@ -1,14 +1,14 @@
 #pragma once
 /// The learned per-joint agents as a controller for a user's own loop (docs/control-your-robot.md): joint state,
-/// end-effector target and obstacles in (sim::AccelerationPolicy's q, q̇ and rmp::Scene), joint accelerations out —
+/// end-effector target and obstacles in (AccelerationPolicy's q, q̇ and rmp::Scene), joint accelerations out —
 /// the same interface as RMPflow. The agents build their observations themselves from that state and scene, so they
 /// run on any robot the project can load:
 ///
-///   const rl::PolicyFile file = rl::LoadPolicyFile("models/policies/marl-rmp-residual.rmpp");
+///   const PolicyFile file = LoadPolicyFile("models/policies/marl-rmp-residual.rmpp");
 ///   const kinematics::Robot robot = kinematics::LoadShippedRobot("ur5e");
-///   auto learned = rl::MakeLearnedController(robot, file, "marl-rmp-residual.rmpp", /*max_obstacles=*/4);
-///   const sim::ControllerOptions options = learned->controller_options();
-///   sim::ReactiveController controller(world_model, std::move(learned), options);
+///   auto learned = MakeLearnedController(robot, file, "marl-rmp-residual.rmpp", /*max_obstacles=*/4);
+///   const ControllerOptions options = learned->controller_options();
+///   ReactiveController controller(world_model, std::move(learned), options);
 ///   controller.Update(q, qd, scene);  // every control period: q_cmd(), qd_cmd() out
 ///
 /// Decisions are taken at the control rate on the measured state (BeginControlStep, called by the
@@ -22,14 +22,14 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/tasks/joint_agents.h"
-#include "rmpmarl/rl/policy_file.h"
-#include "rmpmarl/rl/policy_runtime.h"
-#include "rmpmarl/tasks/task_config.h"
-#include "rmpmarl/sim/controller.h"
-#include "rmpmarl/sim/world.h"
+#include "rmpmarl/control/joint_agents.h"
+#include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/control/policy_runtime.h"
+#include "rmpmarl/control/agent_config.h"
+#include "rmpmarl/control/controller.h"
+#include "rmpmarl/control/warning.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 
 /// Options of a LearnedController.
 struct LearnedControllerOptions {
@@ -43,12 +43,12 @@ struct LearnedControllerOptions {
 };
 
 /// The learned per-joint agents (per-joint-rmp interface) over their basic layer, as an AccelerationPolicy.
-class LearnedController final : public sim::AccelerationPolicy {
+class LearnedController final : public AccelerationPolicy {
  public:
   /// agents of `config` (the controller file's task: interface, observation, options, basic layer, controller) with
   /// the actor `weights`, on `robot`. Throws InputError when the interface is not per-joint-rmp or the actor does not
   /// take this config's observation or give its actions (message: expected vs got).
-  LearnedController(const kinematics::Robot& robot, const tasks::TaskConfig& config, const PolicyWeights& weights,
+  LearnedController(const kinematics::Robot& robot, const AgentConfig& config, const PolicyWeights& weights,
                     LearnedControllerOptions options = {});
   ~LearnedController() override;
 
@@ -66,9 +66,9 @@ class LearnedController final : public sim::AccelerationPolicy {
 
   /// the ReactiveController options the agents were trained with (the file's task: substep, velocity limits,
   /// resynchronisation, control rate). Drive the controller with these.
-  sim::ControllerOptions controller_options() const;
+  ControllerOptions controller_options() const;
   /// the agents (their observations, options, warnings) after the last control step.
-  const tasks::JointAgents& agents() const { return agents_; }
+  const JointAgents& agents() const { return agents_; }
   /// the local observations of the last control step (nq × obs_dim, row-major) and the actions: each agent's row is
   /// that of the last step that read its action (the network runs for an agent only then, JointAgents::ReadsAction),
   /// so rows may come from different steps.
@@ -80,15 +80,15 @@ class LearnedController final : public sim::AccelerationPolicy {
   /// there on: a controller running longer than the episodes it was trained on sees the end of an episode).
   int steps() const { return steps_; }
   /// the warning contacts of the last control step (computed from the geometry).
-  const std::vector<sim::WarningContact>& warnings() const { return contacts_; }
+  const std::vector<WarningContact>& warnings() const { return contacts_; }
 
  private:
   void ComputeWarnings(const rmp::Scene& scene);
 
   LearnedControllerOptions options_;
   const kinematics::Robot& robot_;
-  tasks::JointAgents agents_;
-  std::unique_ptr<sim::AccelerationPolicy> layer_;
+  JointAgents agents_;
+  std::unique_ptr<AccelerationPolicy> layer_;
   PolicyRuntime runtime_;
   int obs_dim_ = 0;
   int action_size_ = 0;
@@ -96,7 +96,7 @@ class LearnedController final : public sim::AccelerationPolicy {
   bool started_ = false;
   std::vector<float> obs_, actions_;
   std::vector<float> reads_;  // per agent: 1 where this step's Apply reads its action (JointAgents::ReadsAction)
-  std::vector<sim::WarningContact> contacts_;
+  std::vector<WarningContact> contacts_;
   std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
   std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)
   // a scene without a target: the end effector is held where it was at the first such step
@@ -114,4 +114,4 @@ std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot
 std::unique_ptr<LearnedController> MakeLearnedController(const kinematics::Robot& robot, const PolicyFile& file,
                                                          const std::string& path, int max_obstacles);
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::control

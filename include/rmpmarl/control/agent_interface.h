@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/tasks/env.h"
-#include "rmpmarl/tasks/task_config.h"
+#include "rmpmarl/control/action_spec.h"
+#include "rmpmarl/control/agent_config.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::control {
 
 /// The discrete options of a per-joint RMP agent (paper III.C).
 enum class RmpOption {
@@ -34,7 +34,7 @@ struct RmpActionLayout {
 int NumAgents(InterfaceMode mode, int nq);
 
 /// the action layout of one agent.
-ActionSpec MakeActionSpec(const TaskConfig& config, int nq);
+ActionSpec MakeActionSpec(const AgentConfig& config, int nq);
 
 /// gain/priority scale of a raw parameter: exp(clip(u, −1, 1) · ln gain_range) ∈ [1/gain_range, gain_range].
 double GainScale(double u, double gain_range);
@@ -169,4 +169,4 @@ struct GlobalStateLayout {
 /// the names of the env's reward terms: joint_reach, distance, time, collision.
 std::vector<std::string> RewardTermNames();
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::control

@@ -1,7 +1,8 @@
 #pragma once
-/// Reactive control in MuJoCo (docs/control.md): an acceleration policy (q, q̇, scene) ↦ q̈ — RMPflow, the fixed
-/// basic layers, or the learned per-joint agents (rl::LearnedController) — integrated at the control rate into commanded joint positions for the World's
-/// position servos.
+/// Reactive control (docs/control.md): an acceleration policy (q, q̇, scene) ↦ q̈ — RMPflow, the fixed basic layers,
+/// or the learned per-joint agents (control::LearnedController) — integrated at the control rate into commanded joint
+/// positions and velocities for the robot's position servos. Knows no simulator: a robot program feeds it measured
+/// joint states; the MuJoCo world (sim::StepController) is one such program.
 ///
 /// Integration: semi-implicit Euler on the controller's own commanded state (q_cmd, q̇_cmd), in substeps h ≤
 /// `max_substep`: q̇_cmd ← clamp(q̇_cmd + h q̈, ±v_max); q_cmd ← clamp(q_cmd + h q̇_cmd, limits) (velocity zeroed at
@@ -11,12 +12,12 @@
 #include <memory>
 #include <string>
 
+#include "rmpmarl/control/servos.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/rmp/scene.h"
-#include "rmpmarl/sim/world.h"
 
-namespace rmpmarl::sim {
+namespace rmpmarl::control {
 
 /// A joint-space acceleration policy the ReactiveController drives: the one controller interface of every method
 /// (RMPflow, the basic layers, the learned per-joint agents, the RRT replanner).
@@ -98,7 +99,7 @@ struct ControllerOptions {
 /// policy that keeps its own clock, e.g. the RRT replanner, uses period / ControlSubsteps as its evaluation period).
 int ControlSubsteps(double period, const ControllerOptions& options);
 
-/// throws InputError (expected vs got) unless the options are valid for a world with the given physics timestep.
+/// throws InputError (expected vs got) unless the options are valid for a loop with the given time quantum (0: any).
 void ValidateControllerOptions(const ControllerOptions& options, double physics_timestep);
 
 /// Result of one control step.
@@ -124,35 +125,28 @@ struct ControllerStats {
   double mean_compute_us() const { return steps > 0 ? total_compute_us / static_cast<double>(steps) : 0.0; }
 };
 
-/// Drives an AccelerationPolicy at the control rate: reads the World's q, q̇, evaluates q̈, integrates the commanded
-/// state and sets the servo targets. Step() allocates nothing.
+/// Drives an AccelerationPolicy at the control rate: takes the measured q, q̇, evaluates q̈, integrates the commanded
+/// state and gives the servo targets. Update() allocates nothing.
 class ReactiveController {
  public:
-  /// a controller for worlds of `model`. Throws InputError for a null policy, a policy of the wrong size, or bad
-  /// options (ValidateControllerOptions).
-  ReactiveController(const WorldModel& model, std::unique_ptr<AccelerationPolicy> policy,
+  /// a controller for the joints `servos` describes. Throws InputError for a null policy, a policy of the wrong
+  /// size, inconsistent servos, or bad options (ValidateControllerOptions).
+  ReactiveController(const ServoSpec& servos, std::unique_ptr<AccelerationPolicy> policy,
                      ControllerOptions options = {});
 
-  /// starts an episode: the commanded state becomes the world's measured state (clamped to the limits), the
-  /// counters are zeroed and the policy is reset.
-  void Reset(const World& world);
-  /// the same from a measured state (q, q̇) without a World (a user's own loop). Throws InputError unless both have
-  /// nq finite entries.
+  /// starts an episode from the measured state (q, q̇): the commanded state becomes it (clamped to the limits), the
+  /// counters are zeroed and the policy is reset. Throws InputError unless both have nq finite entries.
   void Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd);
 
-  /// one control step: Update(world.q(), world.qd(), scene), then world.SetJointTargets(servo_target()). Does not
-  /// step the physics (the caller steps physics_steps_per_control() times).  \pre Reset.
-  ControlStepResult Step(World& world, const rmp::Scene& scene);
-
-  /// the control computation without a World: measured (q, q̇) in, commanded state (q_cmd(), qd_cmd()) out. Throws
-  /// InputError unless q, q̇ have nq finite entries.
+  /// one control step: measured (q, q̇) in, commanded state (q_cmd(), qd_cmd()) and servo_target() out. Throws
+  /// InputError unless q, q̇ have nq finite entries.  \pre Reset.
   ControlStepResult Update(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                            const rmp::Scene& scene);
 
   /// commanded joint positions / velocities after the last step.
   const Eigen::VectorXd& q_cmd() const { return q_cmd_; }
   const Eigen::VectorXd& qd_cmd() const { return qd_cmd_; }
-  /// the servo target of the last Step: q_cmd + (d/kp) q̇_cmd with velocity_feedforward, else q_cmd.
+  /// the position-servo target of the last Update: q_cmd + (d/kp) q̇_cmd with velocity_feedforward, else q_cmd.
   const Eigen::VectorXd& servo_target() const { return q_target_; }
   /// the policy's last q̈ (as returned, possibly non-finite).
   const Eigen::VectorXd& qdd() const { return qdd_; }
@@ -162,8 +156,9 @@ class ReactiveController {
   AccelerationPolicy& policy() { return *policy_; }
   const AccelerationPolicy& policy() const { return *policy_; }
   const ControllerStats& stats() const { return stats_; }
-  /// control period [s] = physics_steps_per_control() × physics timestep.
+  /// control period [s]: physics_steps_per_control() × the servos' timestep (1 / control_rate without one).
   double control_period() const { return period_; }
+  /// the servos' timesteps per control step (1 without a timestep).
   int physics_steps_per_control() const { return physics_steps_; }
   /// substeps per control step and their length h [s].
   int substeps() const { return substeps_; }
@@ -191,4 +186,4 @@ class ReactiveController {
   ControllerStats stats_;
 };
 
-}  // namespace rmpmarl::sim
+}  // namespace rmpmarl::control

@@ -1,5 +1,5 @@
 // ReactiveController: acceleration policy → semi-implicit Euler on the commanded state → position-servo targets.
-#include "rmpmarl/sim/controller.h"
+#include "rmpmarl/control/controller.h"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::sim {
+namespace rmpmarl::control {
 
 AccelerationPolicy::~AccelerationPolicy() = default;
 
@@ -44,16 +44,19 @@ void ValidateControllerOptions(const ControllerOptions& o, double physics_timest
     throw InputError(fmt::format("ControllerOptions.control_rate: expected a finite rate > 0 Hz, got {}",
                                  o.control_rate));
   }
-  if (!std::isfinite(physics_timestep) || !(physics_timestep > 0.0)) {
-    throw InputError(fmt::format("ReactiveController: expected a physics timestep > 0 s, got {}", physics_timestep));
+  if (!std::isfinite(physics_timestep) || !(physics_timestep >= 0.0)) {
+    throw InputError(fmt::format("ReactiveController: expected a loop timestep >= 0 s (0: any period), got {}",
+                                 physics_timestep));
   }
-  const double period = 1.0 / o.control_rate;
-  const double ratio = period / physics_timestep;
-  if (std::round(ratio) < 1.0 || std::abs(ratio - std::round(ratio)) > 1e-6 * ratio) {
-    throw InputError(fmt::format("ControllerOptions.control_rate: expected a control period that is a whole number "
-                                 "(>= 1) of physics timesteps ({} s, i.e. a rate of {:g} Hz divided by an integer), "
-                                 "got {:g} Hz (period / timestep = {:.6g})", physics_timestep,
-                                 1.0 / physics_timestep, o.control_rate, ratio));
+  if (physics_timestep > 0.0) {
+    const double period = 1.0 / o.control_rate;
+    const double ratio = period / physics_timestep;
+    if (std::round(ratio) < 1.0 || std::abs(ratio - std::round(ratio)) > 1e-6 * ratio) {
+      throw InputError(fmt::format("ControllerOptions.control_rate: expected a control period that is a whole number "
+                                   "(>= 1) of physics timesteps ({} s, i.e. a rate of {:g} Hz divided by an integer), "
+                                   "got {:g} Hz (period / timestep = {:.6g})", physics_timestep,
+                                   1.0 / physics_timestep, o.control_rate, ratio));
+    }
   }
   if (!std::isfinite(o.max_substep) || !(o.max_substep > 0.0)) {
     throw InputError(fmt::format("ControllerOptions.max_substep: expected a finite step > 0 s, got {}",
@@ -69,32 +72,39 @@ void ValidateControllerOptions(const ControllerOptions& o, double physics_timest
   }
 }
 
-ReactiveController::ReactiveController(const WorldModel& model, std::unique_ptr<AccelerationPolicy> policy,
+ReactiveController::ReactiveController(const ServoSpec& servos, std::unique_ptr<AccelerationPolicy> policy,
                                        ControllerOptions options)
     : policy_(std::move(policy)), options_(options) {
   if (!policy_) throw InputError("ReactiveController: expected an AccelerationPolicy, got a null pointer");
-  const int nq = model.nq();
+  const int nq = static_cast<int>(servos.lower.size());
   if (policy_->nq() != nq) {
     throw InputError(fmt::format("ReactiveController: policy '{}' is built for {} joints but robot '{}' has {}",
-                                 policy_->name(), policy_->nq(), model.robot().name, nq));
+                                 policy_->name(), policy_->nq(), servos.robot, nq));
   }
-  const double timestep = model.mj_model()->opt.timestep;
-  ValidateControllerOptions(options_, timestep);
-  physics_steps_ = static_cast<int>(std::lround(1.0 / (options_.control_rate * timestep)));
-  period_ = physics_steps_ * timestep;
+  if (servos.upper.size() != nq || servos.velocity.size() != nq ||
+      (servos.feedforward.size() != 0 && servos.feedforward.size() != nq)) {
+    throw InputError(fmt::format("ReactiveController: expected servos of robot '{}' with {} upper limits, velocity "
+                                 "limits and feed-forward ratios (or none), got {}, {} and {}", servos.robot, nq,
+                                 servos.upper.size(), servos.velocity.size(), servos.feedforward.size()));
+  }
+  ValidateControllerOptions(options_, servos.timestep);
+  if (servos.timestep > 0.0) {
+    physics_steps_ = static_cast<int>(std::lround(1.0 / (options_.control_rate * servos.timestep)));
+    period_ = physics_steps_ * servos.timestep;
+  } else {
+    physics_steps_ = 1;
+    period_ = 1.0 / options_.control_rate;
+  }
   substeps_ = ControlSubsteps(period_, options_);
-  lower_ = model.lower_limits();
-  upper_ = model.upper_limits();
+  lower_ = servos.lower;
+  upper_ = servos.upper;
   v_max_.resize(nq);
   for (int i = 0; i < nq; ++i) {
-    const double v = model.kinematic_model().limits()[i].velocity;
+    const double v = servos.velocity[i];
     v_max_[i] = v > 0.0 ? options_.velocity_limit_scale * v : std::numeric_limits<double>::infinity();
   }
   feedforward_.setZero(nq);
-  if (options_.velocity_feedforward) {
-    const ServoGains& gains = model.servo_gains();
-    for (int i = 0; i < nq; ++i) feedforward_[i] = gains.damping[i] / gains.kp[i];
-  }
+  if (options_.velocity_feedforward && servos.feedforward.size() == nq) feedforward_ = servos.feedforward;
   q_cmd_ = Eigen::VectorXd::Zero(nq).cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_.setZero(nq);
   qdd_.setZero(nq);
@@ -110,8 +120,6 @@ void ReactiveController::CheckMeasuredState(const Eigen::Ref<const Eigen::Vector
   }
 }
 
-void ReactiveController::Reset(const World& world) { Reset(world.q(), world.qd()); }
-
 void ReactiveController::Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd) {
   CheckMeasuredState(q, qd, "Reset");
   q_cmd_ = q.cwiseMax(lower_).cwiseMin(upper_);
@@ -120,13 +128,6 @@ void ReactiveController::Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const
   q_target_ = q_cmd_;
   stats_ = ControllerStats{};
   policy_->Reset(q_cmd_);
-}
-
-ControlStepResult ReactiveController::Step(World& world, const rmp::Scene& scene) {
-  const ControlStepResult result = Update(world.q(), world.qd(), scene);
-  q_target_ = q_cmd_ + feedforward_.cwiseProduct(qd_cmd_);
-  world.SetJointTargets(q_target_);
-  return result;
 }
 
 void ReactiveController::Integrate(double h, ControlStepResult* result) {
@@ -173,6 +174,7 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
     }
     Integrate(h, &result);
   }
+  q_target_ = q_cmd_ + feedforward_.cwiseProduct(qd_cmd_);
   const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   result.compute_us = us;
   ++stats_.steps;
@@ -185,4 +187,4 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
   return result;
 }
 
-}  // namespace rmpmarl::sim
+}  // namespace rmpmarl::control

@@ -1,5 +1,5 @@
 // Point-cloud obstacles: filter, downsample, self-filter, cluster, track (see the header for the steps).
-#include "rmpmarl/perception/cloud_obstacles.h"
+#include "rmpmarl/control/cloud_obstacles.h"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::perception {
+namespace rmpmarl::control {
 namespace {
 
 constexpr std::int64_t kEmpty = -1;
@@ -471,4 +471,4 @@ void CloudObstacles::FillScene(rmp::Scene* scene) const {
   }
 }
 
-}  // namespace rmpmarl::perception
+}  // namespace rmpmarl::control

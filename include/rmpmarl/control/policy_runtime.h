@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/tasks/env.h"
+#include "rmpmarl/control/action_spec.h"
 
-namespace rmpmarl::rl {
+namespace rmpmarl::control {
 
 /// One affine layer y = W x + b.
 struct DenseLayer {
@@ -77,4 +77,4 @@ class PolicyRuntime {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace rmpmarl::rl
+}  // namespace rmpmarl::control
