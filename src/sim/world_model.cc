@@ -11,7 +11,6 @@
 namespace rmpmarl::sim {
 namespace {
 
-using kinematics::JointType;
 
 // id of the named MuJoCo object; the names come from our own MJCF, so a miss is an internal error.
 int IdOf(const mjModel* m, mjtObj type, const std::string& name) {
@@ -84,18 +83,13 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
   dof_qpos_adr_.resize(nq);
   dof_vel_adr_.resize(nq);
   dof_actuator_.resize(nq);
-  lower_.resize(nq);
-  upper_.resize(nq);
   for (int i = 0; i < nq; ++i) {
     const int joint = IdOf(m, mjOBJ_JOINT, model.dof_name(i));
     dof_qpos_adr_[i] = m->jnt_qposadr[joint];
     dof_vel_adr_[i] = m->jnt_dofadr[joint];
     dof_actuator_[i] = IdOf(m, mjOBJ_ACTUATOR, MjcfNames::Actuator(robot_, i));
-    const bool continuous = model.link(model.dof_link(i)).joint_type == JointType::kContinuous;
-    const double inf = std::numeric_limits<double>::infinity();
-    lower_[i] = continuous ? -inf : model.limits()[i].lower;
-    upper_[i] = continuous ? inf : model.limits()[i].upper;
   }
+  // the position limits (continuous joints unlimited) are the servos' (control::ServosOf)
   servos_ = control::ServosOf(robot_);
   servos_.timestep = m->opt.timestep;
   servos_.feedforward = (gains_.damping.array() / gains_.kp.array()).matrix();

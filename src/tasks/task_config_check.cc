@@ -65,7 +65,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "'planar2' for task pretrain-2link (the paper's two-link pre-training arm)", fmt::format("'{}'", c.robot));
 
   // the agents' sections (interface, episode clock, controller, options, direct, observation, basic layer)
-  control::ValidateAgentConfig(AgentConfigOf(c), where);
+  const control::AgentConfig agent = AgentConfigOf(c);
+  control::ValidateAgentConfig(agent, where);
   const EpisodeConfig& e = c.episode;
   check(std::isfinite(e.discount) && e.discount > 0.0 && e.discount <= 1.0, "episode.discount", "a value in (0, 1]",
         e.discount);
@@ -98,8 +99,8 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a weight >= 0 [reward per step]", w.precision_weight);
   check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
         w.precision_length);
-  control::internal::CheckPassClearance(check, AgentConfigOf(c), w.precision_pass_clearance, "reward.precision_pass_clearance", "every step",
-                     c.interface != InterfaceMode::kDirect, "a per-joint");
+  control::internal::CheckPassClearance(check, agent, w.precision_pass_clearance, "reward.precision_pass_clearance",
+                                       "every step", c.interface != InterfaceMode::kDirect, "a per-joint");
   // domain randomisation
   const RandomizationConfig& d = c.randomization;
   check(d.variants >= 1 && d.variants <= 1024, "randomization.variants", "an integer in [1, 1024]", d.variants);

@@ -89,8 +89,8 @@ class WorldModel {
   /// true when robot links i and j are checked against each other (not Robot::IsExcludedPair, i != j).
   bool IsCheckedLinkPair(int i, int j) const { return checked_link_pair_[i * robot_.model.num_links() + j] != 0; }
   /// lower/upper commanded position per dof (joint limits; ±inf for continuous joints).
-  const Eigen::VectorXd& lower_limits() const { return lower_; }
-  const Eigen::VectorXd& upper_limits() const { return upper_; }
+  const Eigen::VectorXd& lower_limits() const { return servos_.lower; }
+  const Eigen::VectorXd& upper_limits() const { return servos_.upper; }
 
  private:
   kinematics::Robot robot_;
@@ -106,7 +106,6 @@ class WorldModel {
   int target_mocap_ = -1, target_geom_ = -1, floor_geom_ = -1;
   std::vector<GeomInfo> geom_info_;
   std::vector<char> checked_link_pair_;  // num_links x num_links
-  Eigen::VectorXd lower_, upper_;
 };
 
 /// Numerical trouble MuJoCo detected during a step (its mjWARN_BAD* warnings).
