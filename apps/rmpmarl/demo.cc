@@ -12,7 +12,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/control/learned_controller.h"
-#include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/rmp/rmpflow.h"
@@ -72,6 +72,18 @@ std::string DemoHello(const kinematics::Robot& robot, const sim::Scenario& scena
   return viewer::EncodeHello(robot, info);
 }
 
+// what happened, in words that cannot mislead: reached (and how close), collision-free, both.
+std::string DescribeOutcome(const sim::EpisodeMetrics& m, double reach_tolerance) {
+  if (m.invalid) return "INVALID: the episode ended on a non-finite state";
+  const std::string reach = m.reached ? fmt::format("reached the target (final error {:.1f} mm, within {:.0f} mm)",
+                                                    1000.0 * m.final_tracking_error, 1000.0 * reach_tolerance)
+                                      : fmt::format("did NOT reach the target (final error {:.1f} mm, more than {:.0f} mm)",
+                                                    1000.0 * m.final_tracking_error, 1000.0 * reach_tolerance);
+  const std::string contact = m.collisions == 0 ? "collision-free"
+                                                : fmt::format("{} COLLISION events", m.collisions);
+  return reach + "; " + contact;
+}
+
 sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
   return sim::CameraForWorkspace(ws, args.width, args.height);
 }
@@ -101,7 +113,6 @@ void RunDemo(const DemoArgs& args) {
   sim::EpisodeOptions episode;
   episode.duration = args.duration > 0.0 ? args.duration : scenario->default_duration();
   episode.seed = args.seed;
-  episode.tracking_warmup = 1.0;
   episode.sensor = sensor.get();
 
   std::unique_ptr<sim::OffscreenRenderer> renderer;
@@ -145,25 +156,27 @@ void RunDemo(const DemoArgs& args) {
              args.seed, episode.duration);
   fmt::print("  RMPflow parameters: {}{}\n", config_path.string(), robot.home.size() > 0 ? " (home found in memory)" : "");
   fmt::print("  {}\n", DescribePerception(args.perception));
-  const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, on_frame);
+  const sim::EpisodeMetrics r = sim::RunEpisode(episode, world, controller, *scenario, on_frame);
 
-  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("none within 15 cm"); };
-  fmt::print("\n  tracking error      {:.1f} ± {:.1f} mm (mean ± std after 1 s), final {:.1f} mm, max {:.1f} mm\n",
-             r.tracking_error_mean_mm, r.tracking_error_std_mm, r.final_tracking_error_mm, r.tracking_error_max_mm);
-  fmt::print("  min clearance       {} to obstacles, {} between links\n", mm(r.min_clearance_mm),
-             mm(r.min_self_clearance_mm));
-  fmt::print("  collisions          {} events ({} robot–obstacle, {} self), {:.2f} s in collision\n",
-             r.collision_events, r.obstacle_collision_events, r.self_collision_events, r.time_in_collision);
+  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("–"); };
+  auto clearance = [](double v) {
+    return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("none within 15 cm");
+  };
+  fmt::print("\n  tracking error      {} mean, {} settled (t >= {:g} s), {} max, final {}\n", mm(r.mean_tracking_error),
+             mm(r.settled_tracking_error), episode.loop.settle_time, mm(r.max_tracking_error),
+             mm(r.final_tracking_error));
+  fmt::print("  min clearance       {} to obstacles, {} between links\n", clearance(r.min_clearance),
+             clearance(r.min_self_clearance));
+  fmt::print("  collisions          {} events ({} robot–obstacle, {} self), {:.2f} s in collision\n", r.collisions,
+             r.obstacle_collisions, r.self_collisions, r.time_in_collision);
   fmt::print("  control step        {:.1f} µs mean, {:.1f} µs max ({} steps at {:.0f} Hz; physics {} steps)\n",
-             r.control_step_mean_us, r.control_step_max_us, r.control_steps, 1.0 / controller.control_period(),
-             r.physics_steps);
+             r.mean_control_us, r.max_control_us, r.length, 1.0 / controller.control_period(), r.physics_steps);
   if (r.nonfinite_policy_outputs > 0) {
     fmt::print("  WARNING             {} non-finite policy outputs (position held)\n", r.nonfinite_policy_outputs);
   }
-  if (r.diverged) fmt::print("  WARNING             the simulation diverged and the episode ended early\n");
-  if (sensor) PrintSensorSummary(r.sensor, "");
-  fmt::print("  result              {}\n", r.success ? "success: no collision"
-                                                     : fmt::format("FAILURE: {} collision events", r.collision_events));
+  if (r.invalid) fmt::print("  WARNING             the simulation diverged and the episode ended early\n");
+  if (sensor) PrintSensorSummary(sensor->Summary(), "");
+  fmt::print("  result              {}\n", DescribeOutcome(r, episode.loop.reach_tolerance));
   if (video) {
     const bool mp4 = video->writes_mp4();
     const auto written = video->Close();
@@ -189,53 +202,47 @@ struct DemoRun {
   std::optional<sim::SensorSummary> sensor;
 };
 
-// runs one episode of `env` (seeded with args.seed, so every env of the same task sees the same episode) with the
-// env's external controller; renders it when args.video is set.
-DemoRun RunDemoEpisode(tasks::ManipulatorEnv& env, const std::string& label, const std::string& video_path,
+// runs one episode of the task with `runner`'s controller (seeded with args.seed, so every controller of the same
+// task sees the same episode); renders it when a video path is given, records frames when `frames` is set.
+DemoRun RunDemoEpisode(tasks::ControllerEpisodes& runner, const std::string& label, const std::string& video_path,
                        const DemoArgs& args, control::LearnedController* const* learned = nullptr,
                        std::vector<std::string>* frames = nullptr) {
-  const tasks::EnvSpec& spec = env.spec();
-  const int A = spec.num_agents;
-  tasks::StepBuffers buffers(spec);
-  std::vector<float> actions(static_cast<size_t>(A) * spec.action.size(), 0.0f);
   std::mt19937_64 rng(args.seed);
-  env.Reset(rng, buffers.out());
   std::unique_ptr<sim::OffscreenRenderer> renderer;
   std::unique_ptr<sim::VideoWriter> video;
   std::vector<std::uint8_t> rgb;
-  if (!video_path.empty()) {
-    std::string why_not;
-    renderer = sim::OffscreenRenderer::Create(env.world().mj_model(), CameraFor(env.scenario().workspace(), args),
-                                              &why_not);
-    if (renderer == nullptr) {
-      fmt::print("video: offscreen rendering is not possible here ({}); running without video\n", why_not);
-    } else {
-      video = std::make_unique<sim::VideoWriter>(video_path, args.width, args.height, args.fps);
-    }
-  }
-  DemoRun run{label, {}, 0.0, "", std::nullopt};
-  double next_frame = 0.0;
-  // the env truncates the episode at config.episode.max_steps (--duration); its metrics come with the last step
-  while (!buffers.terminated && !buffers.truncated) {
-    if ((video || frames != nullptr) && env.world().time() + 1e-9 >= next_frame) {
+  bool render = !video_path.empty();
+  tasks::RunOptions options;
+  if (render || frames != nullptr) {
+    options.video_fps = args.fps;
+    options.on_frame = [&](const sim::FrameInfo& frame) {
+      if (render && !renderer) {  // at the first frame, when the episode's scene is drawn
+        std::string why_not;
+        renderer = sim::OffscreenRenderer::Create(frame.world->mj_model(),
+                                                  CameraFor(frame.scenario->workspace(), args), &why_not);
+        if (renderer == nullptr) {
+          fmt::print("video: offscreen rendering is not possible here ({}); running without video\n", why_not);
+          render = false;
+        } else {
+          video = std::make_unique<sim::VideoWriter>(video_path, args.width, args.height, args.fps);
+        }
+      }
       if (video) {
-        const Eigen::Matrix3Xd* points = env.sensor() != nullptr ? &env.sensor()->points() : nullptr;
-        renderer->Render(env.world().mj_data(), &rgb, points, 0.5 * args.perception.voxel);
+        const Eigen::Matrix3Xd* points = frame.sensor != nullptr ? &frame.sensor->points() : nullptr;
+        renderer->Render(frame.world->mj_data(), &rgb, points, 0.5 * args.perception.voxel);
         video->AddFrame(rgb);
       }
       if (frames != nullptr) {
         viewer::ArmView arm;
-        arm.world = &env.world();
-        arm.learned = learned != nullptr ? *learned : nullptr;  // the env makes its controller at its first reset
-        frames->push_back(viewer::ScenarioFrame(static_cast<long>(frames->size()), env.world().time(),
-                                                env.scenario(), {arm}));
+        arm.world = frame.world;
+        arm.learned = learned != nullptr ? *learned : nullptr;  // made with the controller at the episode's start
+        frames->push_back(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
       }
-      next_frame += 1.0 / args.fps;
-    }
-    env.Step(actions.data(), rng, buffers.out());
+    };
   }
-  run.metrics = buffers.metrics;
-  if (env.sensor() != nullptr) run.sensor = env.sensor()->Summary();
+  DemoRun run{label, {}, 0.0, "", std::nullopt};
+  run.metrics = runner.Run(rng, options);
+  if (runner.sensor() != nullptr) run.sensor = runner.sensor()->Summary();
   run.step_us = run.metrics.mean_control_us;  // the whole controller: sensing, network and basic layer
   if (video) run.video = video->Close().string();
   return run;
@@ -292,8 +299,8 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
              config.options.TargetGated()
                  ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
                  : "");
-  tasks::ExternalController agents;
-  control::LearnedController* learned_policy = nullptr;  // owned by the env's controller
+  tasks::ControllerMaker agents;
+  control::LearnedController* learned_policy = nullptr;  // owned by the runner's controller
   const int slots = ObstacleSlots(args, context->num_obstacles());
   fmt::print("  {}\n", DescribePerception(args.perception));
   agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
@@ -303,49 +310,56 @@ void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
     return policy;
   };
   agents.options = config.controller;
-  tasks::ManipulatorEnv learned_env(context, agents);
+  tasks::ControllerEpisodes learned_env(context, agents);
   const bool record = !args.record.empty();
   std::vector<std::string> learned_frames, rmpflow_frames;
   const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args, &learned_policy,
                                          record ? &learned_frames : nullptr);
-  tasks::ExternalController rmpflow;
+  tasks::ControllerMaker rmpflow;
   rmpflow.make_sensor = MakeSensorFactory(args.perception, args.seed);
   rmpflow.make_policy = [&](const kinematics::Robot& robot) {
     return std::make_unique<control::RmpflowAccelerationPolicy>(robot, slots);
   };
-  tasks::ManipulatorEnv rmpflow_env(context, rmpflow);
+  tasks::ControllerEpisodes rmpflow_env(context, rmpflow);
   const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args, nullptr,
                                           record ? &rmpflow_frames : nullptr);
   std::optional<viewer::Recorder> recorder;
   if (record) {
     // one replay of both runs side by side, over the frames both have (an episode can end early on a collision)
-    recorder.emplace(DemoHello(robot, learned_env.scenario(), {{label, "learned"}, {"RMPflow", "rmpflow"}},
+    recorder.emplace(DemoHello(robot, learned_env.episode().scenario(), {{label, "learned"}, {"RMPflow", "rmpflow"}},
                                config.episode.control_rate, args.seed));
     const std::size_t n = std::min(learned_frames.size(), rmpflow_frames.size());
     for (std::size_t i = 0; i < n; ++i) recorder->AddFrame(viewer::MergeFrameArms(learned_frames[i], rmpflow_frames[i]));
     recorder->Write(args.record);
   }
 
-  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", v) : std::string("–"); };
+  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("–"); };
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
-    fmt::print("  {:<26}{:>20}{:>20}\n", name, a, b);
+    fmt::print("  {:<26}{:>24}{:>24}\n", name, a, b);
   };
   fmt::print("\n");
   row("", learned.label, baseline.label);
-  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error_mm), mm(baseline.metrics.mean_tracking_error_mm));
-  row("settled (t >= 1 s)", mm(learned.metrics.settled_tracking_error_mm),
-      mm(baseline.metrics.settled_tracking_error_mm));
-  row("final error", mm(learned.metrics.final_tracking_error_mm), mm(baseline.metrics.final_tracking_error_mm));
+  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error), mm(baseline.metrics.mean_tracking_error));
+  row(fmt::format("settled (t >= {:g} s)", tasks::kSettleTime), mm(learned.metrics.settled_tracking_error),
+      mm(baseline.metrics.settled_tracking_error));
+  row("final error", mm(learned.metrics.final_tracking_error), mm(baseline.metrics.final_tracking_error));
   auto clearance = [&](const tasks::EpisodeMetrics& m) {
-    return std::isfinite(m.min_clearance_m) ? mm(1000.0 * m.min_clearance_m) : std::string("none within 15 cm");
+    return std::isfinite(m.min_clearance) ? mm(m.min_clearance) : std::string("none within 15 cm");
   };
   row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
   row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
   row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
-  auto result = [](const tasks::EpisodeMetrics& m) {
-    return m.invalid ? std::string("INVALID") : m.collisions == 0 ? std::string("success") : std::string("FAILURE");
+  const double tolerance = std::isfinite(config.episode.success_max_final_error) ? config.episode.success_max_final_error
+                                                                                 : sim::LoopOptions{}.reach_tolerance;
+  auto reached = [&](const tasks::EpisodeMetrics& m) {
+    return m.invalid ? std::string("INVALID") : m.reached ? std::string("yes") : std::string("NO");
   };
-  row("result", result(learned.metrics), result(baseline.metrics));
+  auto free = [](const tasks::EpisodeMetrics& m) {
+    return m.collisions == 0 ? std::string("yes") : fmt::format("NO ({} events)", m.collisions);
+  };
+  row(fmt::format("reached (within {:.0f} mm)", 1000.0 * tolerance), reached(learned.metrics),
+      reached(baseline.metrics));
+  row("collision-free", free(learned.metrics), free(baseline.metrics));
   for (const DemoRun* r : {&learned, &baseline}) {
     if (r->sensor) PrintSensorSummary(*r->sensor, r->label);
   }

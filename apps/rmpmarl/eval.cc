@@ -11,11 +11,14 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/rl/torch/trainer.h"
@@ -104,29 +107,29 @@ void RegisterEval(CLI::App& app) {
       move.overrides_yaml = args->overrides;
       const tasks::TaskConfig config = rl::PolicyTaskConfig(file, args->policy, move);
       const auto context = tasks::MakeTaskContext(config);
-      tasks::EnvFactory factory = tasks::MakeManipulatorEnvFactory(context);
+      rl::EvalResult r;
       if (args->as_controller) {
         if (args->stochastic) {
           throw InputError("eval: --stochastic and --as-controller: a controller acts on its deterministic modes");
         }
-        tasks::ExternalController learned;
-        control::LearnedControllerOptions options;
-        options.max_obstacles = std::max(context->num_obstacles(),
-                                         depth ? DepthOptions(args->perception, 0).cloud.max_obstacles : 0);
-        options.name = std::filesystem::path(args->policy).stem().string();
-        learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
         // the moved task (scene, robot, --overrides) is the controller's task too
-        learned.make_policy = [agent = tasks::AgentConfigOf(config), weights = file.weights,
-                               options](const kinematics::Robot& robot) {
-          return std::make_unique<control::LearnedController>(robot, agent, weights, options);
-        };
-        learned.options = config.controller;
-        factory = [context, learned](int) { return std::make_unique<tasks::ManipulatorEnv>(context, learned); };
+        const int slots = std::max(context->num_obstacles(),
+                                   depth ? DepthOptions(args->perception, 0).cloud.max_obstacles : 0);
+        tasks::ControllerMaker learned = tasks::LearnedControllerMaker(
+            config, file.weights, std::filesystem::path(args->policy).stem().string(), slots);
+        learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
+        tasks::ControllerEpisodes runner(context, learned);
+        std::vector<tasks::EpisodeMetrics> episodes;
+        for (int i = 0; i < args->episodes; ++i) {
+          std::mt19937_64 rng(experiments::EpisodeSeed(args->seed, i));
+          episodes.push_back(runner.Run(rng));
+        }
+        r = rl::SummarizeEpisodes(episodes);
+      } else {
+        r = rl::Evaluate(args->policy, tasks::MakeManipulatorEnvFactory(context),
+                         {.episodes = args->episodes, .num_envs = args->envs, .env_threads = args->env_threads,
+                          .seed = args->seed, .stochastic = args->stochastic});
       }
-      const rl::EvalResult r = rl::Evaluate(args->policy, factory,
-                                            {.episodes = args->episodes, .num_envs = args->envs,
-                                             .env_threads = args->env_threads, .seed = args->seed,
-                                             .stochastic = args->stochastic});
       fmt::print("eval {} on {} / {} / {}{} ({} episodes, {} actions)\n", args->policy,
                  tasks::TaskKindName(config.task), config.robot, tasks::InterfaceModeName(config.interface),
                  args->as_controller ? ", as a controller in a user's loop" : "", r.episodes,

@@ -108,7 +108,7 @@ def evaluate(act, args, seed):
         if "episode" in info:
             ended = info["_episode"]
             success += list(info["episode"]["success"][ended])
-            tracking += list(info["episode"]["tracking_error_mm"][ended])
+            tracking += list(1000.0 * info["episode"]["tracking_error"][ended])
             done += int(ended.sum())
     return float(np.mean(success[:args.eval_episodes])), float(np.mean(tracking[:args.eval_episodes]))
 
@@ -183,7 +183,7 @@ def main():
             if "episode" in info:
                 e = info["episode"]
                 for k in np.flatnonzero(info["_episode"]):
-                    window.append((e["success"][k], e["tracking_error_mm"][k], e["return"][k]))
+                    window.append((e["success"][k], 1000.0 * e["tracking_error"][k], e["return"][k]))
             resetting = ended
         with torch.no_grad():
             last_value = critic(state_norm.normalize(torch.from_numpy(state))).squeeze(-1)

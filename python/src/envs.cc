@@ -195,7 +195,7 @@ step() or reset() and stay valid while this object lives.)doc")
         const rl::Batch& b = h.env->batch();
         const py::ssize_t n = h.env->num_envs();
         const double nan = std::numeric_limits<double>::quiet_NaN();
-        py::array_t<bool> ended(n), success(n), invalid(n);
+        py::array_t<bool> ended(n), success(n), invalid(n), reached(n);
         py::array_t<double> ret(n), tracking(n), settled(n), clearance(n), control_us(n), in_collision(n);
         py::array_t<std::int32_t> length(n), collisions(n);
         for (py::ssize_t k = 0; k < n; ++k) {
@@ -204,12 +204,13 @@ step() or reset() and stay valid while this object lives.)doc")
           ended.mutable_at(k) = e;
           success.mutable_at(k) = e && mt.success;
           invalid.mutable_at(k) = e && mt.invalid;
+          reached.mutable_at(k) = e && mt.reached;
           ret.mutable_at(k) = e ? mt.episode_return : nan;
-          tracking.mutable_at(k) = e ? mt.mean_tracking_error_mm : nan;
-          settled.mutable_at(k) = e ? mt.settled_tracking_error_mm : nan;
-          clearance.mutable_at(k) = e ? mt.min_clearance_m : nan;
+          tracking.mutable_at(k) = e ? mt.mean_tracking_error : nan;
+          settled.mutable_at(k) = e ? mt.settled_tracking_error : nan;
+          clearance.mutable_at(k) = e ? mt.min_clearance : nan;
           control_us.mutable_at(k) = e ? mt.mean_control_us : nan;
-          in_collision.mutable_at(k) = e ? mt.time_in_collision_s : nan;
+          in_collision.mutable_at(k) = e ? mt.time_in_collision : nan;
           length.mutable_at(k) = e ? mt.length : 0;
           collisions.mutable_at(k) = e ? mt.collisions : 0;
         }
@@ -217,13 +218,14 @@ step() or reset() and stay valid while this object lives.)doc")
         d["ended"] = ended;
         d["success"] = success;
         d["invalid"] = invalid;
+        d["reached"] = reached;
         d["return"] = ret;
         d["length"] = length;
         d["collisions"] = collisions;
-        d["tracking_error_mm"] = tracking;
-        d["settled_tracking_error_mm"] = settled;
-        d["min_clearance_m"] = clearance;
-        d["time_in_collision_s"] = in_collision;
+        d["tracking_error"] = tracking;
+        d["settled_tracking_error"] = settled;
+        d["min_clearance"] = clearance;
+        d["time_in_collision"] = in_collision;
         d["control_us"] = control_us;
         return d;
       }, "the metrics of the episodes that ended in the last step, arrays [num_envs] with the mask 'ended'");

@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -19,6 +20,7 @@
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/control/policy_runtime.h"
@@ -183,48 +185,36 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
     throw InputError(fmt::format("{}: a fixed-option method reads MuJoCo's contacts, not a sensor: with a sensor "
                                  "(--perception depth) run RMPflow, RRT or learned methods", method.name));
   }
-  auto make_env = [&]() -> std::unique_ptr<tasks::ManipulatorEnv> {
-    if ((sensed || protocol.learned_as_controller) && method.kind == MethodKind::kPolicy) {
-      // the agents as a user's loop runs them: control::LearnedController on what the sensor perceives
-      tasks::ExternalController external;
-      external.options = config.controller;
-      external.make_sensor = protocol.make_sensor;
-      control::LearnedControllerOptions options;
-      options.max_obstacles =
-          sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
-      options.name = method.name;
-      external.make_policy = [agent = tasks::AgentConfigOf(config), weights, options](const kinematics::Robot& robot) {
-        return std::make_unique<control::LearnedController>(robot, agent, weights, options);
-      };
-      return std::make_unique<tasks::ManipulatorEnv>(context, std::move(external));
-    }
-    if (method.kind == MethodKind::kRmpflow || method.kind == MethodKind::kRrt) {
-      tasks::ExternalController external;
-      external.options = control::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
-      external.make_sensor = protocol.make_sensor;
-      const int max_obstacles =
-          sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
-      if (method.kind == MethodKind::kRmpflow) {
-        external.make_policy = [max_obstacles, adjust = method.adjust_rmpflow](const kinematics::Robot& robot) {
-          rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name));
-          if (adjust) {
-            adjust(options);
-            rmp::ValidateRmpflowOptions(options, "RMPflow options adjusted by the experiment");
-          }
-          return std::make_unique<control::RmpflowAccelerationPolicy>(robot, options, max_obstacles);
-        };
-      } else {
-        planning::RrtOptions rrt = method.rrt;
-        const double period = spec.control_dt;
-        rrt.evaluation_period = period / control::ControlSubsteps(period, external.options);
-        external.make_policy = [rrt](const kinematics::Robot& robot) {
-          return std::make_unique<planning::RrtPolicy>(robot, rrt);
-        };
+  // methods that are controllers run the task's episodes through tasks::ControllerEpisodes; the others act in the
+  // env. Both draw every episode from the same rng, so every method sees identical episodes.
+  const int sensor_slots =
+      sensed ? std::max(context->num_obstacles(), protocol.sensor_obstacle_slots) : context->num_obstacles();
+  std::optional<tasks::ControllerMaker> controller;
+  if ((sensed || protocol.learned_as_controller) && method.kind == MethodKind::kPolicy) {
+    // the agents as a user's loop runs them: control::LearnedController on what the sensor perceives
+    controller = tasks::LearnedControllerMaker(config, weights, method.name, sensor_slots);
+  } else if (method.kind == MethodKind::kRmpflow) {
+    controller.emplace();
+    controller->options = control::ControllerOptions{};  // the demo's: 2 ms substeps, commanded-state input
+    controller->make_policy = [sensor_slots, adjust = method.adjust_rmpflow](const kinematics::Robot& robot) {
+      rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(rmp::RmpflowConfigPath(robot.name));
+      if (adjust) {
+        adjust(options);
+        rmp::ValidateRmpflowOptions(options, "RMPflow options adjusted by the experiment");
       }
-      return std::make_unique<tasks::ManipulatorEnv>(context, std::move(external));
-    }
-    return std::make_unique<tasks::ManipulatorEnv>(context);
-  };
+      return std::make_unique<control::RmpflowAccelerationPolicy>(robot, options, sensor_slots);
+    };
+  } else if (method.kind == MethodKind::kRrt) {
+    controller.emplace();
+    controller->options = control::ControllerOptions{};
+    planning::RrtOptions rrt = method.rrt;
+    const double period = spec.control_dt;
+    rrt.evaluation_period = period / control::ControlSubsteps(period, controller->options);
+    controller->make_policy = [rrt](const kinematics::Robot& robot) {
+      return std::make_unique<planning::RrtPolicy>(robot, rrt);
+    };
+  }
+  if (controller) controller->make_sensor = protocol.make_sensor;
   auto make_actor = [&]() -> std::unique_ptr<Actor> {
     if (method.kind == MethodKind::kPolicy) return std::make_unique<PolicyActor>(weights, A);
     if (method.threat_gate) {
@@ -239,10 +229,18 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
   std::atomic<int> next{0};
   std::exception_ptr error;
   std::mutex error_mutex;
+  // one episode of the method: its metrics, the time its actor took per step (0 for controllers) and the steps
   auto worker = [&] {
     try {
-      std::unique_ptr<tasks::ManipulatorEnv> env = make_env();
-      std::unique_ptr<Actor> actor = make_actor();
+      std::unique_ptr<tasks::ManipulatorEnv> env;
+      std::unique_ptr<Actor> actor;
+      std::unique_ptr<tasks::ControllerEpisodes> runner;
+      if (controller) {
+        runner = std::make_unique<tasks::ControllerEpisodes>(context, *controller);
+      } else {
+        env = std::make_unique<tasks::ManipulatorEnv>(context);
+        actor = make_actor();
+      }
       tasks::StepBuffers step(spec);
       std::vector<float> actions(static_cast<size_t>(A) * as, 0.0f);
       for (int i = next.fetch_add(1); i < protocol.episodes; i = next.fetch_add(1)) {
@@ -250,6 +248,24 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
         r.index = i;
         r.episode_seed = EpisodeSeed(protocol.eval_seed, i);
         std::mt19937_64 rng(r.episode_seed);
+        if (runner) {
+          r.metrics = runner->Run(rng);
+          r.variant = runner->episode().variant();
+          r.setting = runner->episode().setting();
+          r.control_step_us = r.metrics.mean_control_us;
+          if (const auto* rrt = dynamic_cast<const planning::RrtPolicy*>(&runner->controller()->policy());
+              rrt != nullptr) {
+            const planning::RrtStats& st = rrt->stats();
+            r.plans = st.plans_attempted;
+            r.plans_succeeded = st.plans_succeeded;
+            for (double t : st.planning_times_s) {
+              r.planning_ms_mean += 1000.0 * t / st.planning_times_s.size();
+              r.planning_ms_max = std::max(r.planning_ms_max, 1000.0 * t);
+            }
+          }
+          if (const sim::ObstacleSensor* sensor = runner->sensor(); sensor != nullptr) r.sensor = sensor->Summary();
+          continue;
+        }
         env->Reset(rng, step.out());
         r.variant = env->variant();
         r.setting = env->scenario_setting();
@@ -264,17 +280,7 @@ std::vector<EpisodeRecord> EvaluateMethod(const Method& method, const tasks::Tas
           if (step.terminated || step.truncated) break;
         }
         r.metrics = step.metrics;
-        if (const auto* rrt = dynamic_cast<const planning::RrtPolicy*>(env->external_policy()); rrt != nullptr) {
-          const planning::RrtStats& st = rrt->stats();
-          r.plans = st.plans_attempted;
-          r.plans_succeeded = st.plans_succeeded;
-          for (double t : st.planning_times_s) {
-            r.planning_ms_mean += 1000.0 * t / st.planning_times_s.size();
-            r.planning_ms_max = std::max(r.planning_ms_max, 1000.0 * t);
-          }
-        }
         r.control_step_us = act_us / steps + step.metrics.mean_control_us;
-        if (const sim::ObstacleSensor* sensor = env->sensor(); sensor != nullptr) r.sensor = sensor->Summary();
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(error_mutex);
@@ -309,7 +315,7 @@ EpisodeSplit SplitByReference(const std::vector<EpisodeRecord>& episodes, const 
     const int k = it->second ? 1 : 0;
     ++counts[k];
     successes[k] += e.metrics.success ? 1 : 0;
-    settled[k].push_back(e.metrics.settled_tracking_error_mm);
+    settled[k].push_back(1000.0 * e.metrics.settled_tracking_error);
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EpisodeSplit s;

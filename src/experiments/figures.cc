@@ -239,8 +239,8 @@ void RenderFig5Frames(const std::vector<std::string>& arms, const tasks::TaskCon
         if (t >= critical && pass == 1) break;
         runtime.Act(step.local_obs.data(), context->num_agents(), actions.data());
         env.Step(actions.data(), rng, step.out());
-        if (pass == 0 && env.metrics().min_clearance_m < closest) {
-          closest = env.metrics().min_clearance_m;
+        if (pass == 0 && env.metrics().min_clearance < closest) {
+          closest = env.metrics().min_clearance;
           critical = t + 1;
         }
         if (step.terminated || step.truncated) break;

@@ -58,11 +58,11 @@ std::vector<Pooled> Pool(const std::vector<ResultRow>& rows) {
       for (const EpisodeRecord& e : r.episodes) {
         ++p.episodes;
         p.successes += e.metrics.success ? 1 : 0;
-        tracking.back().push_back(e.metrics.mean_tracking_error_mm);
-        settled.back().push_back(e.metrics.settled_tracking_error_mm);
+        tracking.back().push_back(1000.0 * e.metrics.mean_tracking_error);
+        settled.back().push_back(1000.0 * e.metrics.settled_tracking_error);
         collisions.push_back(e.metrics.collisions);
-        in_collision.push_back(e.metrics.time_in_collision_s);
-        clearance.push_back(std::isfinite(e.metrics.min_clearance_m) ? 1000.0 * e.metrics.min_clearance_m : NAN);
+        in_collision.push_back(e.metrics.time_in_collision);
+        clearance.push_back(std::isfinite(e.metrics.min_clearance) ? 1000.0 * e.metrics.min_clearance : NAN);
         control.push_back(e.control_step_us);
       }
     }
@@ -130,18 +130,18 @@ void WriteResultFiles(const std::vector<ResultRow>& rows, const fs::path& out) {
     for (const EpisodeRecord& e : r.episodes) {
       const tasks::EpisodeMetrics& m = e.metrics;
       successes += m.success ? 1 : 0;
-      tracking.push_back(m.mean_tracking_error_mm);
-      settled.push_back(m.settled_tracking_error_mm);
+      tracking.push_back(1000.0 * m.mean_tracking_error);
+      settled.push_back(1000.0 * m.settled_tracking_error);
       collisions.push_back(m.collisions);
-      in_collision.push_back(m.time_in_collision_s);
-      clearance.push_back(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN);
+      in_collision.push_back(m.time_in_collision);
+      clearance.push_back(std::isfinite(m.min_clearance) ? 1000.0 * m.min_clearance : NAN);
       control.push_back(e.control_step_us);
       episodes << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", CsvField(r.method),
                               CsvField(r.condition),
                               r.train_seed, e.index, e.episode_seed, e.variant, e.setting, m.success ? 1 : 0,
-                              m.collisions, Num(m.time_in_collision_s, "{:.3f}"), Num(m.mean_tracking_error_mm, "{:.2f}"),
-                              Num(m.settled_tracking_error_mm, "{:.2f}"), Num(m.final_tracking_error_mm, "{:.2f}"),
-                              Num(std::isfinite(m.min_clearance_m) ? 1000.0 * m.min_clearance_m : NAN, "{:.1f}"),
+                              m.collisions, Num(m.time_in_collision, "{:.3f}"), Num(1000.0 * m.mean_tracking_error, "{:.2f}"),
+                              Num(1000.0 * m.settled_tracking_error, "{:.2f}"), Num(1000.0 * m.final_tracking_error, "{:.2f}"),
+                              Num(std::isfinite(m.min_clearance) ? 1000.0 * m.min_clearance : NAN, "{:.1f}"),
                               m.length, Num(m.episode_return, "{:.2f}"), Num(e.control_step_us, "{:.2f}"), e.plans,
                               e.plans_succeeded, Num(e.planning_ms_mean, "{:.3f}"), Num(e.planning_ms_max, "{:.3f}"));
     }

@@ -1,21 +1,37 @@
-// RunEpisode: scenario + controller + physics at their rates, with tracking, clearance and collision-event metrics.
+// The one episode loop: EpisodeLoop's stages (scene, control, physics with the scenario moving, contacts, collision
+// events, the end effector's error) and RunEpisode, which drives them for a controller alone.
 #include "rmpmarl/sim/episode.h"
-#include "rmpmarl/sim/controlled_world.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <vector>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
 
 namespace rmpmarl::sim {
 
 ObstacleSensor::~ObstacleSensor() = default;
 
 namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+void CheckLoopOptions(const LoopOptions& o, std::string_view what) {
+  if (!std::isfinite(o.reach_tolerance) || !(o.reach_tolerance > 0.0)) {
+    throw InputError(fmt::format("{}.reach_tolerance: expected a finite distance > 0 m, got {}", what,
+                                 o.reach_tolerance));
+  }
+  if (std::isnan(o.success_max_final_error) || !(o.success_max_final_error > 0.0)) {
+    throw InputError(fmt::format("{}.success_max_final_error: expected a distance > 0 m (inf: any), got {}", what,
+                                 o.success_max_final_error));
+  }
+  if (!std::isfinite(o.settle_time) || o.settle_time < 0.0) {
+    throw InputError(fmt::format("{}.settle_time: expected a finite time >= 0 s, got {}", what, o.settle_time));
+  }
+}
 
 void CheckOptions(const EpisodeOptions& o) {
   if (!std::isfinite(o.duration) || !(o.duration > 0.0)) {
@@ -24,163 +40,220 @@ void CheckOptions(const EpisodeOptions& o) {
   if (!std::isfinite(o.video_fps) || o.video_fps < 0.0) {
     throw InputError(fmt::format("EpisodeOptions.video_fps: expected a finite rate >= 0 Hz, got {}", o.video_fps));
   }
-  if (!std::isfinite(o.reach_tolerance) || !(o.reach_tolerance > 0.0)) {
-    throw InputError(fmt::format("EpisodeOptions.reach_tolerance: expected a finite distance > 0 m, got {}",
-                                 o.reach_tolerance));
-  }
-  if (!std::isfinite(o.tracking_warmup) || o.tracking_warmup < 0.0) {
-    throw InputError(fmt::format("EpisodeOptions.tracking_warmup: expected a finite time >= 0 s, got {}",
-                                 o.tracking_warmup));
-  }
+  CheckLoopOptions(o.loop, "EpisodeOptions.loop");
 }
-
-// Collision events: a (link, partner) pair entering penetration. Partners are indexed obstacles first, then links,
-// then the floor; the flags live in preallocated arrays, so a step allocates nothing.
-class CollisionTracker {
- public:
-  CollisionTracker(int num_links, int num_obstacles)
-      : num_obstacles_(num_obstacles),
-        partners_(num_obstacles + num_links + 1),
-        now_(static_cast<size_t>(num_links) * partners_, 0),
-        before_(now_.size(), 0),
-        ever_(now_.size(), 0) {}
-
-  // updates from the report; returns true when some pair is in penetration.
-  bool Update(const ContactReport& report, EpisodeResult* r) {
-    std::swap(now_, before_);
-    std::fill(now_.begin(), now_.end(), 0);
-    for (const CollidingPair& p : report.colliding_pairs) {
-      const int partner = p.other_kind == PartnerKind::kObstacle ? p.other_index
-                          : p.other_kind == PartnerKind::kLink   ? num_obstacles_ + p.other_index
-                                                                 : partners_ - 1;
-      const size_t key = static_cast<size_t>(p.link) * partners_ + partner;
-      if (now_[key]) continue;
-      now_[key] = 1;
-      if (!before_[key]) {
-        ++r->collision_events;
-        if (p.other_kind == PartnerKind::kLink) {
-          ++r->self_collision_events;
-        } else {
-          ++r->obstacle_collision_events;
-        }
-      }
-      if (!ever_[key]) {
-        ever_[key] = 1;
-        ++r->colliding_pairs;
-      }
-    }
-    return !report.colliding_pairs.empty();
-  }
-
- private:
-  int num_obstacles_;
-  int partners_;
-  std::vector<char> now_, before_, ever_;
-};
-
-// Welford running mean and variance.
-struct RunningStats {
-  long n = 0;
-  double mean = 0.0, m2 = 0.0, max = 0.0;
-  void Add(double x) {
-    ++n;
-    const double d = x - mean;
-    mean += d / static_cast<double>(n);
-    m2 += d * (x - mean);
-    max = std::max(max, x);
-  }
-  double std() const { return n > 0 ? std::sqrt(m2 / static_cast<double>(n)) : 0.0; }
-};
 
 }  // namespace
 
-EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
-                         Scenario& scenario, const FrameCallback& on_frame) {
+// ------------------------------------------------------------------------------------------- collision events
+
+CollisionCounter::CollisionCounter(int num_links, int num_obstacles)
+    : num_obstacles_(num_obstacles),
+      partners_(num_obstacles + num_links + 1),
+      last_seen_(static_cast<size_t>(num_links) * partners_, -10) {}
+
+void CollisionCounter::Reset() { std::fill(last_seen_.begin(), last_seen_.end(), -10); }
+
+CollisionCounter::Events CollisionCounter::Count(const ContactReport& report, long physics_step) {
+  Events events;
+  for (const CollidingPair& p : report.colliding_pairs) {
+    int partner = partners_ - 1;  // the floor
+    if (p.other_kind == PartnerKind::kObstacle) partner = p.other_index;
+    if (p.other_kind == PartnerKind::kLink) partner = num_obstacles_ + p.other_index;
+    const size_t key = static_cast<size_t>(p.link) * partners_ + partner;
+    RMPMARL_ASSERT(key < last_seen_.size(), "CollisionCounter: a pair outside the counter's links and obstacles");
+    long& seen = last_seen_[key];
+    if (seen != physics_step - 1) {  // the pair enters penetration
+      if (p.other_kind == PartnerKind::kLink) {
+        ++events.self;
+      } else {
+        ++events.obstacle;
+      }
+    }
+    seen = physics_step;
+  }
+  return events;
+}
+
+// ----------------------------------------------------------------------------------------------- the loop
+
+void EpisodeLoop::Begin(World* world, Scenario* scenario, int physics_steps, const LoopOptions& options,
+                        ObstacleSensor* sensor) {
+  RMPMARL_ASSERT(world != nullptr && scenario != nullptr, "EpisodeLoop::Begin: null world or scenario");
+  if (physics_steps < 1) {
+    throw InputError(fmt::format("EpisodeLoop: expected >= 1 physics steps per control period, got {}",
+                                 physics_steps));
+  }
+  CheckLoopOptions(options, "LoopOptions");
+  world_ = world;
+  scenario_ = scenario;
+  sensor_ = sensor;
+  options_ = options;
+  physics_steps_ = physics_steps;
+  timestep_ = world->mj_model()->opt.timestep;
+  const kinematics::Model& model = world->model().robot().model;
+  if (kin_model_ != &model) {
+    kin_.emplace(model);
+    kin_model_ = &model;
+    counter_ = CollisionCounter(model.num_links(), world->model().num_obstacles());
+  }
+  counter_.Reset();
+  physics_step_ = 0;
+  steps_ = 0;
+  tracking_sum_ = settled_sum_ = 0.0;
+  settled_steps_ = 0;
+  collision_physics_steps_ = 0;
+  control_us_sum_ = 0.0;
+  metrics_ = EpisodeMetrics{};
+
+  contacts_ = &world->QueryContacts();
+  Observe(*contacts_);  // pairs in penetration at the start are collision events at t = 0, not again later
+  metrics_.collisions = step_events_.total();
+  metrics_.obstacle_collisions = step_events_.obstacle;
+  metrics_.self_collisions = step_events_.self;
+  collision_physics_steps_ = 0;
+  step_events_ = {};
+  metrics_.min_clearance = step_min_clearance_;
+  scenario->FillScene(&scene_);
+  if (sensor_ != nullptr) sensor_->Reset(*world);
+  UpdateError();
+  if (error_ < options_.reach_tolerance) metrics_.time_to_reach = 0.0;
+}
+
+void EpisodeLoop::Observe(const ContactReport& report) {
+  step_events_ = counter_.Count(report, physics_step_);
+  if (!report.colliding_pairs.empty()) ++collision_physics_steps_;
+  step_min_clearance_ = kInf;
+  for (const WarningContact& w : report.warnings) {
+    if (w.other_kind == PartnerKind::kLink) {
+      metrics_.min_self_clearance = std::min(metrics_.min_self_clearance, w.distance);
+    } else {
+      step_min_clearance_ = std::min(step_min_clearance_, w.distance);
+    }
+  }
+}
+
+void EpisodeLoop::UpdateError() {
+  const kinematics::Robot& robot = world_->model().robot();
+  kinematics::CalcForwardKinematics(robot.model, world_->q(), &*kin_);
+  const Eigen::Vector3d p_WE =
+      kinematics::CalcPointPosition(*kin_, robot.end_effector.link, robot.end_effector.X_LE.translation());
+  error_ = (p_WE - scenario_->target().p_WT).norm();
+}
+
+const rmp::Scene& EpisodeLoop::SenseScene() {
+  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
+  if (sensor_ == nullptr) return scene_;
+  sensed_.has_target = scene_.has_target;
+  sensed_.p_WT = scene_.p_WT;
+  sensed_.v_WT = scene_.v_WT;
+  sensed_.obstacles = scene_.obstacles;  // the truth, for the sensor to score itself; replaced by Sense
+  sensor_->Sense(*world_, &sensed_);
+  return sensed_;
+}
+
+control::ControlStepResult EpisodeLoop::StepController(control::ReactiveController& controller) {
+  const control::ControlStepResult r = sim::StepController(controller, *world_, SenseScene());
+  AddControlTime(r.compute_us);
+  if (!r.finite) ++metrics_.nonfinite_policy_outputs;
+  return r;
+}
+
+void EpisodeLoop::AddControlTime(double us) {
+  control_us_sum_ += us;
+  metrics_.max_control_us = std::max(metrics_.max_control_us, us);
+}
+
+bool EpisodeLoop::Advance() {
+  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
+  const bool per_physics_step = options_.scenario_update == ScenarioUpdate::kPhysicsStep;
+  CollisionCounter::Events events;
+  double min_clearance = kInf;
+  bool ok = true;
+  for (int s = 0; s < physics_steps_ && ok; ++s) {
+    if (per_physics_step) {
+      scenario_->Advance(timestep_, *contacts_, *world_);
+    } else if (s == 0) {
+      scenario_->Advance(physics_steps_ * timestep_, *contacts_, *world_);
+    }
+    ok = world_->Step(1).ok;
+    ++physics_step_;
+    contacts_ = &world_->QueryContacts();
+    Observe(*contacts_);
+    events.obstacle += step_events_.obstacle;
+    events.self += step_events_.self;
+    min_clearance = std::min(min_clearance, step_min_clearance_);
+  }
+  step_events_ = events;
+  step_min_clearance_ = min_clearance;
+  scenario_->FillScene(&scene_);
+  ++steps_;
+  UpdateError();
+  if (!ok) {  // MuJoCo diverged (the World reset the robot): the episode is invalid, this step is not scored
+    metrics_.invalid = true;
+    return false;
+  }
+  metrics_.collisions += events.total();
+  metrics_.obstacle_collisions += events.obstacle;
+  metrics_.self_collisions += events.self;
+  metrics_.min_clearance = std::min(metrics_.min_clearance, min_clearance);
+  tracking_sum_ += error_;
+  metrics_.max_tracking_error = std::max(metrics_.max_tracking_error, error_);
+  if (steps_ * (physics_steps_ * timestep_) >= options_.settle_time - 1e-9) {
+    settled_sum_ += error_;
+    ++settled_steps_;
+  }
+  if (metrics_.time_to_reach < 0.0 && error_ < options_.reach_tolerance) metrics_.time_to_reach = time();
+  return true;
+}
+
+double EpisodeLoop::time() const { return world_->time(); }
+
+EpisodeMetrics EpisodeLoop::Metrics() const {
+  EpisodeMetrics m = metrics_;
+  m.length = steps_;
+  m.physics_steps = physics_step_;
+  m.duration = physics_step_ * timestep_;
+  m.mean_tracking_error = steps_ > 0 ? tracking_sum_ / steps_ : error_;
+  m.final_tracking_error = error_;
+  m.settled_tracking_error = settled_steps_ > 0 ? settled_sum_ / settled_steps_ : kNaN;
+  m.time_in_collision = collision_physics_steps_ * timestep_;
+  m.mean_control_us = steps_ > 0 ? control_us_sum_ / steps_ : 0.0;
+  m.reached = error_ <= options_.reach_tolerance;
+  m.success = !m.invalid && m.collisions == 0 && m.final_tracking_error <= options_.success_max_final_error;
+  return m;
+}
+
+// ------------------------------------------------------------------------------------------- RunEpisode
+
+void MaybeFrame(const EpisodeLoop& loop, double fps, int* next_frame, const FrameCallback& on_frame) {
+  if (!(fps > 0.0) || !on_frame || loop.time() + 1e-9 < *next_frame / fps) return;
+  on_frame(FrameInfo{*next_frame, loop.time(), &loop.world(), &loop.scenario(), &loop.contacts(),
+                     loop.tracking_error(), loop.sensor()});
+  ++*next_frame;
+}
+
+EpisodeMetrics RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
+                          Scenario& scenario, const FrameCallback& on_frame) {
   CheckOptions(options);
   if (controller.nq() != world.nq()) {
     throw InputError(fmt::format("RunEpisode: expected a controller for the world's {} joints, got one for {}",
                                  world.nq(), controller.nq()));
   }
-  const auto wall_start = std::chrono::steady_clock::now();
-  EpisodeResult r;
-  r.scenario = scenario.name();
-  r.policy = controller.policy().name();
-  r.seed = options.seed;
-
   scenario.Reset(options.seed, world);
   sim::ResetController(controller, world);
-  rmp::Scene scene;
-  scenario.FillScene(&scene);
-  if (options.sensor != nullptr) options.sensor->Reset(world);
-
-  const WorldModel& model = world.model();
-  const kinematics::Robot& robot = model.robot();
-  auto end_effector = [&] { return world.EndEffectorPosition(); };
-
-  const double dt = world.mj_model()->opt.timestep;
-  const long total_steps = std::max(1L, std::lround(options.duration / dt));
-  const int control_every = controller.physics_steps_per_control();
-  const double frame_period = options.video_fps > 0.0 ? 1.0 / options.video_fps : 0.0;
-  CollisionTracker collisions(robot.model.num_links(), model.num_obstacles());
-  RunningStats tracking;
-  double error = 0.0;
+  EpisodeLoop loop;
+  loop.Begin(&world, &scenario, controller.physics_steps_per_control(), options.loop, options.sensor);
+  const long control_steps = std::max(1L, std::lround(options.duration / controller.control_period()));
   int next_frame = 0;
-
-  // metrics of the current state; calls the frame callback when a frame is due at `time`.
-  auto observe = [&](const ContactReport& contacts, double time) {
-    error = (end_effector() - scenario.target().p_WT).norm();
-    if (time >= options.tracking_warmup - 0.5 * dt) tracking.Add(error);
-    if (r.time_to_reach < 0.0 && error < options.reach_tolerance) r.time_to_reach = time;
-    for (const WarningContact& c : contacts.warnings) {
-      double& slot = c.other_kind == PartnerKind::kLink ? r.min_self_clearance_mm : r.min_clearance_mm;
-      slot = std::min(slot, 1000.0 * c.distance);
-    }
-    if (frame_period > 0.0 && on_frame && time >= next_frame * frame_period - 0.5 * dt) {
-      on_frame(FrameInfo{next_frame, time, &world, &scenario, &contacts, error, options.sensor});
-      ++next_frame;
-    }
-  };
-
-  const ContactReport* contacts = &world.QueryContacts();  // also brings the mocap poses of Reset into mjData
-  collisions.Update(*contacts, &r);
-  observe(*contacts, 0.0);
-  bool collided = contacts->num_collisions > 0;
-  for (long step = 0; step < total_steps; ++step) {
-    if (options.stop_on_collision && collided) break;
-    if (step % control_every == 0) {
-      scenario.FillScene(&scene);
-      if (options.sensor != nullptr) options.sensor->Sense(world, &scene);
-      sim::StepController(controller, world, scene);
-      ++r.control_steps;
-    }
-    const StepResult stepped = world.Step();
-    ++r.physics_steps;
-    if (!stepped.ok) {
-      r.diverged = true;
-      break;
-    }
-    contacts = &world.QueryContacts();
-    collided = collisions.Update(*contacts, &r) || collided;
-    if (!contacts->colliding_pairs.empty()) r.time_in_collision += dt;
-    observe(*contacts, world.time());
-    scenario.Advance(dt, *contacts, world);
+  MaybeFrame(loop, options.video_fps, &next_frame, on_frame);
+  for (long k = 0; k < control_steps; ++k) {
+    if (options.stop_on_collision && (loop.Metrics().collisions > 0 || loop.contacts().num_collisions > 0)) break;
+    loop.StepController(controller);
+    if (!loop.Advance()) break;
+    MaybeFrame(loop, options.video_fps, &next_frame, on_frame);
   }
-
-  r.duration = r.physics_steps * dt;
-  r.frames = next_frame;
-  r.tracking_error_mean_mm = 1000.0 * tracking.mean;
-  r.tracking_error_std_mm = 1000.0 * tracking.std();
-  r.tracking_error_max_mm = 1000.0 * tracking.max;
-  r.final_tracking_error_mm = 1000.0 * error;
-  const control::ControllerStats& stats = controller.stats();
-  r.nonfinite_policy_outputs = stats.nonfinite_outputs;
-  r.resyncs = stats.resyncs;
-  r.control_step_mean_us = stats.mean_compute_us();
-  r.control_step_max_us = stats.max_compute_us;
-  if (options.sensor != nullptr) r.sensor = options.sensor->Summary();
-  r.success = r.collision_events == 0 && !r.diverged;
-  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  return r;
+  return loop.Metrics();
 }
 
 }  // namespace rmpmarl::sim

@@ -23,8 +23,8 @@ Summary Evaluate(const tasks::TaskConfig& task, int option, int episodes) {
   int n = 0;
   for (const EpisodeRecord& r : records) {
     s.success += r.metrics.success ? 1.0 : 0.0;
-    if (std::isfinite(r.metrics.settled_tracking_error_mm)) {
-      s.settled_mm += r.metrics.settled_tracking_error_mm;
+    if (std::isfinite(1000.0 * r.metrics.settled_tracking_error)) {
+      s.settled_mm += 1000.0 * r.metrics.settled_tracking_error;
       ++n;
     }
   }
@@ -73,12 +73,12 @@ TEST(BasicLayerFixesTest, WithoutObstaclesTheCompositeIsTheTargetOption) {
   const auto target = EvaluateMethod(Method::FixedOption("t", 0), c, {.episodes = 4, .eval_seed = 99});
   const auto composite = EvaluateMethod(Method::FixedOption("c", 2), c, {.episodes = 4, .eval_seed = 99});
   for (int i = 0; i < 4; ++i) {
-    EXPECT_EQ(target[i].metrics.mean_tracking_error_mm, composite[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(1000.0 * target[i].metrics.mean_tracking_error, 1000.0 * composite[i].metrics.mean_tracking_error);
   }
   c.options.warnings = tasks::OptionWarnings::kAll;  // self-contacts make W_i non-empty: the composite differs
   const auto all = EvaluateMethod(Method::FixedOption("c", 2), c, {.episodes = 4, .eval_seed = 99});
   int differ = 0;
-  for (int i = 0; i < 4; ++i) differ += all[i].metrics.mean_tracking_error_mm != target[i].metrics.mean_tracking_error_mm;
+  for (int i = 0; i < 4; ++i) differ += 1000.0 * all[i].metrics.mean_tracking_error != 1000.0 * target[i].metrics.mean_tracking_error;
   EXPECT_GT(differ, 0);
 }
 
@@ -111,7 +111,7 @@ tasks::TaskConfig ShortV2LineCrossing(double speed) {
 void ExpectSameEpisodes(const std::vector<EpisodeRecord>& a, const std::vector<EpisodeRecord>& b, double tol) {
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) {
-    EXPECT_NEAR(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm, tol) << "episode " << i;
+    EXPECT_NEAR(1000.0 * a[i].metrics.mean_tracking_error, 1000.0 * b[i].metrics.mean_tracking_error, tol) << "episode " << i;
     EXPECT_EQ(a[i].metrics.collisions, b[i].metrics.collisions) << "episode " << i;
   }
 }
@@ -138,7 +138,7 @@ TEST(BasicLayerV2Test, LengthExponentEqualsHandScaledLengthScales) {
   ExpectSameEpisodes(a, b, 1e-6);
   int differ = 0;
   for (int i = 0; i < 4; ++i) {
-    differ += std::abs(a[i].metrics.mean_tracking_error_mm - unit[i].metrics.mean_tracking_error_mm) > 1e-3;
+    differ += std::abs(1000.0 * a[i].metrics.mean_tracking_error - 1000.0 * unit[i].metrics.mean_tracking_error) > 1e-3;
   }
   EXPECT_GT(differ, 0);  // and the parameter acts
 }
@@ -187,7 +187,7 @@ TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
   ExpectSameEpisodes(asks_target, composite, 0.0);
   int differ = 0;
   for (int i = 0; i < 3; ++i) {
-    differ += target[i].metrics.mean_tracking_error_mm != composite[i].metrics.mean_tracking_error_mm;
+    differ += 1000.0 * target[i].metrics.mean_tracking_error != 1000.0 * composite[i].metrics.mean_tracking_error;
   }
   EXPECT_GT(differ, 0);
 }
@@ -211,8 +211,8 @@ TEST(BasicLayerV2Test, RmpflowAdjustmentIsApplied) {
   const auto t = EvaluateMethod(tuned, c, {.episodes = 3, .eval_seed = 99});
   int differ = 0;
   for (int i = 0; i < 3; ++i) {
-    EXPECT_EQ(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm);
-    differ += a[i].metrics.mean_tracking_error_mm != t[i].metrics.mean_tracking_error_mm;
+    EXPECT_EQ(1000.0 * a[i].metrics.mean_tracking_error, 1000.0 * b[i].metrics.mean_tracking_error);
+    differ += 1000.0 * a[i].metrics.mean_tracking_error != 1000.0 * t[i].metrics.mean_tracking_error;
   }
   EXPECT_GT(differ, 0);
   Method broken = Method::Rmpflow();

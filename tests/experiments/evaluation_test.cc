@@ -14,6 +14,7 @@
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/policy_task.h"
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::experiments {
@@ -50,11 +51,11 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
     c.interface = mode;
     envs.push_back(std::make_unique<tasks::ManipulatorEnv>(tasks::MakeTaskContext(c)));
   }
-  tasks::ExternalController rmpflow;
+  tasks::ControllerMaker rmpflow;
   rmpflow.make_policy = [](const kinematics::Robot& robot) {
     return std::make_unique<control::RmpflowAccelerationPolicy>(robot, 4);
   };
-  envs.push_back(std::make_unique<tasks::ManipulatorEnv>(tasks::MakeTaskContext(base), rmpflow));
+  tasks::ControllerEpisodes baseline(tasks::MakeTaskContext(base), rmpflow);
 
   for (int episode = 0; episode < 6; ++episode) {
     std::vector<std::unique_ptr<tasks::StepBuffers>> buffers;
@@ -78,6 +79,7 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
         EXPECT_EQ(e.scenario().obstacles()[j].v_WO(), ref.scenario().obstacles()[j].v_WO());
       }
     }
+    const Eigen::VectorXd q0 = ref.world().q(), qd0 = ref.world().qd();
     // 30 steps with different actions per method: the target moves identically
     for (int t = 0; t < 30; ++t) {
       for (size_t k = 0; k < envs.size(); ++k) {
@@ -89,6 +91,23 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
     for (size_t k = 1; k < envs.size(); ++k) {
       EXPECT_EQ(envs[k]->scenario().target().p_WT, ref.scenario().target().p_WT) << "env " << k;
     }
+    // RMPflow on the task's episodes: the same start, the same target after 30 control steps
+    std::mt19937_64 rng(EpisodeSeed(7, episode));
+    int frames = 0;
+    baseline.Run(rng, {.video_fps = 1000.0, .on_frame = [&](const sim::FrameInfo& f) {
+                         ++frames;
+                         if (f.index == 0) {
+                           EXPECT_EQ(baseline.episode().variant(), ref.variant());
+                           EXPECT_EQ(baseline.episode().setting(), ref.scenario_setting());
+                           EXPECT_EQ(f.world->q(), q0);
+                           EXPECT_EQ(f.world->qd(), qd0);
+                           for (int j = 0; j < ref.scenario().num_obstacles(); ++j) {
+                             EXPECT_EQ(f.scenario->obstacles()[j].v_WO(), ref.scenario().obstacles()[j].v_WO());
+                           }
+                         }
+                         if (f.index == 30) EXPECT_EQ(f.scenario->target().p_WT, ref.scenario().target().p_WT);
+                       }});
+    EXPECT_GT(frames, 30);
   }
 }
 
@@ -102,7 +121,7 @@ TEST(EvaluateMethodTest, ResultsDoNotDependOnTheThreadCountAndRecordTheEpisode) 
     EXPECT_EQ(one[i].index, i);
     EXPECT_EQ(one[i].episode_seed, EpisodeSeed(3, i));
     EXPECT_EQ(one[i].metrics.collisions, two[i].metrics.collisions);
-    EXPECT_EQ(one[i].metrics.mean_tracking_error_mm, two[i].metrics.mean_tracking_error_mm);
+    EXPECT_EQ(1000.0 * one[i].metrics.mean_tracking_error, 1000.0 * two[i].metrics.mean_tracking_error);
     EXPECT_EQ(one[i].variant, two[i].variant);
     EXPECT_EQ(one[i].setting, two[i].setting);
     EXPECT_EQ(one[i].metrics.length, 80);
@@ -117,13 +136,13 @@ TEST(EvaluateMethodTest, RmpflowConvergesOnTheTargetAndTheBasicLayerStaysCollisi
   // (t >= 1 s) is 30–110 mm because it needs 1–2 s to get there
   for (const EpisodeRecord& r : EvaluateMethod(Method::Rmpflow(), task, {.episodes = 4, .eval_seed = 1, .jobs = 2})) {
     EXPECT_TRUE(r.metrics.success);
-    EXPECT_LT(r.metrics.final_tracking_error_mm, 10.0);
-    EXPECT_LT(r.metrics.settled_tracking_error_mm, r.metrics.mean_tracking_error_mm);
+    EXPECT_LT(1000.0 * r.metrics.final_tracking_error, 10.0);
+    EXPECT_LT(1000.0 * r.metrics.settled_tracking_error, 1000.0 * r.metrics.mean_tracking_error);
   }
   for (const EpisodeRecord& r :
        EvaluateMethod(Method::FixedOption("basic", 0), task, {.episodes = 4, .eval_seed = 1, .jobs = 2})) {
     EXPECT_TRUE(r.metrics.success);
-    EXPECT_TRUE(std::isfinite(r.metrics.settled_tracking_error_mm));
+    EXPECT_TRUE(std::isfinite(1000.0 * r.metrics.settled_tracking_error));
   }
 }
 
@@ -164,18 +183,18 @@ TEST(EvaluateMethodTest, ThreatGateSwitchesBetweenItsTwoParameterSets) {
   const auto c = EvaluateMethod(clear_fixed, task, protocol), t = EvaluateMethod(threat_fixed, task, protocol);
   int fired = 0, held = 0;  // episodes that differ from the clear / the threat parameters
   for (int i = 0; i < 4; ++i) {
-    EXPECT_EQ(always[i].metrics.mean_tracking_error_mm, t[i].metrics.mean_tracking_error_mm);
-    EXPECT_EQ(always[i].metrics.min_clearance_m, t[i].metrics.min_clearance_m);
-    EXPECT_EQ(never[i].metrics.mean_tracking_error_mm, c[i].metrics.mean_tracking_error_mm);
-    EXPECT_EQ(never[i].metrics.min_clearance_m, c[i].metrics.min_clearance_m);
-    const double m = sometimes[i].metrics.mean_tracking_error_mm;
-    fired += m != c[i].metrics.mean_tracking_error_mm ? 1 : 0;
-    held += m != t[i].metrics.mean_tracking_error_mm ? 1 : 0;
+    EXPECT_EQ(1000.0 * always[i].metrics.mean_tracking_error, 1000.0 * t[i].metrics.mean_tracking_error);
+    EXPECT_EQ(always[i].metrics.min_clearance, t[i].metrics.min_clearance);
+    EXPECT_EQ(1000.0 * never[i].metrics.mean_tracking_error, 1000.0 * c[i].metrics.mean_tracking_error);
+    EXPECT_EQ(never[i].metrics.min_clearance, c[i].metrics.min_clearance);
+    const double m = 1000.0 * sometimes[i].metrics.mean_tracking_error;
+    fired += m != 1000.0 * c[i].metrics.mean_tracking_error ? 1 : 0;
+    held += m != 1000.0 * t[i].metrics.mean_tracking_error ? 1 : 0;
   }
   // measured (seed 11): two episodes whose arm works near the line's path (the gate fires), two away from it
   EXPECT_GE(fired, 1);
   EXPECT_GE(held, 1);
-  EXPECT_NE(c[0].metrics.mean_tracking_error_mm, t[0].metrics.mean_tracking_error_mm);
+  EXPECT_NE(1000.0 * c[0].metrics.mean_tracking_error, 1000.0 * t[0].metrics.mean_tracking_error);
   // without the look-ahead block the gate has nothing to read
   Method blind = gate(0.15);
   blind.adjust_task = nullptr;
@@ -261,7 +280,7 @@ TEST(EvaluationTest, SplitByReferenceMatchesEpisodesByIndex) {
     r.index = index;
     r.metrics.collisions = collisions;
     r.metrics.success = collisions == 0;
-    r.metrics.settled_tracking_error_mm = settled;
+    r.metrics.settled_tracking_error = settled / 1000.0;
     return r;
   };
   // the reference collides in episodes 1 and 3
@@ -319,8 +338,8 @@ TEST(SensedEvaluationTest, APassThroughSensorChangesNothingAndFixedOptionsAreRef
     const auto a = EvaluateMethod(m, task, exact), b = EvaluateMethod(m, task, sensed);
     EXPECT_EQ(senses - before, 3 * 60) << "one Sense per control step";
     for (int i = 0; i < 3; ++i) {
-      EXPECT_EQ(a[i].metrics.mean_tracking_error_mm, b[i].metrics.mean_tracking_error_mm);
-      EXPECT_EQ(a[i].metrics.min_clearance_m, b[i].metrics.min_clearance_m);
+      EXPECT_EQ(1000.0 * a[i].metrics.mean_tracking_error, 1000.0 * b[i].metrics.mean_tracking_error);
+      EXPECT_EQ(a[i].metrics.min_clearance, b[i].metrics.min_clearance);
     }
   }
   // as a controller the learned agents differ from the agents in the env (their warnings are the capsules', not
@@ -329,7 +348,7 @@ TEST(SensedEvaluationTest, APassThroughSensorChangesNothingAndFixedOptionsAreRef
   env.learned_as_controller = false;
   const auto in_env = EvaluateMethod(learned, task, env), as_controller = EvaluateMethod(learned, task, exact);
   bool differ = false;
-  for (int i = 0; i < 3; ++i) differ |= in_env[i].metrics.mean_tracking_error_mm != as_controller[i].metrics.mean_tracking_error_mm;
+  for (int i = 0; i < 3; ++i) differ |= 1000.0 * in_env[i].metrics.mean_tracking_error != 1000.0 * as_controller[i].metrics.mean_tracking_error;
   EXPECT_TRUE(differ);
   EXPECT_THROW(EvaluateMethod(Method::FixedOption("fixed", 0), task, sensed), InputError);
 }

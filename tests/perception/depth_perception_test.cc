@@ -61,7 +61,7 @@ TEST(DepthPerceptionTest, SensedClearancesFollowTheTrueShapesThroughACrossingEpi
   std::vector<double> errors;
   sim::EpisodeOptions episode{.duration = 4.0, .seed = 1, .video_fps = 30.0};
   episode.sensor = sensor.get();
-  const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, [&](const sim::FrameInfo& f) {
+  const sim::EpisodeMetrics r = sim::RunEpisode(episode, world, controller, *scenario, [&](const sim::FrameInfo& f) {
     if (f.index == 0) return;
     rmp::Scene truth, sensed;
     f.scenario->FillScene(&truth);
@@ -85,9 +85,10 @@ TEST(DepthPerceptionTest, SensedClearancesFollowTheTrueShapesThroughACrossingEpi
   EXPECT_LT(errors[errors.size() * 9 / 10], 0.03) << "90th percentile [m]";
   EXPECT_EQ(r.nonfinite_policy_outputs, 0);
   // the camera runs at its 30 Hz in simulated time
-  EXPECT_NEAR(static_cast<double>(r.sensor.updates), 4.0 * 30.0, 2.0);
-  EXPECT_GT(r.sensor.velocity_samples, 50);
-  EXPECT_LT(r.sensor.velocity_error_mean, 0.15) << "mean |v_sensed − v_true| [m/s]";
+  const sim::SensorSummary seen = sensor->Summary();
+  EXPECT_NEAR(static_cast<double>(seen.updates), 4.0 * 30.0, 2.0);
+  EXPECT_GT(seen.velocity_samples, 50);
+  EXPECT_LT(seen.velocity_error_mean, 0.15) << "mean |v_sensed − v_true| [m/s]";
 }
 
 // the cluttered scene on the Panda, RMPflow, and the default depth sensor (null where offscreen rendering is not)
@@ -108,11 +109,12 @@ TEST(DepthPerceptionTest, ControllersAvoidWhatTheyOnlySeeThroughTheCamera) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     sim::EpisodeOptions episode{.duration = 3.0, .seed = seed};
     episode.sensor = sensor;
-    const sim::EpisodeResult r = sim::RunEpisode(episode, rig.world, rig.controller, *rig.scenario);
+    const sim::EpisodeMetrics r = sim::RunEpisode(episode, rig.world, rig.controller, *rig.scenario);
     EXPECT_EQ(r.nonfinite_policy_outputs, 0);
-    EXPECT_GT(r.sensor.obstacles_mean, 2.0) << "the camera sees the clutter";
+    const sim::SensorSummary seen = sensor->Summary();
+    EXPECT_GT(seen.obstacles_mean, 2.0) << "the camera sees the clutter";
     // static clutter is at rest: its centroids jitter below min_speed, but for a cube the arm occludes in part
-    EXPECT_LT(r.sensor.velocity_error_mean, 0.02) << "static clutter is at rest";
+    EXPECT_LT(seen.velocity_error_mean, 0.02) << "static clutter is at rest";
     successes += r.success;
   }
   EXPECT_GE(successes, 2);
@@ -219,8 +221,8 @@ TEST(RecordedCloudTest, AFileOrAFolderOfFramesReplaysAsObstacles) {
   control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, 8));
   sim::EpisodeOptions episode{.duration = 0.25};
   episode.sensor = &frames;
-  const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario);
-  EXPECT_NEAR(static_cast<double>(r.sensor.updates), 0.25 * 30.0, 1.0);
+  sim::RunEpisode(episode, world, controller, *scenario);
+  EXPECT_NEAR(static_cast<double>(frames.Summary().updates), 0.25 * 30.0, 1.0);
   rmp::Scene last;
   frames.Sense(world, &last);
   ASSERT_EQ(last.obstacles.size(), 1u);

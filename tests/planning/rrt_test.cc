@@ -362,17 +362,17 @@ TEST(RrtClosedLoopTest, ReachesTheTargetBehindAWallWithoutCollision) {
                                        .obstacles = {sim::ObstacleSpec::Box(w.half_size, w.X_WO)}});
   Rig rig(scenario, {.seed = 1});
   ASSERT_NEAR(rig.controller->substep(), rig.policy->options().evaluation_period, 1e-12);
-  const sim::EpisodeResult r = sim::RunEpisode({.duration = 6.0, .seed = 0}, rig.world, *rig.controller, scenario);
+  const sim::EpisodeMetrics r = sim::RunEpisode({.duration = 6.0, .seed = 0}, rig.world, *rig.controller, scenario);
   const RrtStats& s = rig.policy->stats();
   const auto [mean_ms, max_ms] = MeanMaxMs(s.planning_times_s);
   std::printf("[ closed   ] wall: final error %.2f mm, within 1 cm after %.2f s, min clearance %.1f mm, %d collision "
               "events; %d/%d plans, %d IK failures, %d invalidations, planning %.2f ms mean / %.2f ms max, control "
-              "step %.0f us mean\n", r.final_tracking_error_mm, r.time_to_reach, r.min_clearance_mm,
-              r.collision_events, s.plans_succeeded, s.plans_attempted, s.ik_failures, s.invalidations, mean_ms,
-              max_ms, r.control_step_mean_us);
-  EXPECT_EQ(r.collision_events, 0);
-  EXPECT_GT(r.min_clearance_mm, 0.0);
-  EXPECT_LT(r.final_tracking_error_mm, 5.0);  // measured 0.26 mm
+              "step %.0f us mean\n", 1000.0 * r.final_tracking_error, r.time_to_reach, 1000.0 * r.min_clearance,
+              r.collisions, s.plans_succeeded, s.plans_attempted, s.ik_failures, s.invalidations, mean_ms,
+              max_ms, r.mean_control_us);
+  EXPECT_EQ(r.collisions, 0);
+  EXPECT_GT(1000.0 * r.min_clearance, 0.0);
+  EXPECT_LT(1000.0 * r.final_tracking_error, 5.0);  // measured 0.26 mm
   EXPECT_GT(r.time_to_reach, 0.0);
   EXPECT_EQ(r.nonfinite_policy_outputs, 0);
   EXPECT_GT(s.plans_succeeded, 0);
@@ -387,11 +387,11 @@ TEST(RrtClosedLoopTest, ReachesStaticTargetsBehindASphereOnEveryArm) {
     Rig rig(scenario, {.seed = 2});
     double worst = 0.0, slowest = 0.0, max_ms = 0.0;
     for (std::uint64_t seed = 0; seed < 3; ++seed) {
-      const sim::EpisodeResult r =
+      const sim::EpisodeMetrics r =
           sim::RunEpisode({.duration = 6.0, .seed = seed}, rig.world, *rig.controller, scenario);
-      EXPECT_LT(r.final_tracking_error_mm, 5.0) << name << " seed " << seed;
-      EXPECT_EQ(r.collision_events, 0) << name << " seed " << seed;
-      worst = std::max(worst, r.final_tracking_error_mm);
+      EXPECT_LT(1000.0 * r.final_tracking_error, 5.0) << name << " seed " << seed;
+      EXPECT_EQ(r.collisions, 0) << name << " seed " << seed;
+      worst = std::max(worst, 1000.0 * r.final_tracking_error);
       slowest = std::max(slowest, r.time_to_reach);
       max_ms = std::max(max_ms, MeanMaxMs(rig.policy->stats().planning_times_s).second);
     }
@@ -405,15 +405,15 @@ TEST(RrtClosedLoopTest, CrossingScenarioStaysFinite) {
   const kinematics::Robot panda = Panda();
   sim::CrossingScenario scenario(panda);
   Rig rig(scenario, {.seed = 4});
-  const sim::EpisodeResult r = sim::RunEpisode({.duration = 10.0, .seed = 0}, rig.world, *rig.controller, scenario);
+  const sim::EpisodeMetrics r = sim::RunEpisode({.duration = 10.0, .seed = 0}, rig.world, *rig.controller, scenario);
   const RrtStats& s = rig.policy->stats();
   const auto [mean_ms, max_ms] = MeanMaxMs(s.planning_times_s);
-  std::printf("[ crossing ] panda 10 s: tracking %.1f +- %.1f mm, %d collision events, %d/%d plans, %d IK failures, "
+  std::printf("[ crossing ] panda 10 s: tracking %.1f mm mean, %.1f mm max, %d collision events, %d/%d plans, %d IK failures, "
               "%d invalidations, planning %.2f / %.2f ms, control step %.0f us mean / %.0f us max\n",
-              r.tracking_error_mean_mm, r.tracking_error_std_mm, r.collision_events, s.plans_succeeded,
-              s.plans_attempted, s.ik_failures, s.invalidations, mean_ms, max_ms, r.control_step_mean_us,
-              r.control_step_max_us);
-  EXPECT_FALSE(r.diverged);
+              1000.0 * r.mean_tracking_error, 1000.0 * r.max_tracking_error, r.collisions, s.plans_succeeded,
+              s.plans_attempted, s.ik_failures, s.invalidations, mean_ms, max_ms, r.mean_control_us,
+              r.max_control_us);
+  EXPECT_FALSE(r.invalid);
   EXPECT_EQ(r.nonfinite_policy_outputs, 0);
   EXPECT_GT(s.plans_succeeded, 0);
 }

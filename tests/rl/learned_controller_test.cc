@@ -223,15 +223,14 @@ TEST(LearnedControllerTest, RunsInAPlainControlLoopBesideRmpflow) {
       sim::EpisodeOptions episode;
       episode.duration = 5.0;
       episode.seed = seed;
-      episode.tracking_warmup = 1.0;
-      const sim::EpisodeResult r = sim::RunEpisode(episode, world, controller, *scenario, {});
+      const sim::EpisodeMetrics r = sim::RunEpisode(episode, world, controller, *scenario, {});
       EXPECT_EQ(r.nonfinite_policy_outputs, 0);
-      EXPECT_FALSE(r.diverged);
+      EXPECT_FALSE(r.invalid);
       if (is_learned) {
-        EXPECT_EQ(r.collision_events, 0) << "seed " << seed;
+        EXPECT_EQ(r.collisions, 0) << "seed " << seed;
         EXPECT_EQ(controller.policy().name(), "marl-rmp-residual");
       }
-      (is_learned ? learned_mm : rmpflow_mm) += r.tracking_error_mean_mm / 3.0;
+      (is_learned ? learned_mm : rmpflow_mm) += 1000.0 * r.settled_tracking_error / 3.0;
     }
   }
   std::printf("tracking error, mean of 3 episodes: learned %.1f mm, RMPflow %.1f mm\n", learned_mm, rmpflow_mm);

@@ -78,37 +78,34 @@ TEST(EpisodeTest, MetricsOfAHeldArmMatchDirectReferences) {
   auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
   World world(model);
   control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(robot.model.nq()));
-  const EpisodeResult r =
+  const EpisodeMetrics r =
       RunEpisode({.duration = 1.0, .seed = 0, .video_fps = 25.0}, world, controller, scenario, {});
-  EXPECT_EQ(r.scenario, "static");
-  EXPECT_EQ(r.policy, "hold");
   EXPECT_EQ(r.physics_steps, 500);
-  EXPECT_EQ(r.control_steps, 100);
-  EXPECT_EQ(r.frames, 0);  // no callback given
+  EXPECT_EQ(r.length, 100);
   EXPECT_NEAR(r.duration, 1.0, 1e-12);
   EXPECT_LT((world.q() - q0).cwiseAbs().maxCoeff(), 1e-9);  // held still
-  EXPECT_NEAR(r.tracking_error_mean_mm, 1000.0 * offset.norm(), 1e-6);
-  EXPECT_NEAR(r.final_tracking_error_mm, 1000.0 * offset.norm(), 1e-6);
-  EXPECT_NEAR(r.tracking_error_max_mm, 1000.0 * offset.norm(), 1e-6);
-  EXPECT_LT(r.tracking_error_std_mm, 1e-6);
+  EXPECT_NEAR(r.mean_tracking_error, offset.norm(), 1e-9);
+  EXPECT_NEAR(r.final_tracking_error, offset.norm(), 1e-9);
+  EXPECT_NEAR(r.max_tracking_error, offset.norm(), 1e-9);
+  EXPECT_NEAR(r.settled_tracking_error, offset.norm(), 1e-9);
   EXPECT_EQ(r.time_to_reach, -1.0);
-  EXPECT_NEAR(r.min_clearance_mm, 1000.0 * ref.obstacle_clearance, 1e-6);
+  EXPECT_FALSE(r.reached);
+  EXPECT_NEAR(r.min_clearance, ref.obstacle_clearance, 1e-9);
   if (ref.self_clearance < WorldOptions{}.warning_margin) {
-    EXPECT_NEAR(r.min_self_clearance_mm, 1000.0 * ref.self_clearance, 1e-6);
+    EXPECT_NEAR(r.min_self_clearance, ref.self_clearance, 1e-9);
   } else {
-    EXPECT_EQ(r.min_self_clearance_mm, INFINITY);
+    EXPECT_EQ(r.min_self_clearance, INFINITY);
   }
-  EXPECT_EQ(r.collision_events, ref.penetrating_pairs);  // entered penetration once, at t = 0, and stayed
-  EXPECT_EQ(r.obstacle_collision_events, ref.penetrating_pairs);
-  EXPECT_EQ(r.self_collision_events, 0);
-  EXPECT_EQ(r.colliding_pairs, ref.penetrating_pairs);
+  EXPECT_EQ(r.collisions, ref.penetrating_pairs);  // entered penetration once, at t = 0, and stayed
+  EXPECT_EQ(r.obstacle_collisions, ref.penetrating_pairs);
+  EXPECT_EQ(r.self_collisions, 0);
   EXPECT_NEAR(r.time_in_collision, 1.0, 1e-9);
   EXPECT_FALSE(r.success);
-  EXPECT_FALSE(r.diverged);
-  EXPECT_GT(r.control_step_mean_us, 0.0);
-  EXPECT_GE(r.control_step_max_us, r.control_step_mean_us);
+  EXPECT_FALSE(r.invalid);
+  EXPECT_GT(r.mean_control_us, 0.0);
+  EXPECT_GE(r.max_control_us, r.mean_control_us);
 
-  // frames at 25 fps from t = 0: 26 in 1 s, evenly spaced, showing the state after the physics step
+  // frames at 25 fps from t = 0: 26 in 1 s, evenly spaced, showing the state after a control period
   std::vector<double> times;
   RunEpisode({.duration = 1.0, .video_fps = 25.0}, world, controller, scenario,
              [&](const FrameInfo& f) {
@@ -122,11 +119,11 @@ TEST(EpisodeTest, MetricsOfAHeldArmMatchDirectReferences) {
   for (size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(times[k], 0.04 * k, 1e-9);
 
   // stop_on_collision: the start is already in collision, nothing runs
-  const EpisodeResult stopped =
+  const EpisodeMetrics stopped =
       RunEpisode({.duration = 1.0, .stop_on_collision = true}, world, controller, scenario);
   EXPECT_EQ(stopped.physics_steps, 0);
-  EXPECT_EQ(stopped.control_steps, 0);
-  EXPECT_EQ(stopped.collision_events, ref.penetrating_pairs);
+  EXPECT_EQ(stopped.length, 0);
+  EXPECT_EQ(stopped.collisions, ref.penetrating_pairs);
 }
 
 TEST(EpisodeTest, StopOnCollisionEndsAtTheFirstImpact) {
@@ -138,18 +135,20 @@ TEST(EpisodeTest, StopOnCollisionEndsAtTheFirstImpact) {
   World world(model);
   control::ReactiveController controller(model->servos(), std::make_unique<testing::HoldPolicy>(robot.model.nq()));
   double first_impact = -1.0;
-  const EpisodeResult full = RunEpisode({.duration = 2.0, .video_fps = 500.0}, world, controller, scenario,
+  const EpisodeMetrics full = RunEpisode({.duration = 2.0, .video_fps = 500.0}, world, controller, scenario,
                                         [&](const FrameInfo& f) {
                                           if (first_impact < 0.0 && f.contacts->num_collisions > 0) {
                                             first_impact = f.time;
                                           }
                                         });
   ASSERT_GT(first_impact, 0.0);
-  ASSERT_GT(full.collision_events, 1);
-  const EpisodeResult stopped = RunEpisode({.duration = 2.0, .stop_on_collision = true}, world, controller, scenario);
-  EXPECT_NEAR(stopped.duration, first_impact, 1e-9);
-  EXPECT_GE(stopped.collision_events, 1);
-  EXPECT_LT(stopped.collision_events, full.collision_events);
+  ASSERT_GT(full.collisions, 1);
+  const EpisodeMetrics stopped = RunEpisode({.duration = 2.0, .stop_on_collision = true}, world, controller, scenario);
+  // the loop stops at the control step after the first event; frames come at control steps too
+  EXPECT_LE(stopped.duration, first_impact + 1e-9);
+  EXPECT_GE(stopped.duration, first_impact - controller.control_period() - 1e-9);
+  EXPECT_GE(stopped.collisions, 1);
+  EXPECT_LT(stopped.collisions, full.collisions);
   EXPECT_FALSE(stopped.success);
 }
 
@@ -162,8 +161,9 @@ TEST(EpisodeTest, BadInputThrowsInputError) {
   EXPECT_THROW(RunEpisode({.duration = 0.0}, world, controller, scenario), InputError);
   EXPECT_THROW(RunEpisode({.duration = NAN}, world, controller, scenario), InputError);
   EXPECT_THROW(RunEpisode({.video_fps = -1.0}, world, controller, scenario), InputError);
-  EXPECT_THROW(RunEpisode({.reach_tolerance = 0.0}, world, controller, scenario), InputError);
-  EXPECT_THROW(RunEpisode({.tracking_warmup = -1.0}, world, controller, scenario), InputError);
+  EXPECT_THROW(RunEpisode({.loop = {.reach_tolerance = 0.0}}, world, controller, scenario), InputError);
+  EXPECT_THROW(RunEpisode({.loop = {.settle_time = -1.0}}, world, controller, scenario), InputError);
+  EXPECT_THROW(RunEpisode({.loop = {.success_max_final_error = NAN}}, world, controller, scenario), InputError);
   const kinematics::Robot panda = kinematics::LoadShippedRobot("panda");
   auto panda_model = std::make_shared<const WorldModel>(panda, scenario.scene_spec());
   control::ReactiveController panda_controller(panda_model->servos(), std::make_unique<testing::HoldPolicy>(7));

@@ -1,6 +1,6 @@
 // The per-episode metrics the experiments report (settled tracking error, time in collision, controller time) and
-// the external-controller env the baselines run in, against values recomputed step by step from the env's own
-// state.
+// a controller on a task's episodes (tasks::ControllerEpisodes, the baselines' harness), against values recomputed
+// step by step.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,6 +10,7 @@
 #include "../rl/rl_test_util.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/tasks/manipulator_env.h"
+#include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/controller.h"
 
 namespace rmpmarl::tasks {
@@ -45,8 +46,8 @@ TEST(EpisodeMetricsTest, SettledTrackingIsTheMeanDistanceFromOneSecondOn) {
     all += d[k];
     if (k + 1 >= 100) settled += d[k];
   }
-  EXPECT_NEAR(b.metrics.mean_tracking_error_mm, 1000.0 * all / 180.0, 1e-9);
-  EXPECT_NEAR(b.metrics.settled_tracking_error_mm, 1000.0 * settled / 81.0, 1e-9);
+  EXPECT_NEAR(b.metrics.mean_tracking_error, all / 180.0, 1e-12);
+  EXPECT_NEAR(b.metrics.settled_tracking_error, settled / 81.0, 1e-12);
   EXPECT_GT(b.metrics.mean_control_us, 0.0);  // the basic layer ran
 }
 
@@ -57,8 +58,8 @@ TEST(EpisodeMetricsTest, SettledTrackingIsNaNForEpisodesShorterThanOneSecond) {
   Buffers b(env.spec());
   std::vector<float> actions(static_cast<size_t>(env.spec().num_agents) * env.spec().action.size(), 0.0f);
   RunEpisode(env, b, actions, 3);
-  EXPECT_TRUE(std::isnan(b.metrics.settled_tracking_error_mm));
-  EXPECT_TRUE(std::isfinite(b.metrics.mean_tracking_error_mm));
+  EXPECT_TRUE(std::isnan(b.metrics.settled_tracking_error));
+  EXPECT_TRUE(std::isfinite(b.metrics.mean_tracking_error));
 }
 
 TEST(EpisodeMetricsTest, TimeInCollisionIsPositiveExactlyWhenThereWereCollisions) {
@@ -72,50 +73,59 @@ TEST(EpisodeMetricsTest, TimeInCollisionIsPositiveExactlyWhenThereWereCollisions
   int with_collisions = 0;
   for (std::uint64_t seed = 1; seed <= 8; ++seed) {
     RunEpisode(env, b, actions, seed);
-    EXPECT_EQ(b.metrics.collisions > 0, b.metrics.time_in_collision_s > 0.0) << "seed " << seed;
-    EXPECT_LE(b.metrics.time_in_collision_s, b.metrics.length * env.spec().control_dt + 1e-12);
+    EXPECT_EQ(b.metrics.collisions > 0, b.metrics.time_in_collision > 0.0) << "seed " << seed;
+    EXPECT_LE(b.metrics.time_in_collision, b.metrics.length * env.spec().control_dt + 1e-12);
     with_collisions += b.metrics.collisions > 0 ? 1 : 0;
   }
   EXPECT_GT(with_collisions, 0);
 }
 
-TEST(EpisodeMetricsTest, ExternalControllerDrivesTheRobotAndIgnoresTheActions) {
+TEST(EpisodeMetricsTest, AControllerRunsTheSameEpisodesAsTheEnvAndIsScoredTheSameWay) {
   TaskConfig c = SmallConfig(TaskKind::kReachAvoid);
   c.episode.max_steps = 300;
   c.scenario.crossing.num_obstacles = 0;
   c.observation.max_obstacles = 4;
   const auto context = MakeTaskContext(c);
-  ExternalController external;
-  external.make_policy = [](const kinematics::Robot& robot) {
+  ControllerMaker maker;
+  maker.make_policy = [](const kinematics::Robot& robot) {
     return std::make_unique<control::RmpflowAccelerationPolicy>(robot, 4);
   };
-  ManipulatorEnv rmpflow(context, external);
-  ManipulatorEnv agents(context);
-  Buffers b1(rmpflow.spec()), b2(agents.spec());
-  // garbage actions: an external env does not read them
-  std::vector<float> garbage(static_cast<size_t>(rmpflow.spec().num_agents) * rmpflow.spec().action.size(), NAN);
-  const std::vector<double> d = RunEpisode(rmpflow, b1, garbage, 5);
-  EXPECT_FALSE(b1.metrics.invalid);
-  EXPECT_EQ(d.size(), 300u);
+  ControllerEpisodes rmpflow(context, maker);
+  std::vector<double> d;
+  std::mt19937_64 rng(5);
+  const EpisodeMetrics m = rmpflow.Run(rng, {.video_fps = 1000.0, .on_frame = [&](const sim::FrameInfo& f) {
+                                               if (f.index > 0) d.push_back(f.tracking_error);
+                                             }});
+  EXPECT_FALSE(m.invalid);
+  EXPECT_EQ(m.length, 300);
+  ASSERT_EQ(d.size(), 300u);  // a frame after every control period
   // RMPflow converges on the moving target (measured: 0.1–4 mm after 3 s)
   EXPECT_GT(d.front(), 0.05);
   EXPECT_LT(d.back(), 0.01);
-  EXPECT_LT(b1.metrics.settled_tracking_error_mm, b1.metrics.mean_tracking_error_mm);
+  EXPECT_EQ(m.final_tracking_error, d.back());
+  double all = 0.0;
+  for (double x : d) all += x;
+  EXPECT_NEAR(m.mean_tracking_error, all / 300.0, 1e-12);
+  EXPECT_LT(m.settled_tracking_error, m.mean_tracking_error);
+  EXPECT_GT(m.mean_control_us, 0.0);
+  EXPECT_NE(m.episode_return, 0.0);  // the task's reward scores a controller too
   // the same seed gives the same episode to an agent env
+  ManipulatorEnv agents(context);
+  Buffers b(agents.spec());
   std::mt19937_64 r1(5), r2(5);
-  rmpflow.Reset(r1, b1.out());
-  agents.Reset(r2, b2.out());
-  EXPECT_EQ(rmpflow.variant(), agents.variant());
-  EXPECT_TRUE(rmpflow.world().q().isApprox(agents.world().q()));
-  EXPECT_TRUE(rmpflow.scenario().target().p_WT.isApprox(agents.scenario().target().p_WT));
-  // the baseline's env reads no action, the agents' env every one (parameter_period 1)
-  EXPECT_EQ(b1.next_action_read, std::vector<float>(rmpflow.spec().num_agents, 0.0f));
-  EXPECT_EQ(b2.next_action_read, std::vector<float>(agents.spec().num_agents, 1.0f));
+  Eigen::Vector3d p_WT0 = Eigen::Vector3d::Constant(NAN);
+  rmpflow.Run(r1, {.video_fps = 1.0, .on_frame = [&](const sim::FrameInfo& f) {
+                     if (f.index == 0) p_WT0 = f.scenario->target().p_WT;
+                   }});
+  agents.Reset(r2, b.out());
+  EXPECT_EQ(rmpflow.episode().variant(), agents.variant());
+  EXPECT_EQ(p_WT0, agents.scenario().target().p_WT);
+  EXPECT_EQ(r1(), r2());  // both drew the episode with the same numbers
 }
 
-TEST(EpisodeMetricsTest, ExternalControllerWithoutAPolicyMakerIsRejected) {
+TEST(EpisodeMetricsTest, AControllerMakerWithoutAPolicyMakerIsRejected) {
   const auto context = MakeTaskContext(SmallConfig(TaskKind::kReachAvoid));
-  EXPECT_THROW(ManipulatorEnv(context, ExternalController{}), InputError);
+  EXPECT_THROW(ControllerEpisodes(context, ControllerMaker{}), InputError);
 }
 
 }  // namespace

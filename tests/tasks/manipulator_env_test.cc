@@ -339,7 +339,7 @@ TEST(ManipulatorEnvTest, CollisionCostsSeventyFivePerEvent) {
   ASSERT_EQ(events, 1);
   EXPECT_EQ(b.reward_terms[3], -75.0f);
   EXPECT_EQ(env.metrics().collisions, 1);
-  EXPECT_LT(env.metrics().min_clearance_m, 0.0);
+  EXPECT_LT(env.metrics().min_clearance, 0.0);
   // keep pushing: the pair stays in contact (no new event) until the episode ends, which is not a success
   while (!b.terminated && !b.truncated) env.Step(push, rng, b.out());
   EXPECT_TRUE(b.truncated);

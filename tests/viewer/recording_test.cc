@@ -28,12 +28,12 @@ TEST(RecordingTest, DemoRecordsBothRunsAndTheReplayPlaysThemFrameByFrame) {
                                       path.string());
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   ReplaySource replay(path.string());
-  ASSERT_EQ(replay.num_frames(), 40);  // 2 s at 20 frames per second
+  ASSERT_EQ(replay.num_frames(), 41);  // t = 0 … 2 s at 20 frames per second, both ends
   const json hello = json::parse(replay.hello());
   EXPECT_EQ(hello["mode"], "replay");
   EXPECT_EQ(hello["arms"].size(), 2u);
   EXPECT_EQ(hello["arms"][0]["controller"], "learned");
-  EXPECT_EQ(hello["replay"]["frames"], 40);
+  EXPECT_EQ(hello["replay"]["frames"], 41);
   std::string out;
   replay.Frame({}, &out);
   json f = json::parse(out);
@@ -49,17 +49,17 @@ TEST(RecordingTest, DemoRecordsBothRunsAndTheReplayPlaysThemFrameByFrame) {
   EXPECT_EQ(replay.index(), 11);
   Command seek;
   seek.kind = CommandKind::kSeek;
-  seek.frame = 39;
+  seek.frame = 40;
   EXPECT_EQ(replay.Apply(seek), "");
   replay.StepOnce();
-  EXPECT_EQ(replay.index(), 39) << "the last frame stays";
+  EXPECT_EQ(replay.index(), 40) << "the last frame stays";
   replay.Frame({}, &out);
   EXPECT_TRUE(json::parse(out)["paused"].get<bool>());
   Command steer;
   steer.kind = CommandKind::kSetTarget;
   EXPECT_NE(replay.Apply(steer).find("cannot be steered"), std::string::npos);
   // seeking is checked against the replay's length
-  EXPECT_FALSE(ParseCommand(R"({"type":"seek","frame":40})", replay.limits()).command.has_value());
+  EXPECT_FALSE(ParseCommand(R"({"type":"seek","frame":41})", replay.limits()).command.has_value());
   std::filesystem::remove(path);
 }
 

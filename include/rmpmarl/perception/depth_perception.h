@@ -68,7 +68,7 @@ class DepthPerception final : public sim::ObstacleSensor {
   std::vector<double> velocity_errors_, tracked_errors_;  // all matches; tracks followed ≥ 2 updates
 };
 
-/// a maker of DepthPerception sensors with `options` (for tasks::ExternalController::make_sensor and
+/// a maker of DepthPerception sensors with `options` (for tasks::ControllerMaker::make_sensor and
 /// experiments::EvalProtocol::make_sensor); the sensors it makes throw InputError saying why when offscreen rendering
 /// is unavailable. Validates the options now.
 std::function<std::unique_ptr<sim::ObstacleSensor>(const sim::WorldModel&)> DepthSensorMaker(

@@ -1,14 +1,22 @@
 #pragma once
-/// The episode runner (docs/control.md): World + ReactiveController + Scenario for a duration, with the metrics of
-/// the paper's experiments — end-effector tracking error, clearances, collision events, success — and the cost of a
-/// control step. Optionally calls a frame callback at a video frame rate (the CLI renders there).
+/// The one episode loop (docs/control.md). `EpisodeLoop` runs an episode stage by stage — the controller's scene
+/// (sensed or exact), a control period of physics with the scenario moving, contacts and collision events, the end
+/// effector's error — and keeps the one `EpisodeMetrics` of the project. Everything that runs an episode drives it:
+/// `RunEpisode` below (a controller alone), `tasks::TaskEpisode` (the tasks' episodes, under the RL environments, the
+/// experiments, `demo` and `eval`) and the live viewer.
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "rmpmarl/control/controller.h"
+#include "rmpmarl/kinematics/model.h"
+#include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/controlled_world.h"
+#include "rmpmarl/sim/episode_metrics.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/sim/world.h"
 
@@ -30,9 +38,9 @@ struct SensorSummary {
   double velocity_error_tracked_mean = 0.0;   ///< mean |v_sensed − v_true| over those [m/s]
 };
 
-/// Tells the controller what a sensor perceives of the obstacles instead of their exact shapes. RunEpisode and the
-/// environments' external controllers call Reset at the start of an episode and Sense before every control step,
-/// with the scene the scenario filled (the truth, which a sensor may read only to score itself).
+/// Tells the controller what a sensor perceives of the obstacles instead of their exact shapes. The episode loop
+/// calls Reset at the start of an episode and Sense before every control step, with the scene the scenario filled
+/// (the truth, which a sensor may read only to score itself).
 class ObstacleSensor {
  public:
   virtual ~ObstacleSensor();
@@ -45,19 +53,115 @@ class ObstacleSensor {
   virtual SensorSummary Summary() const = 0;
 };
 
+/// Collision events: a (link, partner) pair entering penetration, i.e. in penetration now and not at the physics
+/// step before. Partners are the obstacles, then the links, then the floor; preallocated, so counting allocates
+/// nothing.
+class CollisionCounter {
+ public:
+  CollisionCounter() = default;
+  CollisionCounter(int num_links, int num_obstacles);
+  /// forgets every pair; the next Count is at physics step 0.
+  void Reset();
+  struct Events {
+    int obstacle = 0;  ///< robot–obstacle or robot–floor pairs entering penetration
+    int self = 0;      ///< link–link pairs entering penetration
+    int total() const { return obstacle + self; }
+  };
+  /// the pairs of `report` (the state after physics step `physics_step`) that enter penetration.
+  Events Count(const ContactReport& report, long physics_step);
+
+ private:
+  int num_obstacles_ = 0;
+  int partners_ = 1;
+  std::vector<long> last_seen_;  // per (link, partner): physics step it was last in penetration
+};
+
+/// One episode, stage by stage. Begin binds a world and a scenario already reset to the episode's start; each
+/// control step is then SenseScene (or StepController) followed by Advance. Allocates nothing after Begin.
+class EpisodeLoop {
+ public:
+  EpisodeLoop() = default;
+  /// starts an episode: contacts at the start (pairs touching now are no events later), the scenario's scene, the
+  /// sensor's reset, the end effector's error, cleared metrics. `physics_steps` per control period ≥ 1; the sensor
+  /// (not owned) may be null: the controller is told the scenario's exact obstacles.
+  void Begin(World* world, Scenario* scenario, int physics_steps, const LoopOptions& options,
+             ObstacleSensor* sensor = nullptr);
+
+  /// the scene a controller is told at this control step: the scenario's, or what the sensor perceives of it.
+  const rmp::Scene& SenseScene();
+  /// one control step of `controller` on SenseScene(); its compute time counts in the metrics.
+  control::ControlStepResult StepController(control::ReactiveController& controller);
+  /// a control step computed elsewhere (the agents' direct commands): its compute time [µs].
+  void AddControlTime(double us);
+
+  /// one control period: the scenario moves, the physics steps, contacts and collision events are counted, the scene
+  /// and the end effector's error are brought up to date and scored. False when the simulation diverged (the
+  /// episode is then invalid and this step is not scored).
+  bool Advance();
+  /// adds a reward to EpisodeMetrics::episode_return.
+  void AddReward(double r) { metrics_.episode_return += r; }
+  /// marks the episode invalid (a non-finite action or output).
+  void MarkInvalid() { metrics_.invalid = true; }
+
+  /// the metrics as if the episode ended now.
+  EpisodeMetrics Metrics() const;
+
+  const World& world() const { return *world_; }
+  World& world() { return *world_; }
+  const Scenario& scenario() const { return *scenario_; }
+  /// the scenario's scene at the current state (the truth).
+  const rmp::Scene& scene() const { return scene_; }
+  const ContactReport& contacts() const { return *contacts_; }
+  const ObstacleSensor* sensor() const { return sensor_; }
+  /// ‖p_WE − p_WT‖ now [m].
+  double tracking_error() const { return error_; }
+  /// control steps run.
+  int steps() const { return steps_; }
+  double time() const;
+  /// collision events in the last Advance.
+  int step_collisions() const { return step_events_.total(); }
+  /// smallest robot–obstacle distance in the last Advance's contacts [m] (+inf: none within the margin).
+  double step_min_clearance() const { return step_min_clearance_; }
+
+ private:
+  void Observe(const ContactReport& report);
+  void UpdateError();
+
+  World* world_ = nullptr;
+  Scenario* scenario_ = nullptr;
+  ObstacleSensor* sensor_ = nullptr;
+  LoopOptions options_;
+  int physics_steps_ = 1;
+  double timestep_ = 0.0;
+  const ContactReport* contacts_ = nullptr;
+  rmp::Scene scene_, sensed_;
+  CollisionCounter counter_;
+  std::optional<kinematics::Data> kin_;
+  const kinematics::Model* kin_model_ = nullptr;
+  long physics_step_ = 0;
+  int steps_ = 0;
+  double error_ = 0.0;
+  double tracking_sum_ = 0.0, settled_sum_ = 0.0;
+  int settled_steps_ = 0;
+  long collision_physics_steps_ = 0;
+  double control_us_sum_ = 0.0;
+  CollisionCounter::Events step_events_;
+  double step_min_clearance_ = std::numeric_limits<double>::infinity();
+  EpisodeMetrics metrics_;
+};
+
 /// Options of RunEpisode.
 struct EpisodeOptions {
   double duration = 10.0;         ///< simulated time [s], > 0
   std::uint64_t seed = 0;         ///< scenario draw (Scenario::Reset)
   double video_fps = 0.0;         ///< frame-callback rate [Hz]; 0: no frames
-  double reach_tolerance = 0.01;  ///< time_to_reach is the first time the tracking error is below this [m]
-  double tracking_warmup = 0.0;   ///< tracking mean/std/max ignore the first warmup seconds [s]
+  LoopOptions loop{};             ///< scoring and scenario motion
   bool stop_on_collision = false; ///< end the episode at the first collision event
   /// not owned; null: the controller is told the scenario's exact obstacles
   ObstacleSensor* sensor = nullptr;
 };
 
-/// What a frame callback sees: the state after a physics step, before the scenario moves on.
+/// What a frame callback sees: the state after a control period, before the next control step.
 struct FrameInfo {
   int index = 0;                       ///< frame number, from 0
   double time = 0.0;                   ///< simulation time [s]
@@ -65,58 +169,19 @@ struct FrameInfo {
   const Scenario* scenario = nullptr;
   const ContactReport* contacts = nullptr;
   double tracking_error = 0.0;         ///< ‖p_WE − p_WT‖ [m]
-  const ObstacleSensor* sensor = nullptr;  ///< EpisodeOptions::sensor
+  const ObstacleSensor* sensor = nullptr;
 };
 
-/// Called at EpisodeOptions::video_fps (first frame at t = 0).
+/// Called at EpisodeOptions::video_fps (first frame at t = 0), at control-period boundaries.
 using FrameCallback = std::function<void(const FrameInfo& frame)>;
 
-/// Metrics of one episode. Distances in mm, times in s unless the name says otherwise.
-struct EpisodeResult {
-  std::string scenario;        ///< Scenario::name()
-  std::string policy;          ///< AccelerationPolicy::name()
-  std::uint64_t seed = 0;
-  double duration = 0.0;       ///< simulated time actually run [s] (shorter after divergence/stop_on_collision)
-  long physics_steps = 0;
-  long control_steps = 0;
-  int frames = 0;              ///< frame callbacks made
+/// calls `on_frame` when a frame is due at the loop's current time; `next_frame` counts the frames made.
+void MaybeFrame(const EpisodeLoop& loop, double fps, int* next_frame, const FrameCallback& on_frame);
 
-  // end effector vs target, sampled every physics step (after tracking_warmup)
-  double tracking_error_mean_mm = 0.0;
-  double tracking_error_std_mm = 0.0;   ///< population standard deviation
-  double tracking_error_max_mm = 0.0;
-  double final_tracking_error_mm = 0.0; ///< at the end of the episode
-  double time_to_reach = -1.0;          ///< first time the error was below reach_tolerance [s]; −1: never
-
-  /// smallest signed robot–obstacle (or floor) distance seen [mm]; +inf when nothing came within the warning margin
-  double min_clearance_mm = std::numeric_limits<double>::infinity();
-  /// smallest signed distance between checked link pairs [mm]; +inf when none came within the margin
-  double min_self_clearance_mm = std::numeric_limits<double>::infinity();
-
-  /// collision events: a (link, obstacle | link | floor) pair entering penetration (distance < 0)
-  int collision_events = 0;
-  int obstacle_collision_events = 0;  ///< of which robot–obstacle (or floor)
-  int self_collision_events = 0;      ///< of which link–link
-  int colliding_pairs = 0;            ///< distinct pairs that ever penetrated
-  double time_in_collision = 0.0;     ///< simulated time with at least one pair in penetration [s]
-
-  long nonfinite_policy_outputs = 0;  ///< control steps whose q̈ was non-finite (position held)
-  long resyncs = 0;                   ///< commanded state restarted from the measured one
-  double control_step_mean_us = 0.0;  ///< policy evaluation + integration, steady_clock [µs]
-  double control_step_max_us = 0.0;
-  double wall_time = 0.0;             ///< wall-clock time of the whole episode [s]
-
-  SensorSummary sensor;  ///< with EpisodeOptions::sensor: what it perceived (zeros without one)
-
-  bool diverged = false;  ///< MuJoCo hit a non-finite state (World::Step not ok); the episode ended there
-  bool success = false;   ///< no collision event and no divergence
-};
-
-/// runs one episode: scenario.Reset(seed, world), sim::ResetController(controller, world), then per physics step: the controller
-/// every physics_steps_per_control() steps, World::Step, contacts and metrics, the frame callback when due, and
-/// scenario.Advance. Throws InputError for bad options or mismatched parts (controller and world of different
-/// robots).
-EpisodeResult RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
-                         Scenario& scenario, const FrameCallback& on_frame = {});
+/// runs one episode of a controller alone: scenario.Reset(seed, world), sim::ResetController, then EpisodeLoop's
+/// stages for the duration. Throws InputError for bad options or mismatched parts (controller and world of
+/// different robots).
+EpisodeMetrics RunEpisode(const EpisodeOptions& options, World& world, control::ReactiveController& controller,
+                          Scenario& scenario, const FrameCallback& on_frame = {});
 
 }  // namespace rmpmarl::sim

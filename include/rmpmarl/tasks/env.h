@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "rmpmarl/control/action_spec.h"
+#include "rmpmarl/sim/episode_metrics.h"
 
 namespace rmpmarl::tasks {
 
@@ -33,26 +34,10 @@ struct EnvSpec {
   double control_dt = 0.0;                       ///< seconds of simulated time per env step
 };
 
-/// Per-episode metrics, reported when an episode ends.
-struct EpisodeMetrics {
-  bool success = false;                  ///< task-defined (e.g. no collision in the episode)
-  bool invalid = false;                  ///< ended because of a non-finite state or action
-  int collisions = 0;                    ///< collision events (a pair entering penetration)
-  double mean_tracking_error_mm = 0.0;   ///< mean end-effector–target distance over the episode
-  double final_tracking_error_mm = 0.0;  ///< at the last step
-  double min_clearance_m = 0.0;          ///< smallest robot–obstacle signed distance seen (+inf: never within margin)
-  int length = 0;                        ///< env steps
-  double episode_return = 0.0;           ///< undiscounted sum of rewards
-  /// mean end-effector–target distance over the steps at simulated time t ≥ kSettleTime (NaN: the episode ended
-  /// before); the tracking precision once the start transient is over.
-  double settled_tracking_error_mm = std::numeric_limits<double>::quiet_NaN();
-  double time_in_collision_s = 0.0;      ///< simulated time with at least one pair in penetration [s]
-  /// mean wall time of the env's own controller per control step (basic layer or an external policy; 0 when the
-  /// agents command joints directly) [µs]
-  double mean_control_us = 0.0;
-};
+/// Per-episode metrics, reported when an episode ends: the episode loop's (sim/episode_metrics.h).
+using EpisodeMetrics = sim::EpisodeMetrics;
 
-/// the start of the settled phase of an episode (EpisodeMetrics::settled_tracking_error_mm) [s].
+/// the start of the settled phase of a task episode (EpisodeMetrics::settled_tracking_error, LoopOptions) [s].
 inline constexpr double kSettleTime = 1.0;
 
 /// Where one env writes one step's results: views into the engine's batch buffers (row-major).

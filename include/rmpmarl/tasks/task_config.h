@@ -14,6 +14,7 @@
 
 #include "rmpmarl/control/agent_config.h"
 #include "rmpmarl/rmp/joint_layer.h"
+#include "rmpmarl/sim/episode_metrics.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::tasks {
@@ -39,11 +40,8 @@ enum class TaskKind {
   kCluttered,      ///< `cluttered`: static cubes 20–50 cm around the start end effector (IV.C)
 };
 
-/// When the scenario moves obstacles and target inside one env step.
-enum class ScenarioUpdate {
-  kPhysicsStep,  ///< after every physics timestep (smooth motion; one extra mj_step1 per timestep)
-  kControlStep,  ///< once per env step by the control period (cheaper; obstacles jump v·T)
-};
+/// When the scenario moves obstacles and target inside one env step (the episode loop's choice).
+using ScenarioUpdate = sim::ScenarioUpdate;
 
 /// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".
 std::string_view TaskKindName(TaskKind kind);

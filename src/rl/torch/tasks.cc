@@ -136,9 +136,9 @@ void ToyReachEnv::Step(const float* actions, std::mt19937_64& /*rng*/, const tas
     m = tasks::EpisodeMetrics{};
     m.success = success;
     m.length = steps_;
-    m.mean_tracking_error_mm = 1000.0 * error_sum_ / steps_;
-    m.final_tracking_error_mm = 1000.0 * distance / A;
-    m.min_clearance_m = std::numeric_limits<double>::infinity();
+    m.mean_tracking_error = error_sum_ / steps_;
+    m.final_tracking_error = distance / A;
+    m.min_clearance = std::numeric_limits<double>::infinity();
     m.episode_return = return_;
   }
 }

@@ -451,8 +451,8 @@ torch::Tensor RecentEpisodesTensor(const std::deque<tasks::EpisodeMetrics>& rece
   torch::Tensor t = torch::zeros({static_cast<int64_t>(recent.size()), 8}, torch::kDouble);
   for (size_t i = 0; i < recent.size(); ++i) {
     const tasks::EpisodeMetrics& e = recent[i];
-    const double row[8] = {double(e.success), double(e.invalid), double(e.collisions), e.mean_tracking_error_mm,
-                           e.final_tracking_error_mm, e.min_clearance_m, double(e.length), e.episode_return};
+    const double row[8] = {double(e.success), double(e.invalid), double(e.collisions), e.mean_tracking_error,
+                           e.final_tracking_error, e.min_clearance, double(e.length), e.episode_return};
     for (int j = 0; j < 8; ++j) t[i][j] = row[j];
   }
   return t;
@@ -561,9 +561,9 @@ void Trainer::Resume(const std::string& path) {
       e.success = row[0] != 0.0;
       e.invalid = row[1] != 0.0;
       e.collisions = static_cast<int>(row[2]);
-      e.mean_tracking_error_mm = row[3];
-      e.final_tracking_error_mm = row[4];
-      e.min_clearance_m = row[5];
+      e.mean_tracking_error = row[3];
+      e.final_tracking_error = row[4];
+      e.min_clearance = row[5];
       e.length = static_cast<int>(row[6]);
       e.episode_return = row[7];
       m.recent.push_back(e);

@@ -43,20 +43,21 @@ struct EpisodeStats {
   int settled_count = 0;
   void Add(const tasks::EpisodeMetrics& m) {
     ++episodes;
-    if (std::isfinite(m.settled_tracking_error_mm)) {
-      settled_sum += m.settled_tracking_error_mm;
+    if (std::isfinite(m.settled_tracking_error)) {
+      settled_sum += 1000.0 * m.settled_tracking_error;
       ++settled_count;
     }
     successes += m.success ? 1 : 0;
     collisions += m.collisions;
     collision_free += m.collisions == 0 ? 1 : 0;
     return_sum += m.episode_return;
-    track_sum += m.mean_tracking_error_mm;
-    track_sq += m.mean_tracking_error_mm * m.mean_tracking_error_mm;
-    final_track_sum += m.final_tracking_error_mm;
+    const double track_mm = 1000.0 * m.mean_tracking_error;
+    track_sum += track_mm;
+    track_sq += track_mm * track_mm;
+    final_track_sum += 1000.0 * m.final_tracking_error;
     length_sum += m.length;
-    if (std::isfinite(m.min_clearance_m)) {
-      clearance_sum += m.min_clearance_m;
+    if (std::isfinite(m.min_clearance)) {
+      clearance_sum += m.min_clearance;
       ++clearance_count;
     }
   }

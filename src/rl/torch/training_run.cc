@@ -253,11 +253,10 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
   std::vector<int> quota(N, options.episodes / N), done(N, 0);
   for (int k = 0; k < options.episodes % N; ++k) ++quota[k];
   std::vector<float> actions(static_cast<size_t>(N) * A * as);
-  EpisodeStats stats;
-  std::vector<double> tracking;
+  std::vector<tasks::EpisodeMetrics> ended;
   env.Reset();
   const long max_steps = std::max(spec.max_episode_steps, 1000) * static_cast<long>(quota[0] + 1) * 4;
-  for (long step = 0; stats.episodes < options.episodes; ++step) {
+  for (long step = 0; static_cast<int>(ended.size()) < options.episodes; ++step) {
     if (step > max_steps) {
       throw InputError(fmt::format("evaluation: episodes did not end within {} steps per env", max_steps));
     }
@@ -267,16 +266,25 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
     for (int k = 0; k < N; ++k) {
       if (!(b.terminated[k] || b.truncated[k]) || done[k] >= quota[k]) continue;
       ++done[k];
-      stats.Add(b.metrics[k]);
-      tracking.push_back(b.metrics[k].mean_tracking_error_mm);
+      ended.push_back(b.metrics[k]);
     }
   }
+  return SummarizeEpisodes(ended);
+}
+
+EvalResult SummarizeEpisodes(const std::vector<tasks::EpisodeMetrics>& episodes) {
+  if (episodes.empty()) throw InputError("SummarizeEpisodes: expected at least 1 episode, got none");
+  EpisodeStats stats;
+  for (const tasks::EpisodeMetrics& m : episodes) stats.Add(m);
   EvalResult r;
   r.episodes = stats.episodes;
   r.success_rate = static_cast<double>(stats.successes) / stats.episodes;
   r.tracking_error_mean_mm = stats.track_sum / stats.episodes;
   double var = 0.0;
-  for (double t : tracking) var += (t - r.tracking_error_mean_mm) * (t - r.tracking_error_mean_mm);
+  for (const tasks::EpisodeMetrics& m : episodes) {
+    const double t = 1000.0 * m.mean_tracking_error;
+    var += (t - r.tracking_error_mean_mm) * (t - r.tracking_error_mean_mm);
+  }
   r.tracking_error_std_mm = std::sqrt(var / stats.episodes);
   r.final_tracking_error_mean_mm = stats.final_track_sum / stats.episodes;
   r.settled_tracking_error_mean_mm = stats.settled_count > 0 ? stats.settled_sum / stats.settled_count : kNaN;

@@ -179,6 +179,10 @@ struct EvalResult {
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
 EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& factory, const EvalOptions& options);
 
+/// the summary of ended episodes (Evaluate's, or a controller's on tasks::ControllerEpisodes). Throws InputError
+/// for none.
+EvalResult SummarizeEpisodes(const std::vector<tasks::EpisodeMetrics>& episodes);
+
 /// rewrites a format-1 checkpoint (a torch::serialize archive) as format 2 (TensorArchive) at
 /// out_path (may equal path). Format 1 is read through TorchScript's importer, which is not safe on untrusted files
 /// (tensor_archive.h): upgrade only files you trust. Throws InputError for a corrupt file or one already format 2.
