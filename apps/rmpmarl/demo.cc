@@ -1,17 +1,22 @@
 // `rmpmarl demo`: the README's main job — a robot tracks a moving target while obstacles cross its workspace, in
-// MuJoCo: the shipped learned per-joint agents and RMPflow on the same episode (or RMPflow alone), summaries and videos.
+// MuJoCo: the shipped learned per-joint agents and RMPflow on the same episode of the same scene (or RMPflow alone),
+// through the one episode loop (tasks::ControllerEpisodes); summaries in words, videos and a replay.
 #include <fmt/core.h>
+#include <fmt/ranges.h>
 #include <mujoco/mujoco.h>
 
 #include <chrono>
 #include <filesystem>
 #include <optional>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/control/learned_controller.h"
+#include "rmpmarl/tasks/task_context.h"
 #include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/policy_task.h"
@@ -72,148 +77,31 @@ std::string DemoHello(const kinematics::Robot& robot, const sim::Scenario& scena
   return viewer::EncodeHello(robot, info);
 }
 
-// what happened, in words that cannot mislead: reached (and how close), collision-free, both.
-std::string DescribeOutcome(const sim::EpisodeMetrics& m, double reach_tolerance) {
-  if (m.invalid) return "INVALID: the episode ended on a non-finite state";
-  const std::string reach = m.reached ? fmt::format("reached the target (final error {:.1f} mm, within {:.0f} mm)",
-                                                    1000.0 * m.final_tracking_error, 1000.0 * reach_tolerance)
-                                      : fmt::format("did NOT reach the target (final error {:.1f} mm, more than {:.0f} mm)",
-                                                    1000.0 * m.final_tracking_error, 1000.0 * reach_tolerance);
-  const std::string contact = m.collisions == 0 ? "collision-free"
-                                                : fmt::format("{} COLLISION events", m.collisions);
-  return reach + "; " + contact;
-}
-
 sim::RenderOptions CameraFor(const sim::Workspace& ws, const DemoArgs& args) {
   return sim::CameraForWorkspace(ws, args.width, args.height);
 }
 
-sim::RenderOptions CameraFor(const sim::Scenario& scenario, const DemoArgs& args) {
-  return CameraFor(scenario.workspace(), args);
-}
-
-void RunDemo(const DemoArgs& args) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  const kinematics::Robot robot = !args.urdf.empty() ? LoadUserRobot(args.urdf, args.collision).robot
-                                                     : kinematics::LoadShippedRobot(args.robot);
-  sim::ScenarioOverrides overrides;
-  overrides.obstacle_speed = args.obstacle_speed;
-  overrides.target_speed = args.target_speed;
-  overrides.num_obstacles = args.num_obstacles;
-  std::unique_ptr<sim::Scenario> scenario = sim::MakeScenario(args.scenario, robot, overrides);
-  auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario->scene_spec());
-  sim::World world(world_model);
-  const auto config_path = rmp::RmpflowConfigPath(robot);
-  auto policy = std::make_unique<control::RmpflowAccelerationPolicy>(robot, rmp::LoadRmpflowOptions(robot),
-                                                                 ObstacleSlots(args, scenario->num_obstacles()));
-  control::ReactiveController controller(world_model->servos(), std::move(policy));
-  std::unique_ptr<sim::ObstacleSensor> sensor;
-  if (UsesSensor(args.perception)) sensor = MakeSensorFactory(args.perception, args.seed)(*world_model);
-
-  sim::EpisodeOptions episode;
-  episode.duration = args.duration > 0.0 ? args.duration : scenario->default_duration();
-  episode.seed = args.seed;
-  episode.sensor = sensor.get();
-
-  std::unique_ptr<sim::OffscreenRenderer> renderer;
-  std::unique_ptr<sim::VideoWriter> video;
-  std::vector<std::uint8_t> rgb;
-  if (!args.video.empty()) {
-    std::string why_not;
-    renderer = sim::OffscreenRenderer::Create(world_model->mj_model(), CameraFor(*scenario, args), &why_not);
-    if (renderer == nullptr) {
-      fmt::print("video: offscreen rendering is not possible here ({}); running without video\n", why_not);
-    } else {
-      video = std::make_unique<sim::VideoWriter>(args.video, args.width, args.height, args.fps);
-      episode.video_fps = args.fps;
-    }
-  }
-  std::optional<viewer::Recorder> recorder;
-  if (!args.record.empty()) {
-    recorder.emplace(DemoHello(robot, *scenario, {{"RMPflow", "rmpflow"}}, 1.0 / controller.control_period(),
-                               args.seed));
-    episode.video_fps = args.fps;
-  }
-  sim::FrameCallback on_frame;
-  if (video || recorder) {
-    on_frame = [&](const sim::FrameInfo& frame) {
-      if (video) {
-        const Eigen::Matrix3Xd* points = frame.sensor != nullptr ? &frame.sensor->points() : nullptr;
-        renderer->Render(frame.world->mj_data(), &rgb, points, 0.5 * args.perception.voxel);
-        video->AddFrame(rgb);
-      }
-      if (recorder) {
-        viewer::ArmView arm;
-        arm.world = frame.world;
-        arm.contacts = frame.contacts;
-        recorder->AddFrame(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
-      }
-    };
-  }
-
-  fmt::print("rmpmarl demo: {} ({} dof), scenario '{}' ({} obstacles), policy {}, seed {}, {:.1f} s simulated\n",
-             robot.name, robot.model.nq(), scenario->name(), scenario->num_obstacles(), controller.policy().name(),
-             args.seed, episode.duration);
-  fmt::print("  RMPflow parameters: {}{}\n", config_path.string(), robot.home.size() > 0 ? " (home found in memory)" : "");
-  fmt::print("  {}\n", DescribePerception(args.perception));
-  const sim::EpisodeMetrics r = sim::RunEpisode(episode, world, controller, *scenario, on_frame);
-
-  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("–"); };
-  auto clearance = [](double v) {
-    return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("none within 15 cm");
-  };
-  fmt::print("\n  tracking error      {} mean, {} settled (t >= {:g} s), {} max, final {}\n", mm(r.mean_tracking_error),
-             mm(r.settled_tracking_error), episode.loop.settle_time, mm(r.max_tracking_error),
-             mm(r.final_tracking_error));
-  fmt::print("  min clearance       {} to obstacles, {} between links\n", clearance(r.min_clearance),
-             clearance(r.min_self_clearance));
-  fmt::print("  collisions          {} events ({} robot–obstacle, {} self), {:.2f} s in collision\n", r.collisions,
-             r.obstacle_collisions, r.self_collisions, r.time_in_collision);
-  fmt::print("  control step        {:.1f} µs mean, {:.1f} µs max ({} steps at {:.0f} Hz; physics {} steps)\n",
-             r.mean_control_us, r.max_control_us, r.length, 1.0 / controller.control_period(), r.physics_steps);
-  if (r.nonfinite_policy_outputs > 0) {
-    fmt::print("  WARNING             {} non-finite policy outputs (position held)\n", r.nonfinite_policy_outputs);
-  }
-  if (r.invalid) fmt::print("  WARNING             the simulation diverged and the episode ended early\n");
-  if (sensor) PrintSensorSummary(sensor->Summary(), "");
-  fmt::print("  result              {}\n", DescribeOutcome(r, episode.loop.reach_tolerance));
-  if (video) {
-    const bool mp4 = video->writes_mp4();
-    const auto written = video->Close();
-    fmt::print("  video               {} ({} frames, {}x{}, renderer: {})\n", written.string(), video->frames(),
-               args.width, args.height, renderer->gl_renderer());
-    if (!mp4) fmt::print("                      ffmpeg not found: wrote PNG frames instead of an MP4\n");
-  }
-  if (recorder) {
-    recorder->Write(args.record);
-    fmt::print("  replay              {} ({} frames): rmpmarl view --replay {}\n", args.record, recorder->frames(),
-               args.record);
-  }
-  fmt::print("  wall time           {:.1f} s\n",
-             std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
-}
-
-// What one method did in the comparison demo's episode.
+// What one controller did in the demo's episode.
 struct DemoRun {
   std::string label;
   tasks::EpisodeMetrics metrics;
-  double step_us = 0.0;  // policy + controller per control step
   std::string video;     // written file ("" none)
   std::optional<sim::SensorSummary> sensor;
+  std::vector<std::string> frames;  // recorded frames (--record)
 };
 
-// runs one episode of the task with `runner`'s controller (seeded with args.seed, so every controller of the same
-// task sees the same episode); renders it when a video path is given, records frames when `frames` is set.
+// runs the demo's episode (seeded with args.seed: every controller of the demo sees the same episode) with
+// `runner`'s controller; renders it to `video_path` when given and records its frames when `record`.
 DemoRun RunDemoEpisode(tasks::ControllerEpisodes& runner, const std::string& label, const std::string& video_path,
-                       const DemoArgs& args, control::LearnedController* const* learned = nullptr,
-                       std::vector<std::string>* frames = nullptr) {
+                       const DemoArgs& args, bool record, control::LearnedController* const* learned = nullptr) {
   std::mt19937_64 rng(args.seed);
   std::unique_ptr<sim::OffscreenRenderer> renderer;
   std::unique_ptr<sim::VideoWriter> video;
   std::vector<std::uint8_t> rgb;
   bool render = !video_path.empty();
+  DemoRun run{label, {}, "", std::nullopt, {}};
   tasks::RunOptions options;
-  if (render || frames != nullptr) {
+  if (render || record) {
     options.video_fps = args.fps;
     options.on_frame = [&](const sim::FrameInfo& frame) {
       if (render && !renderer) {  // at the first frame, when the episode's scene is drawn
@@ -232,148 +120,239 @@ DemoRun RunDemoEpisode(tasks::ControllerEpisodes& runner, const std::string& lab
         renderer->Render(frame.world->mj_data(), &rgb, points, 0.5 * args.perception.voxel);
         video->AddFrame(rgb);
       }
-      if (frames != nullptr) {
+      if (record) {
         viewer::ArmView arm;
         arm.world = frame.world;
+        arm.contacts = frame.contacts;
         arm.learned = learned != nullptr ? *learned : nullptr;  // made with the controller at the episode's start
-        frames->push_back(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
+        run.frames.push_back(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
       }
     };
   }
-  DemoRun run{label, {}, 0.0, "", std::nullopt};
   run.metrics = runner.Run(rng, options);
   if (runner.sensor() != nullptr) run.sensor = runner.sensor()->Summary();
-  run.step_us = run.metrics.mean_control_us;  // the whole controller: sensing, network and basic layer
-  if (video) run.video = video->Close().string();
+  if (video) {
+    const bool mp4 = video->writes_mp4();
+    run.video = video->Close().string();
+    if (!mp4) run.video += " (ffmpeg not found: PNG frames instead of an MP4)";
+  }
   return run;
 }
 
-// a controller file's learned agents and RMPflow on the SAME episode of its task, moved to the demo's robot, scene
-// and obstacle speed: both drive the env through the one controller interface (control::AccelerationPolicy), the agents
-// as control::LearnedController (Eigen runtime, no libtorch); summaries side by side and a video of each.
-void RunComparisonDemo(const DemoArgs& args, const std::string& policy_path) {
-  const auto wall_start = std::chrono::steady_clock::now();
-  const control::PolicyFile file = control::LoadPolicyFile(policy_path);
-  rl::TaskMove move;
-  move.robot = !args.urdf.empty() ? args.urdf : args.robot;
-  move.collision = args.collision;
-  move.scene = args.scenario;
-  if (args.obstacle_speed) move.obstacle_speed = *args.obstacle_speed;
-  tasks::TaskConfig config = rl::PolicyTaskConfig(file, policy_path, move);
-  if (!args.urdf.empty()) LoadUserRobot(args.urdf, args.collision);  // says how it was loaded (fitted in memory?)
-  if (args.num_obstacles) {
-    if (config.task != tasks::TaskKind::kReachAvoid) {
-      throw InputError(fmt::format("--obstacles: the number of obstacles is set in the crossing scene only (the {} "
-                                   "scene has its own)", tasks::TaskKindName(config.task)));
-    }
-    config.scenario.crossing.num_obstacles = *args.num_obstacles;
+// The demo's task: the scene of --scenario on the demo's robot, the same for every controller. The arm tasks' scenes
+// (crossing, line-crossing, cluttered) come with the controller file's task moved there (RMPflow alone runs the
+// shipped default's, so `--policy rmpflow` sees the scene the comparison shows); the other scenes run on the
+// reach-avoid task's clock with the registered scene in place of the task's.
+struct DemoTask {
+  tasks::TaskConfig config;
+  tasks::ScenarioMaker scenario;  // empty: the task's own scene
+  std::optional<control::PolicyFile> file;  // the learned controller's, when one runs
+  std::string file_path;
+};
+
+DemoTask MakeDemoTask(const DemoArgs& args, const std::optional<std::string>& policy_path) {
+  DemoTask t;
+  const std::string robot = !args.urdf.empty() ? args.urdf : args.robot;
+  const bool task_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||
+                          args.scenario == "cluttered";
+  if (policy_path) {
+    t.file = control::LoadPolicyFile(*policy_path);
+    t.file_path = *policy_path;
   }
-  if (args.target_speed) {
-    if (config.task != tasks::TaskKind::kReachAvoid) {
-      throw InputError(fmt::format("--target-speed: the crossing scene only (the {} scene's target is set by the "
-                                   "scene)", tasks::TaskKindName(config.task)));
+  const std::string config_source = policy_path ? *policy_path : ShippedDefaultPolicyPath().string();
+  if (task_scene && (policy_path || std::filesystem::exists(config_source))) {
+    const control::PolicyFile file = policy_path ? *t.file : control::LoadPolicyFile(config_source);
+    rl::TaskMove move;
+    move.robot = robot;
+    move.collision = args.collision;
+    move.scene = args.scenario;
+    if (args.obstacle_speed) move.obstacle_speed = *args.obstacle_speed;
+    t.config = rl::PolicyTaskConfig(file, config_source, move);
+  } else {
+    if (!sim::HasScenario(args.scenario)) {
+      throw InputError(fmt::format("--scenario {}: expected one of the scenes {}", args.scenario,
+                                   fmt::join(sim::ScenarioNames(), ", ")));
     }
-    config.scenario.crossing.target_speed = *args.target_speed;
+    if (policy_path) {  // a learned controller runs in the arm tasks' scenes only: says so
+      rl::TaskMove move;
+      move.scene = args.scenario;
+      rl::PolicyTaskConfig(*t.file, *policy_path, move);
+    }
+    t.config = tasks::LoadShippedTaskConfig(task_scene ? std::string(tasks::TaskKindName(
+                                                             tasks::TaskOfScene(args.scenario)))
+                                                       : std::string("reach-avoid"));
+    t.config.robot = robot;
+    t.config.collision = args.collision;
+    t.config.randomization.initial_q_spread = 0.0;
+    t.config.randomization.initial_qd_fraction = 0.0;
+    if (!task_scene) {
+      sim::ScenarioOverrides overrides{args.obstacle_speed, args.target_speed, args.num_obstacles};
+      t.scenario = [name = args.scenario, overrides](const kinematics::Robot& r) {
+        return sim::MakeScenario(name, r, overrides);
+      };
+    }
   }
-  if (args.duration > 0.0) {
-    config.episode.max_steps = std::max(1, static_cast<int>(std::lround(args.duration * config.episode.control_rate)));
+  tasks::TaskConfig& config = t.config;
+  if (!t.scenario) {
+    if (args.num_obstacles) {
+      if (config.task != tasks::TaskKind::kReachAvoid) {
+        throw InputError(fmt::format("--obstacles: the number of obstacles is set in the crossing scene only (the {} "
+                                     "scene has its own)", args.scenario));
+      }
+      config.scenario.crossing.num_obstacles = *args.num_obstacles;
+    }
+    if (args.target_speed) {
+      if (config.task != tasks::TaskKind::kReachAvoid) {
+        throw InputError(fmt::format("--target-speed: the crossing scene only (the {} scene's target is set by the "
+                                     "scene)", args.scenario));
+      }
+      config.scenario.crossing.target_speed = *args.target_speed;
+    }
+    if (args.obstacle_speed && !policy_path && !std::filesystem::exists(config_source)) {
+      config.scenario.crossing.obstacle_speed = *args.obstacle_speed;
+      config.scenario.line_speeds = {*args.obstacle_speed};
+    }
+  }
+  double duration = args.duration;
+  if (!(duration > 0.0) && t.scenario) duration = t.scenario(tasks::NominalTaskRobot(config))->default_duration();
+  if (duration > 0.0) {
+    config.episode.max_steps = std::max(1, static_cast<int>(std::lround(duration * config.episode.control_rate)));
   }
   config.observation.max_obstacles = std::max(config.observation.max_obstacles, 6);
   config.randomization.variants = 1;  // the nominal robot
-  const auto context = tasks::MakeTaskContext(config);
+  return t;
+}
+
+// what happened, one column per controller, in words that cannot mislead: reached (and how close), collision-free.
+void PrintDemoTable(const std::vector<DemoRun>& runs, const tasks::TaskConfig& config) {
+  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("–"); };
+  auto row = [&](const std::string& name, const auto& cell) {
+    std::string line = fmt::format("  {:<26}", name);
+    for (const DemoRun& r : runs) line += fmt::format("{:>24}", cell(r.metrics));
+    fmt::print("{}\n", line);
+  };
+  const double tolerance = std::isfinite(config.episode.success_max_final_error) ? config.episode.success_max_final_error
+                                                                                 : sim::LoopOptions{}.reach_tolerance;
+  fmt::print("\n");
+  std::string header = fmt::format("  {:<26}", "");
+  for (const DemoRun& r : runs) header += fmt::format("{:>24}", r.label);
+  fmt::print("{}\n", header);
+  using M = tasks::EpisodeMetrics;
+  row("tracking error (mean)", [&](const M& m) { return mm(m.mean_tracking_error); });
+  row(fmt::format("settled (t >= {:g} s)", tasks::kSettleTime), [&](const M& m) { return mm(m.settled_tracking_error); });
+  row("final error", [&](const M& m) { return mm(m.final_tracking_error); });
+  row("min clearance", [&](const M& m) {
+    return std::isfinite(m.min_clearance) ? mm(m.min_clearance) : std::string("none within 15 cm");
+  });
+  row("collision events", [](const M& m) { return fmt::format("{} ({} self)", m.collisions, m.self_collisions); });
+  row("control step", [](const M& m) { return fmt::format("{:.1f} µs", m.mean_control_us); });
+  row(fmt::format("reached (within {:.0f} mm)", 1000.0 * tolerance), [](const M& m) {
+    return m.invalid ? std::string("INVALID") : m.reached ? std::string("yes") : std::string("NO");
+  });
+  row("collision-free", [](const M& m) {
+    return m.collisions == 0 ? std::string("yes") : fmt::format("NO ({} events)", m.collisions);
+  });
+  for (const DemoRun& r : runs) {
+    if (r.metrics.nonfinite_policy_outputs > 0) {
+      fmt::print("  WARNING {}: {} non-finite policy outputs (position held)\n", r.label,
+                 r.metrics.nonfinite_policy_outputs);
+    }
+    if (r.metrics.invalid) fmt::print("  WARNING {}: the episode ended early on a non-finite state\n", r.label);
+  }
+}
+
+// the demo: one episode of the scene, with the learned agents of a controller file and RMPflow side by side (or
+// RMPflow alone), each through tasks::ControllerEpisodes on the same task; summaries, videos and a replay.
+void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  if (!args.urdf.empty()) LoadUserRobot(args.urdf, args.collision);  // says how it was loaded (fitted in memory?)
+  const DemoTask task = MakeDemoTask(args, policy_path);
+  const tasks::TaskConfig& config = task.config;
+  const auto context = tasks::MakeTaskContext(config, task.scenario);
+  const kinematics::Robot& robot = context->variant(0).world_model->robot();
+  const std::unique_ptr<sim::Scenario> scene = context->MakeScenario(0, 0);
+  const int slots = ObstacleSlots(args, context->num_obstacles());
+  const double seconds = config.episode.max_steps / config.episode.control_rate;
+  fmt::print("rmpmarl demo: {} ({} dof), scenario '{}' ({} obstacle{}), task '{}', seed {}, {:.1f} s simulated: {}\n",
+             robot.name, context->nq(), scene->name(), scene->num_obstacles(), scene->num_obstacles() == 1 ? "" : "s",
+             tasks::TaskKindName(config.task),
+             args.seed, seconds,
+             policy_path ? fmt::format("the learned per-joint agents ({}) and RMPflow on the same episode", *policy_path)
+                         : std::string("RMPflow alone"));
+  fmt::print("  RMPflow parameters: {}{}\n", rmp::RmpflowConfigPath(robot).string(),
+             robot.home.size() > 0 ? " (home found in memory)" : "");
+  if (policy_path) {
+    fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n",
+               tasks::InterfaceModeName(config.interface),
+               config.basic_layer.resolve == rmp::LayerResolve::kCoupled ? "coupled" : "per-joint",
+               config.observation.lookahead > 0.0 ? fmt::format(", look-ahead {:g} s", config.observation.lookahead) : "",
+               config.options.TargetGated()
+                   ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
+                   : "");
+  }
+  fmt::print("  {}\n", DescribePerception(args.perception));
+
+  // one video per controller: the path given for one, <stem>-<controller><ext> beside it for two
+  const bool two = policy_path.has_value();
   auto video_for = [&](const std::string& suffix) {
-    if (args.video.empty()) return std::string();
+    if (args.video.empty() || !two) return args.video;
     const std::filesystem::path v(args.video);
     return (v.parent_path() / (v.stem().string() + "-" + suffix + v.extension().string())).string();
   };
-  const std::string label = std::filesystem::path(policy_path).stem().string();
-  const kinematics::Robot& robot = context->variant(0).world_model->robot();
-  fmt::print("rmpmarl demo: {} ({} dof), task '{}', seed {}, {:.1f} s: the learned per-joint agents ({}) and "
-             "RMPflow on the same episode\n", robot.name, context->nq(), tasks::TaskKindName(config.task), args.seed,
-             config.episode.max_steps / config.episode.control_rate, policy_path);
-  fmt::print("  RMPflow parameters: {}{}\n", rmp::RmpflowConfigPath(robot).string(),
-             robot.home.size() > 0 ? " (home found in memory)" : "");
-  fmt::print("  the learned controller: {} agents on the {} basic layer{}{}\n", tasks::InterfaceModeName(config.interface),
-             config.basic_layer.resolve == rmp::LayerResolve::kCoupled ? "coupled" : "per-joint",
-             config.observation.lookahead > 0.0 ? fmt::format(", look-ahead {:g} s", config.observation.lookahead) : "",
-             config.options.TargetGated()
-                 ? fmt::format(", hand gate under the target stiffness at {:g} m", config.options.target_gate_clearance)
-                 : "");
-  tasks::ControllerMaker agents;
-  control::LearnedController* learned_policy = nullptr;  // owned by the runner's controller
-  const int slots = ObstacleSlots(args, context->num_obstacles());
-  fmt::print("  {}\n", DescribePerception(args.perception));
-  agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
-  agents.make_policy = [&](const kinematics::Robot& robot) {
-    auto policy = control::MakeLearnedController(robot, file, policy_path, slots);
-    learned_policy = policy.get();
-    return policy;
-  };
-  agents.options = config.controller;
-  tasks::ControllerEpisodes learned_env(context, agents);
   const bool record = !args.record.empty();
-  std::vector<std::string> learned_frames, rmpflow_frames;
-  const DemoRun learned = RunDemoEpisode(learned_env, label, video_for(label), args, &learned_policy,
-                                         record ? &learned_frames : nullptr);
+  std::vector<DemoRun> runs;
+  std::vector<viewer::ArmLabel> arms;
+  if (policy_path) {
+    const std::string label = std::filesystem::path(*policy_path).stem().string();
+    control::LearnedController* learned_policy = nullptr;  // owned by the runner's controller
+    tasks::ControllerMaker agents;
+    agents.options = config.controller;
+    agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
+    agents.make_policy = [&](const kinematics::Robot& r) {
+      auto policy = control::MakeLearnedController(r, *task.file, *policy_path, slots);
+      learned_policy = policy.get();
+      return policy;
+    };
+    tasks::ControllerEpisodes runner(context, agents);
+    runs.push_back(RunDemoEpisode(runner, label, video_for(label), args, record, &learned_policy));
+    arms.push_back({label, "learned"});
+  }
   tasks::ControllerMaker rmpflow;
   rmpflow.make_sensor = MakeSensorFactory(args.perception, args.seed);
-  rmpflow.make_policy = [&](const kinematics::Robot& robot) {
-    return std::make_unique<control::RmpflowAccelerationPolicy>(robot, slots);
+  rmpflow.make_policy = [&](const kinematics::Robot& r) {
+    return std::make_unique<control::RmpflowAccelerationPolicy>(r, rmp::LoadRmpflowOptions(r), slots);
   };
-  tasks::ControllerEpisodes rmpflow_env(context, rmpflow);
-  const DemoRun baseline = RunDemoEpisode(rmpflow_env, "RMPflow", video_for("rmpflow"), args, nullptr,
-                                          record ? &rmpflow_frames : nullptr);
+  tasks::ControllerEpisodes rmpflow_runner(context, rmpflow);
+  runs.push_back(RunDemoEpisode(rmpflow_runner, "RMPflow", video_for("rmpflow"), args, record));
+  arms.push_back({"RMPflow", "rmpflow"});
+
   std::optional<viewer::Recorder> recorder;
   if (record) {
-    // one replay of both runs side by side, over the frames both have (an episode can end early on a collision)
-    recorder.emplace(DemoHello(robot, learned_env.episode().scenario(), {{label, "learned"}, {"RMPflow", "rmpflow"}},
-                               config.episode.control_rate, args.seed));
-    const std::size_t n = std::min(learned_frames.size(), rmpflow_frames.size());
-    for (std::size_t i = 0; i < n; ++i) recorder->AddFrame(viewer::MergeFrameArms(learned_frames[i], rmpflow_frames[i]));
+    // one replay of every run side by side, over the frames all have (an episode can end early on a collision)
+    recorder.emplace(DemoHello(robot, *scene, arms, config.episode.control_rate, args.seed));
+    std::size_t n = runs.front().frames.size();
+    for (const DemoRun& r : runs) n = std::min(n, r.frames.size());
+    for (std::size_t i = 0; i < n; ++i) {
+      std::string frame = runs.front().frames[i];
+      for (std::size_t k = 1; k < runs.size(); ++k) frame = viewer::MergeFrameArms(frame, runs[k].frames[i]);
+      recorder->AddFrame(frame);
+    }
     recorder->Write(args.record);
   }
-
-  auto mm = [](double v) { return std::isfinite(v) ? fmt::format("{:.1f} mm", 1000.0 * v) : std::string("–"); };
-  auto row = [](const std::string& name, const std::string& a, const std::string& b) {
-    fmt::print("  {:<26}{:>24}{:>24}\n", name, a, b);
-  };
-  fmt::print("\n");
-  row("", learned.label, baseline.label);
-  row("tracking error (mean)", mm(learned.metrics.mean_tracking_error), mm(baseline.metrics.mean_tracking_error));
-  row(fmt::format("settled (t >= {:g} s)", tasks::kSettleTime), mm(learned.metrics.settled_tracking_error),
-      mm(baseline.metrics.settled_tracking_error));
-  row("final error", mm(learned.metrics.final_tracking_error), mm(baseline.metrics.final_tracking_error));
-  auto clearance = [&](const tasks::EpisodeMetrics& m) {
-    return std::isfinite(m.min_clearance) ? mm(m.min_clearance) : std::string("none within 15 cm");
-  };
-  row("min clearance", clearance(learned.metrics), clearance(baseline.metrics));
-  row("collision events", std::to_string(learned.metrics.collisions), std::to_string(baseline.metrics.collisions));
-  row("control step", fmt::format("{:.1f} µs", learned.step_us), fmt::format("{:.1f} µs", baseline.step_us));
-  const double tolerance = std::isfinite(config.episode.success_max_final_error) ? config.episode.success_max_final_error
-                                                                                 : sim::LoopOptions{}.reach_tolerance;
-  auto reached = [&](const tasks::EpisodeMetrics& m) {
-    return m.invalid ? std::string("INVALID") : m.reached ? std::string("yes") : std::string("NO");
-  };
-  auto free = [](const tasks::EpisodeMetrics& m) {
-    return m.collisions == 0 ? std::string("yes") : fmt::format("NO ({} events)", m.collisions);
-  };
-  row(fmt::format("reached (within {:.0f} mm)", 1000.0 * tolerance), reached(learned.metrics),
-      reached(baseline.metrics));
-  row("collision-free", free(learned.metrics), free(baseline.metrics));
-  for (const DemoRun* r : {&learned, &baseline}) {
-    if (r->sensor) PrintSensorSummary(*r->sensor, r->label);
+  PrintDemoTable(runs, config);
+  for (const DemoRun& r : runs) {
+    if (r.sensor) PrintSensorSummary(*r.sensor, r.label);
   }
-  for (const DemoRun* r : {&learned, &baseline}) {
-    if (!r->video.empty()) fmt::print("  video {:<20}{}\n", r->label, r->video);
+  for (const DemoRun& r : runs) {
+    if (!r.video.empty()) fmt::print("  video {:<20}{}\n", r.label, r.video);
   }
   if (recorder) {
-    fmt::print("  replay {:<21}{} ({} frames, both runs side by side): rmpmarl view --replay {}\n", "", args.record,
-               recorder->frames(), args.record);
+    fmt::print("  replay {:<21}{} ({} frames{}): rmpmarl view --replay {}\n", "", args.record, recorder->frames(),
+               runs.size() > 1 ? ", the runs side by side" : "", args.record);
   }
   fmt::print("  wall time           {:.1f} s\n",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
 }
-
 
 }  // namespace
 
@@ -383,7 +362,9 @@ void RegisterDemo(CLI::App& app) {
   AddRobotAndScenarioOptions(cmd, &args.robot, &args.urdf, &args.collision, &args.scenario, &args.seed);
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
       ->check(CLI::Range(0.0, 3600.0));
-  cmd->add_option("--video", args.video, "write an MP4 here (PNG frames when ffmpeg is absent)");
+  cmd->add_option("--video", args.video,
+                  "write an MP4 here (PNG frames when ffmpeg is absent); with the learned controller beside RMPflow, "
+                  "one per controller beside it: <stem>-<controller>.mp4");
   cmd->add_option("--record", args.record, "write the episode as a replay file (rmpmarl view --replay FILE)");
   cmd->add_option("--fps", args.fps, "video and replay frame rate")->check(CLI::Range(1.0, 240.0))->capture_default_str();
   cmd->add_option("--width", args.width, "video width [px]")->check(CLI::Range(16, 4096))->capture_default_str();
@@ -408,11 +389,7 @@ void RegisterDemo(CLI::App& app) {
     if (args.policy.empty() && learned_scene && std::filesystem::exists(ShippedDefaultPolicyPath())) {
       policy = ShippedDefaultPolicyPath().string();
     }
-    if (policy) {
-      RunComparisonDemo(args, *policy);
-    } else {
-      RunDemo(args);
-    }
+    RunDemo(args, policy);
   });
 }
 

@@ -112,7 +112,7 @@ void RegisterProbeLookahead(CLI::App& app) {
   cmd->callback([args] {
     const control::PolicyFile file = control::LoadPolicyFile(args->policy);
     rl::TaskMove move;
-    move.scene = args->task;
+    move.scene = std::string(tasks::TaskSceneName(tasks::ParseTaskKind(args->task)));
     tasks::TaskConfig task = rl::PolicyTaskConfig(file, args->policy, move);
     if (task.task == tasks::TaskKind::kLineCrossing) task.scenario.line_speeds = {args->speed};
     args->probe.threat_speed = args->speed;

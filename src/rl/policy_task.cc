@@ -3,6 +3,7 @@
 #include "rmpmarl/rl/policy_task.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -12,6 +13,7 @@
 
 #include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::rl {
 
@@ -41,14 +43,18 @@ tasks::TaskConfig PolicyTaskConfig(const control::PolicyFile& file, const std::s
   }
   tasks::TaskConfig config = own;
   if (!move.scene.empty()) {
-    const std::string task = move.scene == "crossing" ? "reach-avoid" : move.scene;
-    const std::vector<std::string> tasks = tasks::TaskNames();
-    if (std::find(tasks.begin(), tasks.end(), task) == tasks.end() || task == "pretrain-2link") {
+    if (!sim::HasScenario(move.scene)) {
+      throw InputError(fmt::format("{}: --scenario {}: expected one of the scenes {}", path, move.scene,
+                                   fmt::join(sim::ScenarioNames(), ", ")));
+    }
+    const bool arm_task = move.scene == "crossing" || move.scene == "line-crossing" || move.scene == "cluttered";
+    if (!arm_task) {
       throw InputError(fmt::format("{}: --scenario {}: a learned controller runs in the scenes of the arm tasks: "
-                                   "crossing (reach-avoid), line-crossing, cluttered (the static-* scenarios run "
+                                   "crossing (reach-avoid), line-crossing, cluttered (the other scenes run "
                                    "RMPflow alone: `rmpmarl demo --policy rmpflow --scenario {}`)", path, move.scene,
                                    move.scene));
     }
+    const std::string task(tasks::TaskKindName(tasks::TaskOfScene(move.scene)));
     if (task != tasks::TaskKindName(own.task)) {
       // the scene, reward and randomisation of the shipped task, with the same --overrides as the controller
       config = move.overrides_yaml.empty() ? tasks::LoadShippedTaskConfig(task)

@@ -79,14 +79,21 @@ CollisionCounter::Events CollisionCounter::Count(const ContactReport& report, lo
 
 void EpisodeLoop::Begin(World* world, Scenario* scenario, int physics_steps, const LoopOptions& options,
                         ObstacleSensor* sensor) {
-  RMPMARL_ASSERT(world != nullptr && scenario != nullptr, "EpisodeLoop::Begin: null world or scenario");
+  Begin(world, static_cast<SceneSource*>(scenario), physics_steps, options, sensor);
+  scenario_ = scenario;
+}
+
+void EpisodeLoop::Begin(World* world, SceneSource* source, int physics_steps, const LoopOptions& options,
+                        ObstacleSensor* sensor) {
+  RMPMARL_ASSERT(world != nullptr && source != nullptr, "EpisodeLoop::Begin: null world or scene source");
   if (physics_steps < 1) {
     throw InputError(fmt::format("EpisodeLoop: expected >= 1 physics steps per control period, got {}",
                                  physics_steps));
   }
   CheckLoopOptions(options, "LoopOptions");
   world_ = world;
-  scenario_ = scenario;
+  source_ = source;
+  scenario_ = nullptr;
   sensor_ = sensor;
   options_ = options;
   physics_steps_ = physics_steps;
@@ -104,31 +111,38 @@ void EpisodeLoop::Begin(World* world, Scenario* scenario, int physics_steps, con
   settled_steps_ = 0;
   collision_physics_steps_ = 0;
   control_us_sum_ = 0.0;
+  period_step_ = 0;
   metrics_ = EpisodeMetrics{};
 
   contacts_ = &world->QueryContacts();
   Observe(*contacts_);  // pairs in penetration at the start are collision events at t = 0, not again later
-  metrics_.collisions = step_events_.total();
-  metrics_.obstacle_collisions = step_events_.obstacle;
-  metrics_.self_collisions = step_events_.self;
+  metrics_.collisions = observed_.total();
+  metrics_.obstacle_collisions = observed_.obstacle;
+  metrics_.self_collisions = observed_.self;
   collision_physics_steps_ = 0;
   step_events_ = {};
-  metrics_.min_clearance = step_min_clearance_;
-  scenario->FillScene(&scene_);
+  step_min_clearance_ = observed_min_clearance_;
+  metrics_.min_clearance = observed_min_clearance_;
+  source->FillScene(&scene_);
   if (sensor_ != nullptr) sensor_->Reset(*world);
   UpdateError();
   if (error_ < options_.reach_tolerance) metrics_.time_to_reach = 0.0;
 }
 
+const Scenario& EpisodeLoop::scenario() const {
+  RMPMARL_ASSERT(scenario_ != nullptr, "EpisodeLoop::scenario: the episode's scene source is not a Scenario");
+  return *scenario_;
+}
+
 void EpisodeLoop::Observe(const ContactReport& report) {
-  step_events_ = counter_.Count(report, physics_step_);
+  observed_ = counter_.Count(report, physics_step_);
   if (!report.colliding_pairs.empty()) ++collision_physics_steps_;
-  step_min_clearance_ = kInf;
+  observed_min_clearance_ = kInf;
   for (const WarningContact& w : report.warnings) {
     if (w.other_kind == PartnerKind::kLink) {
       metrics_.min_self_clearance = std::min(metrics_.min_self_clearance, w.distance);
     } else {
-      step_min_clearance_ = std::min(step_min_clearance_, w.distance);
+      observed_min_clearance_ = std::min(observed_min_clearance_, w.distance);
     }
   }
 }
@@ -138,7 +152,12 @@ void EpisodeLoop::UpdateError() {
   kinematics::CalcForwardKinematics(robot.model, world_->q(), &*kin_);
   const Eigen::Vector3d p_WE =
       kinematics::CalcPointPosition(*kin_, robot.end_effector.link, robot.end_effector.X_LE.translation());
-  error_ = (p_WE - scenario_->target().p_WT).norm();
+  error_ = (p_WE - source_->target().p_WT).norm();
+}
+
+void EpisodeLoop::RefreshScene() {
+  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
+  source_->FillScene(&scene_);
 }
 
 const rmp::Scene& EpisodeLoop::SenseScene() {
@@ -165,38 +184,52 @@ void EpisodeLoop::AddControlTime(double us) {
 }
 
 bool EpisodeLoop::Advance() {
-  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
-  const bool per_physics_step = options_.scenario_update == ScenarioUpdate::kPhysicsStep;
-  CollisionCounter::Events events;
-  double min_clearance = kInf;
-  bool ok = true;
-  for (int s = 0; s < physics_steps_ && ok; ++s) {
-    if (per_physics_step) {
-      scenario_->Advance(timestep_, *contacts_, *world_);
-    } else if (s == 0) {
-      scenario_->Advance(physics_steps_ * timestep_, *contacts_, *world_);
-    }
-    ok = world_->Step(1).ok;
-    ++physics_step_;
-    contacts_ = &world_->QueryContacts();
-    Observe(*contacts_);
-    events.obstacle += step_events_.obstacle;
-    events.self += step_events_.self;
-    min_clearance = std::min(min_clearance, step_min_clearance_);
+  for (int s = 0; s < physics_steps_; ++s) {
+    if (!PhysicsStep()) break;
   }
-  step_events_ = events;
-  step_min_clearance_ = min_clearance;
-  scenario_->FillScene(&scene_);
+  return EndPeriod();
+}
+
+bool EpisodeLoop::PhysicsStep() {
+  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
+  if (period_step_ == 0) {
+    period_events_ = {};
+    period_min_clearance_ = kInf;
+    period_ok_ = true;
+  }
+  if (options_.scenario_update == ScenarioUpdate::kPhysicsStep) {
+    source_->Advance(timestep_, *contacts_, *world_);
+  } else if (period_step_ == 0) {
+    source_->Advance(physics_steps_ * timestep_, *contacts_, *world_);
+  }
+  const bool ok = world_->Step(1).ok;
+  ++physics_step_;
+  ++period_step_;
+  contacts_ = &world_->QueryContacts();
+  Observe(*contacts_);
+  period_events_.obstacle += observed_.obstacle;
+  period_events_.self += observed_.self;
+  period_min_clearance_ = std::min(period_min_clearance_, observed_min_clearance_);
+  period_ok_ = period_ok_ && ok;
+  return ok;
+}
+
+bool EpisodeLoop::EndPeriod() {
+  RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
+  period_step_ = 0;
+  step_events_ = period_events_;
+  step_min_clearance_ = period_min_clearance_;
+  source_->FillScene(&scene_);
   ++steps_;
   UpdateError();
-  if (!ok) {  // MuJoCo diverged (the World reset the robot): the episode is invalid, this step is not scored
+  if (!period_ok_) {  // MuJoCo diverged (the World reset the robot): the episode is invalid, this step is not scored
     metrics_.invalid = true;
     return false;
   }
-  metrics_.collisions += events.total();
-  metrics_.obstacle_collisions += events.obstacle;
-  metrics_.self_collisions += events.self;
-  metrics_.min_clearance = std::min(metrics_.min_clearance, min_clearance);
+  metrics_.collisions += step_events_.total();
+  metrics_.obstacle_collisions += step_events_.obstacle;
+  metrics_.self_collisions += step_events_.self;
+  metrics_.min_clearance = std::min(metrics_.min_clearance, step_min_clearance_);
   tracking_sum_ += error_;
   metrics_.max_tracking_error = std::max(metrics_.max_tracking_error, error_);
   if (steps_ * (physics_steps_ * timestep_) >= options_.settle_time - 1e-9) {
@@ -228,7 +261,7 @@ EpisodeMetrics EpisodeLoop::Metrics() const {
 
 void MaybeFrame(const EpisodeLoop& loop, double fps, int* next_frame, const FrameCallback& on_frame) {
   if (!(fps > 0.0) || !on_frame || loop.time() + 1e-9 < *next_frame / fps) return;
-  on_frame(FrameInfo{*next_frame, loop.time(), &loop.world(), &loop.scenario(), &loop.contacts(),
+  on_frame(FrameInfo{*next_frame, loop.time(), &loop.world(), loop.scenario_or_null(), &loop.contacts(),
                      loop.tracking_error(), loop.sensor()});
   ++*next_frame;
 }

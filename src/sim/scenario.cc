@@ -200,6 +200,8 @@ Scenario::Scenario(std::string name, const kinematics::Robot& robot, SceneSpec s
   obstacles_.resize(spec_.obstacles.size());
 }
 
+SceneSource::~SceneSource() = default;
+
 Scenario::~Scenario() = default;
 
 void Scenario::OnPathEnd(int j, std::mt19937_64& /*rng*/) {

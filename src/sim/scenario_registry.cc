@@ -1,4 +1,4 @@
-// The scenarios by name: MakeScenario, ScenarioNames, RegisterScenario (users add their own).
+// The one registry of scenes: MakeScenario, ScenarioNames, RegisterScenario (users add their own).
 #include <fmt/format.h>
 
 #include <string>
@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/sim/pretrain_scenario.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::sim {
@@ -27,38 +28,47 @@ void RejectOverride(bool given, std::string_view scenario, std::string_view what
 std::vector<Entry>& Registry() {
   static std::vector<Entry> registry = [] {
     std::vector<Entry> r;
-    r.push_back({"crossing", [](const kinematics::Robot& robot, const ScenarioOverrides& o) {
-                   CrossingOptions options;
+    r.push_back({"crossing", [](const kinematics::Robot& robot, const SceneOptions& s, const ScenarioOverrides& o) {
+                   CrossingOptions options = s.crossing;
                    if (o.obstacle_speed) options.obstacle_speed = *o.obstacle_speed;
                    if (o.target_speed) options.target_speed = *o.target_speed;
                    if (o.num_obstacles) options.num_obstacles = *o.num_obstacles;
                    return std::unique_ptr<Scenario>(new CrossingScenario(robot, options));
                  }});
-    r.push_back({"line-crossing", [](const kinematics::Robot& robot, const ScenarioOverrides& o) {
-                   LineCrossingOptions options;
+    r.push_back({"line-crossing",
+                 [](const kinematics::Robot& robot, const SceneOptions& s, const ScenarioOverrides& o) {
+                   LineCrossingOptions options = s.line_crossing;
                    if (o.obstacle_speed) options.speed = *o.obstacle_speed;
                    if (o.target_speed) options.target_speed = *o.target_speed;
                    if (o.num_obstacles) options.num_obstacles = *o.num_obstacles;
                    return std::unique_ptr<Scenario>(new LineCrossingScenario(robot, options));
                  }});
-    r.push_back({"cluttered", [](const kinematics::Robot& robot, const ScenarioOverrides& o) {
+    r.push_back({"cluttered", [](const kinematics::Robot& robot, const SceneOptions& s, const ScenarioOverrides& o) {
                    RejectOverride(o.obstacle_speed.has_value(), "cluttered", "obstacle speed");
-                   ClutteredOptions options;
+                   ClutteredOptions options = s.cluttered;
                    if (o.target_speed) options.target_speed = *o.target_speed;
                    if (o.num_obstacles) options.num_obstacles = *o.num_obstacles;
                    return std::unique_ptr<Scenario>(new ClutteredScenario(robot, options));
                  }});
     for (const bool obstacle : {false, true}) {
       const std::string name = obstacle ? "static-obstacle" : "static-reach";
-      r.push_back({name, [obstacle, name](const kinematics::Robot& robot, const ScenarioOverrides& o) {
+      r.push_back({name, [obstacle, name](const kinematics::Robot& robot, const SceneOptions& s,
+                                          const ScenarioOverrides& o) {
                      RejectOverride(o.obstacle_speed.has_value(), name, "obstacle speed");
                      RejectOverride(o.target_speed.has_value(), name, "target speed");
                      RejectOverride(o.num_obstacles.has_value(), name, "obstacle count");
-                     StaticReachOptions options;
+                     StaticReachOptions options = s.static_reach;
                      options.obstacle_on_path = obstacle;
                      return std::unique_ptr<Scenario>(new StaticReachScenario(robot, options));
                    }});
     }
+    r.push_back({"pretrain-2link",
+                 [](const kinematics::Robot& robot, const SceneOptions& s, const ScenarioOverrides& o) {
+                   RejectOverride(o.obstacle_speed.has_value(), "pretrain-2link", "obstacle speed");
+                   RejectOverride(o.target_speed.has_value(), "pretrain-2link", "target speed");
+                   RejectOverride(o.num_obstacles.has_value(), "pretrain-2link", "obstacle count");
+                   return std::unique_ptr<Scenario>(new PretrainScenario(robot, s.pretrain));
+                 }});
     return r;
   }();
   return registry;
@@ -72,10 +82,17 @@ std::vector<std::string> ScenarioNames() {
   return names;
 }
 
-std::unique_ptr<Scenario> MakeScenario(std::string_view name, const kinematics::Robot& robot,
-                                       const ScenarioOverrides& overrides) {
+bool HasScenario(std::string_view name) {
   for (const Entry& e : Registry()) {
-    if (e.name == name) return e.factory(robot, overrides);
+    if (e.name == name) return true;
+  }
+  return false;
+}
+
+std::unique_ptr<Scenario> MakeScenario(std::string_view name, const kinematics::Robot& robot,
+                                       const ScenarioOverrides& overrides, const SceneOptions& options) {
+  for (const Entry& e : Registry()) {
+    if (e.name == name) return e.factory(robot, options, overrides);
   }
   std::string known;
   for (const Entry& e : Registry()) known += (known.empty() ? "" : ", ") + e.name;

@@ -109,6 +109,26 @@ std::string_view TaskKindName(TaskKind kind) {
   return "?";
 }
 
+std::string_view TaskSceneName(TaskKind kind) {
+  switch (kind) {
+    case TaskKind::kPretrain2Link: return "pretrain-2link";
+    case TaskKind::kReachAvoid: return "crossing";
+    case TaskKind::kLineCrossing: return "line-crossing";
+    case TaskKind::kCluttered: return "cluttered";
+  }
+  return "?";
+}
+
+TaskKind TaskOfScene(std::string_view scene) {
+  std::string scenes;
+  for (TaskKind kind : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing,
+                        TaskKind::kCluttered}) {
+    if (TaskSceneName(kind) == scene) return kind;
+    scenes += fmt::format("{}{} ({})", scenes.empty() ? "" : ", ", TaskSceneName(kind), TaskKindName(kind));
+  }
+  throw InputError(fmt::format("scene '{}': expected a scene a task runs, one of {}", scene, scenes));
+}
+
 control::AgentConfig AgentConfigOf(const TaskConfig& config) {
   control::AgentConfig a;
   a.interface = config.interface;

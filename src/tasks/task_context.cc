@@ -10,7 +10,6 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot_setup.h"
-#include "rmpmarl/tasks/pretrain_scenario.h"
 
 namespace rmpmarl::tasks {
 namespace {
@@ -75,17 +74,9 @@ TaskContext::TaskContext(TaskConfig config, ScenarioMaker scenario)
   // the obstacle layout comes from the scenario (identical for every variant)
   make_scenario_ = [this](const kinematics::Robot& robot, int setting) -> std::unique_ptr<sim::Scenario> {
     if (scenario_maker_) return scenario_maker_(robot);
-    switch (config_.task) {
-      case TaskKind::kPretrain2Link: return std::make_unique<PretrainScenario>(robot, config_.scenario.pretrain);
-      case TaskKind::kReachAvoid: return std::make_unique<sim::CrossingScenario>(robot, config_.scenario.crossing);
-      case TaskKind::kLineCrossing: {
-        sim::LineCrossingOptions o = config_.scenario.line_crossing;
-        o.speed = config_.scenario.line_speeds[setting];
-        return std::make_unique<sim::LineCrossingScenario>(robot, o);
-      }
-      case TaskKind::kCluttered: return std::make_unique<sim::ClutteredScenario>(robot, config_.scenario.cluttered);
-    }
-    return nullptr;
+    sim::SceneOptions options = config_.scenario;
+    if (config_.task == TaskKind::kLineCrossing) options.line_crossing.speed = config_.scenario.line_speeds[setting];
+    return sim::MakeScenario(TaskSceneName(config_.task), robot, {}, options);
   };
   const std::unique_ptr<sim::Scenario> prototype = make_scenario_(nominal, 0);
   if (!prototype) throw InputError(fmt::format("{}: the scenario maker returned no scenario", config_.source));

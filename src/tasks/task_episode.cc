@@ -9,7 +9,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/control/learned_controller.h"
-#include "rmpmarl/tasks/pretrain_scenario.h"
+#include "rmpmarl/sim/pretrain_scenario.h"
 
 namespace rmpmarl::tasks {
 namespace {
@@ -64,7 +64,7 @@ bool TaskEpisode::Draw(std::mt19937_64& rng) {
   scenario_ = slot.get();
 
   const RandomizationConfig& d = config().randomization;
-  if (auto* pretrain = dynamic_cast<PretrainScenario*>(scenario_); pretrain != nullptr) {
+  if (auto* pretrain = dynamic_cast<sim::PretrainScenario*>(scenario_); pretrain != nullptr) {
     Eigen::VectorXd q0 = pretrain->ready();
     if (d.initial_q_spread > 0.0) {
       for (int i = 0; i < nq_; ++i) q0[i] += Uniform(rng, -d.initial_q_spread, d.initial_q_spread);

@@ -12,6 +12,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/controller.h"
+#include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/world.h"
 
 namespace rmpmarl::viewer {
@@ -46,18 +47,38 @@ struct LiveSim::Slot {
   }
 };
 
-/// One arm: its world and controller.
+/// What moves an arm's scene: the live scene every arm shares. The first arm's source moves it by one physics step;
+/// every arm's source writes it into its world.
+class LiveSim::ArmSource final : public sim::SceneSource {
+ public:
+  ArmSource(LiveSim* live, bool leader) : live_(live), leader_(leader) {}
+  void Advance(double dt, const sim::ContactReport& /*contacts*/, sim::World& world) override {
+    if (leader_) live_->AdvanceShared(dt);
+    live_->PlaceInto(world);
+  }
+  void FillScene(rmp::Scene* scene) const override { live_->FillScene(scene); }
+  const sim::TargetState& target() const override { return live_->live_target_; }
+
+ private:
+  LiveSim* live_;
+  bool leader_;
+};
+
+/// One arm: its world, controller and episode loop.
 struct LiveSim::Arm {
   std::string controller;  // "learned" or "rmpflow"
   std::string label;
   std::unique_ptr<sim::World> world;
   std::unique_ptr<control::ReactiveController> control;
   control::LearnedController* learned = nullptr;  // the controller's policy when learned
+  std::unique_ptr<ArmSource> source;
+  sim::EpisodeLoop loop;
   const sim::ContactReport* contacts = nullptr;
   double clearance = std::numeric_limits<double>::infinity();
-  long collisions = 0;
-  bool in_collision = false;
+  long collisions_before = 0;  // events counted before the arm's loop last restarted
   double step_us = 0.0;
+
+  long collisions() const { return collisions_before + loop.Metrics().collisions; }
 };
 
 LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const control::PolicyFile> policy, std::string policy_path,
@@ -96,7 +117,6 @@ LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const control::PolicyF
     slots_.push_back(s);
   }
   model_ = std::make_shared<const sim::WorldModel>(robot_, spec);
-  scene_.obstacles.reserve(slots_.size());
   obstacle_views_.reserve(slots_.size());
 
   limits_.arena = options_.arena;
@@ -160,6 +180,12 @@ void LiveSim::BuildArms() {
   physics_steps_ = arms_[0]->control->physics_steps_per_control();
   dt_ = period_ / physics_steps_;
   PlaceObstacles();
+  for (std::size_t a = 0; a < arms_.size(); ++a) {
+    Arm& arm = *arms_[a];
+    arm.source = std::make_unique<ArmSource>(this, a == 0);
+    arm.loop.Begin(arm.world.get(), arm.source.get(), physics_steps_, sim::LoopOptions{});
+    arm.contacts = &arm.loop.contacts();
+  }
   UpdateHello();
 }
 
@@ -187,8 +213,22 @@ void LiveSim::Reset(std::uint64_t seed) {
 }
 
 void LiveSim::PlaceObstacles() {
+  live_target_.p_WT = p_WT_;
+  live_target_.v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
   for (std::size_t j = 0; j < slots_.size(); ++j) PlaceSlot(static_cast<int>(j));
   for (const auto& arm : arms_) arm->world->SetTargetPosition(p_WT_);
+}
+
+void LiveSim::PlaceInto(sim::World& world) const {
+  for (std::size_t j = 0; j < slots_.size(); ++j) {
+    const Slot& s = slots_[j];
+    if (s.active) {
+      world.SetObstaclePose(static_cast<int>(j), s.p, s.R);
+    } else {
+      world.SetObstaclePose(static_cast<int>(j), sim::ParkedPose());
+    }
+  }
+  world.SetTargetPosition(p_WT_);
 }
 
 void LiveSim::PlaceSlot(int j) {
@@ -210,62 +250,65 @@ void LiveSim::FillObstacleViews() {
   }
 }
 
-void LiveSim::FillScene() {
-  scene_.obstacles.clear();
+void LiveSim::FillScene(rmp::Scene* scene) const {
+  scene->obstacles.clear();
   for (const Slot& s : slots_) {
-    if (s.active) scene_.obstacles.push_back(s.AsRmp());
+    if (s.active) scene->obstacles.push_back(s.AsRmp());
   }
-  scene_.has_target = true;
-  scene_.p_WT = p_WT_;
-  scene_.v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
+  scene->has_target = true;
+  scene->p_WT = p_WT_;
+  scene->v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
+}
+
+void LiveSim::AdvanceShared(double dt) {
+  scenario_->Advance(dt, no_contacts_, *shadow_);
+  time_ += dt;
+  // the worlds get what the scenario moved; held and removed obstacles stay where they were placed
+  for (Slot& s : slots_) {
+    if (!s.active) continue;
+    if (s.held) {
+      if (s.drag_time >= 0.0 && time_ - s.drag_time > kDragHold) s.v.setZero();
+    } else if (s.scripted >= 0) {
+      const sim::ObstacleState& o = scenario_->obstacles()[s.scripted];
+      s.p = o.p_WO();
+      s.v = o.v_WO();
+      s.R = o.R_WO;
+    }
+  }
+  if (!target_held_) {
+    p_WT_ = scenario_->target().p_WT;
+    v_WT_ = scenario_->target().v_WT;
+  }
+  live_target_.p_WT = p_WT_;
+  live_target_.v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
 }
 
 void LiveSim::ControlStep() {
-  FillScene();
+  // the arms' loops in lockstep: every controller on the scene as the page left it, then each physics step of the
+  // shared scene in every world, then the period's end
   for (const auto& arm : arms_) {
-    const control::ControlStepResult r = sim::StepController(*arm->control, *arm->world, scene_);
-    arm->step_us = r.compute_us;
+    arm->loop.RefreshScene();
+    arm->step_us = arm->loop.StepController(*arm->control).compute_us;
   }
   for (int k = 0; k < physics_steps_; ++k) {
-    for (const auto& arm : arms_) {
-      const sim::StepResult r = arm->world->Step(1);
-      if (!r.ok) {
-        // MuJoCo reset the robot state: start this arm again from the scenario's start posture
-        fmt::print(stderr, "rmpmarl view: the {} arm's simulation became non-finite at t = {:.3f} s; it restarts "
-                           "from the start posture\n", arm->label, time_);
-        arm->world->Reset(scenario_->q_start());
-        sim::ResetController(*arm->control, *arm->world);
-      }
-    }
-    scenario_->Advance(dt_, no_contacts_, *shadow_);
-    time_ += dt_;
-    // the worlds get what the scenario moved; held and removed obstacles stay where they were placed
-    for (std::size_t j = 0; j < slots_.size(); ++j) {
-      Slot& s = slots_[j];
-      if (!s.active) continue;
-      if (s.held) {
-        if (s.drag_time >= 0.0 && time_ - s.drag_time > kDragHold) s.v.setZero();
-      } else if (s.scripted >= 0) {
-        const sim::ObstacleState& o = scenario_->obstacles()[s.scripted];
-        s.p = o.p_WO();
-        s.v = o.v_WO();
-        s.R = o.R_WO;
-        PlaceSlot(static_cast<int>(j));
-      }
-    }
-    if (!target_held_) {
-      p_WT_ = scenario_->target().p_WT;
-      v_WT_ = scenario_->target().v_WT;
-      for (const auto& arm : arms_) arm->world->SetTargetPosition(p_WT_);
+    for (const auto& arm : arms_) arm->loop.PhysicsStep();
+  }
+  for (const auto& arm : arms_) {
+    if (!arm->loop.EndPeriod()) {
+      // MuJoCo reset the robot state: start this arm again from the scenario's start posture
+      fmt::print(stderr, "rmpmarl view: the {} arm's simulation became non-finite at t = {:.3f} s; it restarts "
+                         "from the start posture\n", arm->label, time_);
+      arm->collisions_before = arm->collisions();
+      arm->world->Reset(scenario_->q_start());
+      sim::ResetController(*arm->control, *arm->world);
+      PlaceInto(*arm->world);
+      arm->loop.Begin(arm->world.get(), arm->source.get(), physics_steps_, sim::LoopOptions{});
     }
   }
   FillObstacleViews();
   for (const auto& arm : arms_) {
-    arm->contacts = &arm->world->QueryContacts();
+    arm->contacts = &arm->loop.contacts();
     arm->clearance = Clearance(*arm->world, obstacle_views_);
-    const bool colliding = arm->clearance < 0.0;
-    if (colliding && !arm->in_collision) ++arm->collisions;
-    arm->in_collision = colliding;
   }
 }
 
@@ -418,7 +461,7 @@ void LiveSim::Frame(const FrameStats& stats, std::string* out) {
     v.learned = arm.learned;
     v.p_WE = end_effector(a);
     v.clearance = arm.clearance;
-    v.collisions = arm.collisions;
+    v.collisions = arm.collisions();
     v.step_us = arm.step_us;
     arms.push_back(v);
   }
@@ -465,7 +508,7 @@ Eigen::Vector3d LiveSim::obstacle_position(int id) const {
 
 long LiveSim::collisions(int arm) const {
   RMPMARL_ASSERT(arm >= 0 && arm < num_arms(), "LiveSim::collisions: arm index out of range");
-  return arms_[arm]->collisions;
+  return arms_[arm]->collisions();
 }
 
 }  // namespace rmpmarl::viewer

@@ -134,7 +134,7 @@ TEST(SetupRobotCli, DemoRunsAUrdfWithMimicJoints) {
   const CommandResult r = RunCli("demo --policy rmpflow --urdf " + urdf + " --duration 2");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("mimic_arm (4 dof)"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("0 self"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0 (0 self)"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -60,12 +60,13 @@ const ContactReport kNoContacts{};
 TEST(ScenarioTest, RegistryMakesEveryNamedScenarioAndRejectsUnknownNames) {
   const std::vector<std::string> names = ScenarioNames();
   const std::vector<std::string> expected = {"crossing", "line-crossing", "cluttered", "static-reach",
-                                             "static-obstacle"};
+                                             "static-obstacle", "pretrain-2link"};
   ASSERT_GE(names.size(), expected.size());
   EXPECT_TRUE(std::equal(expected.begin(), expected.end(), names.begin()));
   EXPECT_EQ(kDefaultScenario, "crossing");
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   for (const std::string& name : expected) {
+    if (name == "pretrain-2link") continue;  // a planar scene (below)
     const std::unique_ptr<Scenario> s = MakeScenario(name, robot);
     EXPECT_EQ(s->name(), name);
     EXPECT_GT(s->default_duration(), 0.0);
@@ -87,9 +88,20 @@ TEST(ScenarioTest, RegistryMakesEveryNamedScenarioAndRejectsUnknownNames) {
   EXPECT_THROW(MakeScenario("cluttered", robot, {.obstacle_speed = 1.0}), InputError);
   EXPECT_THROW(MakeScenario("static-reach", robot, {.target_speed = 1.0}), InputError);
   EXPECT_THROW(MakeScenario("crossing", robot, {.obstacle_speed = -1.0}), InputError);
-  EXPECT_THROW(RegisterScenario("crossing", [](const kinematics::Robot& r, const ScenarioOverrides& o) {
-    return MakeScenario("crossing", r, o);
-  }), InputError);
+  EXPECT_THROW(RegisterScenario("crossing", [](const kinematics::Robot& r, const SceneOptions& s,
+                                                const ScenarioOverrides& o) { return MakeScenario("crossing", r, o, s); }),
+               InputError);
+  // the scene options reach the scene; the overrides go on top of them
+  SceneOptions options;
+  options.crossing.num_obstacles = 2;
+  options.crossing.obstacle_speed = 0.3;
+  const auto crossing = MakeScenario("crossing", robot, {.obstacle_speed = 0.7}, options);
+  EXPECT_EQ(crossing->num_obstacles(), 2);
+  EXPECT_EQ(static_cast<const CrossingScenario&>(*crossing).options().obstacle_speed, 0.7);
+  // the pre-training scene is registered beside the arm scenes (a two-link planar arm)
+  EXPECT_TRUE(HasScenario("pretrain-2link"));
+  EXPECT_FALSE(HasScenario("reach-avoid"));  // a task, whose scene is `crossing`
+  EXPECT_EQ(MakeScenario("pretrain-2link", kinematics::MakePlanar2())->name(), "pretrain-2link");
 }
 
 TEST(ScenarioTest, WorkspaceBoxLiesInFrontWithinReach) {

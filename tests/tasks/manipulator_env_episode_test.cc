@@ -12,7 +12,7 @@
 #include "../rl/rl_test_util.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/math/geometry.h"
-#include "rmpmarl/tasks/pretrain_scenario.h"
+#include "rmpmarl/sim/pretrain_scenario.h"
 #include "rmpmarl/rl/vec_env.h"
 
 
@@ -23,6 +23,8 @@ using rl::testing::Buffers;
 using rl::testing::IndexOf;
 using rl::testing::RandomActions;
 using rl::testing::SmallConfig;
+using sim::ReflectedDirection;
+using sim::ReflectedPosition;
 
 std::vector<int> StartedPattern(OptionTermination termination, int horizon, const std::vector<int>& flags) {
   TaskConfig c = SmallConfig(TaskKind::kPretrain2Link, "", 1);

@@ -13,7 +13,7 @@
 #include "../rl/rl_test_util.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/math/geometry.h"
-#include "rmpmarl/tasks/pretrain_scenario.h"
+#include "rmpmarl/sim/pretrain_scenario.h"
 #include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::tasks {

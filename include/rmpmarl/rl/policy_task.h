@@ -19,7 +19,7 @@ struct TaskMove {
   /// the .urdf's collision YAML ("": beside it, else capsules fitted in memory); with `robot` set, "" also drops the
   /// file's own collision YAML (it belongs to the file's robot)
   std::string collision;
-  /// the scene: a task (reach-avoid, line-crossing, cluttered) or the scenario it runs (crossing = reach-avoid)
+  /// the scene (sim::ScenarioNames): crossing, line-crossing or cluttered, run as the task that runs it
   std::string scene;
   double obstacle_speed = -1.0;  ///< [m/s] ≥ 0: every obstacle at this speed (reach-avoid, line-crossing); < 0: unset
   /// a YAML mapping merged over the file's task and, when the scene moves, over the scene's shipped task (as a training

@@ -76,28 +76,39 @@ class CollisionCounter {
   std::vector<long> last_seen_;  // per (link, partner): physics step it was last in penetration
 };
 
-/// One episode, stage by stage. Begin binds a world and a scenario already reset to the episode's start; each
-/// control step is then SenseScene (or StepController) followed by Advance. Allocates nothing after Begin.
+/// One episode, stage by stage. Begin binds a world and what moves its scene (a Scenario already reset to the
+/// episode's start, or another SceneSource); each control step is then SenseScene (or StepController) followed by
+/// Advance — or, to run several worlds in lockstep on one scene (the viewer's side by side), PhysicsStep per physics
+/// step and EndPeriod. Allocates nothing after Begin.
 class EpisodeLoop {
  public:
   EpisodeLoop() = default;
-  /// starts an episode: contacts at the start (pairs touching now are no events later), the scenario's scene, the
+  /// starts an episode: contacts at the start (a pair in penetration is a collision event at t = 0), the scene, the
   /// sensor's reset, the end effector's error, cleared metrics. `physics_steps` per control period ≥ 1; the sensor
-  /// (not owned) may be null: the controller is told the scenario's exact obstacles.
+  /// (not owned) may be null: the controller is told the scene's exact obstacles.
   void Begin(World* world, Scenario* scenario, int physics_steps, const LoopOptions& options,
              ObstacleSensor* sensor = nullptr);
+  /// the same with a scene source that is not a Scenario (scenario() is then unavailable, frames carry none).
+  void Begin(World* world, SceneSource* source, int physics_steps, const LoopOptions& options,
+             ObstacleSensor* sensor = nullptr);
 
-  /// the scene a controller is told at this control step: the scenario's, or what the sensor perceives of it.
+  /// fills the scene anew from the source (after the source changed outside Advance, e.g. a user's edit).
+  void RefreshScene();
+  /// the scene a controller is told at this control step: the source's, or what the sensor perceives of it.
   const rmp::Scene& SenseScene();
   /// one control step of `controller` on SenseScene(); its compute time counts in the metrics.
   control::ControlStepResult StepController(control::ReactiveController& controller);
   /// a control step computed elsewhere (the agents' direct commands): its compute time [µs].
   void AddControlTime(double us);
 
-  /// one control period: the scenario moves, the physics steps, contacts and collision events are counted, the scene
-  /// and the end effector's error are brought up to date and scored. False when the simulation diverged (the
-  /// episode is then invalid and this step is not scored).
+  /// one control period: PhysicsStep until the period is over (or the simulation diverged), then EndPeriod.
   bool Advance();
+  /// one physics step of the period: the source moves the scene (every step, or by the period at its first step),
+  /// the world steps, contacts and collision events are counted. False when the simulation diverged.
+  bool PhysicsStep();
+  /// ends the control period: the scene and the end effector's error are brought up to date and scored. False when
+  /// the simulation diverged in the period (the episode is then invalid and this step is not scored).
+  bool EndPeriod();
   /// adds a reward to EpisodeMetrics::episode_return.
   void AddReward(double r) { metrics_.episode_return += r; }
   /// marks the episode invalid (a non-finite action or output).
@@ -108,8 +119,10 @@ class EpisodeLoop {
 
   const World& world() const { return *world_; }
   World& world() { return *world_; }
-  const Scenario& scenario() const { return *scenario_; }
-  /// the scenario's scene at the current state (the truth).
+  /// \pre the episode's source is a Scenario.
+  const Scenario& scenario() const;
+  const Scenario* scenario_or_null() const { return scenario_; }
+  /// the source's scene at the current state (the truth).
   const rmp::Scene& scene() const { return scene_; }
   const ContactReport& contacts() const { return *contacts_; }
   const ObstacleSensor* sensor() const { return sensor_; }
@@ -118,9 +131,9 @@ class EpisodeLoop {
   /// control steps run.
   int steps() const { return steps_; }
   double time() const;
-  /// collision events in the last Advance.
+  /// collision events in the last control period.
   int step_collisions() const { return step_events_.total(); }
-  /// smallest robot–obstacle distance in the last Advance's contacts [m] (+inf: none within the margin).
+  /// smallest robot–obstacle distance in the last period's contacts [m] (+inf: none within the margin).
   double step_min_clearance() const { return step_min_clearance_; }
 
  private:
@@ -128,7 +141,8 @@ class EpisodeLoop {
   void UpdateError();
 
   World* world_ = nullptr;
-  Scenario* scenario_ = nullptr;
+  SceneSource* source_ = nullptr;
+  Scenario* scenario_ = nullptr;  // source_ when it is a Scenario
   ObstacleSensor* sensor_ = nullptr;
   LoopOptions options_;
   int physics_steps_ = 1;
@@ -145,6 +159,13 @@ class EpisodeLoop {
   int settled_steps_ = 0;
   long collision_physics_steps_ = 0;
   double control_us_sum_ = 0.0;
+  CollisionCounter::Events observed_;  // of the last report observed
+  double observed_min_clearance_ = std::numeric_limits<double>::infinity();
+  // the control period in progress: physics steps taken, events and smallest clearance so far, divergence
+  int period_step_ = 0;
+  CollisionCounter::Events period_events_;
+  double period_min_clearance_ = std::numeric_limits<double>::infinity();
+  bool period_ok_ = true;
   CollisionCounter::Events step_events_;
   double step_min_clearance_ = std::numeric_limits<double>::infinity();
   EpisodeMetrics metrics_;
@@ -166,7 +187,7 @@ struct FrameInfo {
   int index = 0;                       ///< frame number, from 0
   double time = 0.0;                   ///< simulation time [s]
   const World* world = nullptr;        ///< render this (its mjData is consistent: kinematics and contacts current)
-  const Scenario* scenario = nullptr;
+  const Scenario* scenario = nullptr;     ///< null when the loop's scene source is not a Scenario
   const ContactReport* contacts = nullptr;
   double tracking_error = 0.0;         ///< ‖p_WE − p_WT‖ [m]
   const ObstacleSensor* sensor = nullptr;

@@ -6,6 +6,7 @@
 /// and target and writes their poses into the World's mocap bodies, FillScene() gives the policies the same obstacles
 /// and target with their velocities. Scenarios are reusable by the RL environments (one Scenario per World).
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -83,8 +84,22 @@ struct ObstacleState {
   Eigen::Vector3d v_WO() const { return (stopped ? 0.0 : speed) * direction; }
 };
 
+/// What moves the obstacles and the target of an episode (sim::EpisodeLoop): a Scenario, or a scene a user edits
+/// live (the viewer).
+class SceneSource {
+ public:
+  virtual ~SceneSource();
+  /// moves obstacles and target by dt [s] (`contacts`: the report of the world's current state) and writes their
+  /// poses into `world`. Allocates nothing.
+  virtual void Advance(double dt, const ContactReport& contacts, World& world) = 0;
+  /// the obstacles (shape, pose, velocity) and the target (position, velocity) as the policies see them.
+  virtual void FillScene(rmp::Scene* scene) const = 0;
+  /// the target now.
+  virtual const TargetState& target() const = 0;
+};
+
 /// Base of every scenario: owns the episode state and its RNG (std::mt19937_64, seeded by Reset only).
-class Scenario {
+class Scenario : public SceneSource {
  public:
   virtual ~Scenario();
   Scenario(const Scenario&) = delete;
@@ -106,15 +121,15 @@ class Scenario {
   /// advances the scenario by dt [s]: obstacles with stop_on_impact that collide in `contacts` (the report of the
   /// world's current state) stop where they are; the others move; the target moves and reflects. Writes the new
   /// poses of what moved into `world`. Allocates nothing.  \pre Reset.
-  void Advance(double dt, const ContactReport& contacts, World& world);
+  void Advance(double dt, const ContactReport& contacts, World& world) override;
   /// the obstacles (shape, pose, velocity) and the target (position, velocity) as the policies see them. Allocates
   /// only when scene->obstacles has to grow.
-  void FillScene(rmp::Scene* scene) const;
+  void FillScene(rmp::Scene* scene) const override;
 
   /// scenario time since Reset [s].
   double time() const { return time_; }
   const Eigen::VectorXd& q_start() const { return q_start_; }
-  const TargetState& target() const { return target_; }
+  const TargetState& target() const override { return target_; }
   const std::vector<ObstacleState>& obstacles() const { return obstacles_; }
   /// the obstacle as an rmp::Obstacle (shape from scene_spec(), pose and velocity from obstacles()).
   rmp::Obstacle ObstacleAsRmp(int j) const;
@@ -295,6 +310,28 @@ class ClutteredScenario final : public Scenario {
   ClutteredOptions options_;
 };
 
+/// The `pretrain-2link` scenario (docs/environments.md): a target in uniform linear motion in a random in-plane
+/// direction (reflected in the workspace box) and one cube placed beside (or, with a zero offset, on) the target's
+/// path.
+struct PretrainScenarioOptions {
+  std::array<double, 2> target_speed = {0.05, 0.25};   ///< [m/s], per episode
+  double obstacle_side = 0.1;                          ///< cube side [m]
+  std::array<double, 2> obstacle_lead_time = {1.0, 3.0};  ///< the cube sits where the target will be after t [s]
+  /// [m] the cube's surface is moved this far beside the target's path there (perpendicular to the target's motion,
+  /// to a random side), and the whole path over the scenario's duration keeps at least the range's minimum from it.
+  /// {0, 0}: the cube sits on the path (the paper's scene: tracking means leaving the target while it passes). With
+  /// obstacle_speed > 0 the offset holds where the cube is drawn only. No draw in max_attempts: InputError.
+  std::array<double, 2> obstacle_path_offset = {0.0, 0.0};
+  /// the scene drawn as usual (same targets, starts and random draws), then the cube lifted 10 m out of the arm's
+  /// plane: the no-obstacle reference on the same episodes (Table 3's `basic-free`)
+  bool obstacle_out_of_reach = false;
+  std::array<double, 2> obstacle_speed = {0.0, 0.0};   ///< [m/s] (0: static), random in-plane direction
+  double start_clearance = 0.05;  ///< cube ≥ this from the arm at q0 [m]
+  double target_clearance = 0.0;  ///< cube surface ≥ this from the target's start [m]
+  int max_attempts = 1000;
+  WorkspaceOptions workspace;
+};
+
 /// Generic overrides a command line can apply to any registered scenario (unset: the scenario's default).
 struct ScenarioOverrides {
   std::optional<double> obstacle_speed{};  ///< [m/s] (crossing, line-crossing)
@@ -302,19 +339,32 @@ struct ScenarioOverrides {
   std::optional<int> num_obstacles{};      ///< (crossing, line-crossing, cluttered)
 };
 
-/// Makes a scenario for a robot.
-using ScenarioFactory =
-    std::function<std::unique_ptr<Scenario>(const kinematics::Robot& robot, const ScenarioOverrides& overrides)>;
+/// The options of the built-in scenes, one member each (a scene reads its own; the defaults are the scenes' own).
+/// A task's `scenario` section is one of these (tasks::ScenarioConfig).
+struct SceneOptions {
+  PretrainScenarioOptions pretrain;       ///< pretrain-2link
+  CrossingOptions crossing;               ///< crossing
+  LineCrossingOptions line_crossing;      ///< line-crossing
+  ClutteredOptions cluttered;             ///< cluttered
+  StaticReachOptions static_reach;        ///< static-reach, static-obstacle (obstacle_on_path set by the name)
+};
+
+/// Makes a scenario for a robot from the scene options, with a command line's overrides applied on top.
+using ScenarioFactory = std::function<std::unique_ptr<Scenario>(
+    const kinematics::Robot& robot, const SceneOptions& options, const ScenarioOverrides& overrides)>;
 
 /// the default scenario of the CLI.
 inline constexpr std::string_view kDefaultScenario = "crossing";
 
-/// registered scenario names in registration order: crossing, line-crossing, cluttered, static-reach,
-/// static-obstacle, then any added by RegisterScenario.
+/// The one registry of scenes: every scene has one name, the same for the CLI (`--scenario`), the tasks (a task
+/// names its scene: tasks::TaskSceneName) and the viewer. Registered in this order: crossing, line-crossing,
+/// cluttered, static-reach, static-obstacle, pretrain-2link, then any added by RegisterScenario.
 std::vector<std::string> ScenarioNames();
-/// the scenario called `name`; throws InputError listing the known names.
+/// whether `name` is registered.
+bool HasScenario(std::string_view name);
+/// the scenario called `name`; throws InputError listing the known names, or for an override that does not apply.
 std::unique_ptr<Scenario> MakeScenario(std::string_view name, const kinematics::Robot& robot,
-                                       const ScenarioOverrides& overrides = {});
+                                       const ScenarioOverrides& overrides = {}, const SceneOptions& options = {});
 /// adds a scenario to the registry (not thread-safe; call at start-up). Throws InputError for a taken name.
 void RegisterScenario(const std::string& name, ScenarioFactory factory);
 

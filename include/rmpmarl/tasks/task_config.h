@@ -45,6 +45,11 @@ using ScenarioUpdate = sim::ScenarioUpdate;
 
 /// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".
 std::string_view TaskKindName(TaskKind kind);
+/// the registered scene a task runs (sim::MakeScenario): pretrain-2link, crossing (reach-avoid), line-crossing,
+/// cluttered.
+std::string_view TaskSceneName(TaskKind kind);
+/// the task whose scene is `scene`; throws InputError naming the scenes that have a task.
+TaskKind TaskOfScene(std::string_view scene);
 
 /// Episode timing and ending: the agents' horizon and clock (control::AgentEpisode) and how training runs them.
 struct EpisodeConfig : control::AgentEpisode {
@@ -107,35 +112,13 @@ struct RandomizationConfig {
   double initial_qd_fraction = 0.0;
 };
 
-/// The `pretrain-2link` scenario (docs/environments.md): a target in uniform linear motion in a random in-plane
-/// direction (reflected in the workspace box) and one cube placed beside (or, with a zero offset, on) the target's
-/// path.
-struct PretrainScenarioOptions {
-  std::array<double, 2> target_speed = {0.05, 0.25};   ///< [m/s], per episode
-  double obstacle_side = 0.1;                          ///< cube side [m]
-  std::array<double, 2> obstacle_lead_time = {1.0, 3.0};  ///< the cube sits where the target will be after t [s]
-  /// [m] the cube's surface is moved this far beside the target's path there (perpendicular to the target's motion,
-  /// to a random side), and the whole path over the scenario's duration keeps at least the range's minimum from it.
-  /// {0, 0}: the cube sits on the path (the paper's scene: tracking means leaving the target while it passes). With
-  /// obstacle_speed > 0 the offset holds where the cube is drawn only. No draw in max_attempts: InputError.
-  std::array<double, 2> obstacle_path_offset = {0.0, 0.0};
-  /// the scene drawn as usual (same targets, starts and random draws), then the cube lifted 10 m out of the arm's
-  /// plane: the no-obstacle reference on the same episodes (Table 3's `basic-free`)
-  bool obstacle_out_of_reach = false;
-  std::array<double, 2> obstacle_speed = {0.0, 0.0};   ///< [m/s] (0: static), random in-plane direction
-  double start_clearance = 0.05;  ///< cube ≥ this from the arm at q0 [m]
-  double target_clearance = 0.0;  ///< cube surface ≥ this from the target's start [m]
-  int max_attempts = 1000;
-  sim::WorkspaceOptions workspace;
-};
+using PretrainScenarioOptions = sim::PretrainScenarioOptions;
 
-/// Scenario parameters of every kind (only the task's own part is read).
-struct ScenarioConfig {
-  PretrainScenarioOptions pretrain;
-  sim::CrossingOptions crossing;            ///< reach-avoid
-  sim::LineCrossingOptions line_crossing;   ///< line-crossing (speed ignored: see speeds)
-  sim::ClutteredOptions cluttered;
-  /// line-crossing: the line's speed is drawn per episode from this list [m/s] (the paper sweeps 0.2 … 2.8)
+/// Scenario parameters: the scene options of every scene (only the task's own scene is read, TaskSceneName) and
+/// the line-crossing task's speeds.
+struct ScenarioConfig : sim::SceneOptions {
+  /// line-crossing: the line's speed is drawn per episode from this list [m/s] (the paper sweeps 0.2 … 2.8); the
+  /// scene options' own line_crossing.speed is ignored
   std::vector<double> line_speeds = {0.2, 0.6, 1.2, 1.8, 2.8};
 };
 

@@ -97,8 +97,8 @@ class LiveSim final : public FrameSource {
 
   /// a new episode of the scenario with `seed`: arms at its start posture, the scenario's target and obstacles.
   void Reset(std::uint64_t seed);
-  /// one control step of every arm: controllers, then the physics steps, with the scenario moving what the page
-  /// does not hold.
+  /// one control step of every arm, each an episode loop (sim::EpisodeLoop) stepped in lockstep with the others:
+  /// controllers, then the physics steps, with the scenario moving what the page does not hold.
   void ControlStep();
 
   int num_arms() const { return static_cast<int>(arms_.size()); }
@@ -111,7 +111,8 @@ class LiveSim final : public FrameSource {
   std::vector<int> obstacle_ids() const;
   /// an obstacle's centre [m] (its id must be in the scene).
   Eigen::Vector3d obstacle_position(int id) const;
-  /// control steps in which an arm's collision with an obstacle began.
+  /// an arm's collision events since the scene (re)started (a link–obstacle pair entering penetration: the episode
+  /// loop's counter).
   long collisions(int arm) const;
   double control_period() const { return period_; }
   const sim::Scenario& scenario() const { return *scenario_; }
@@ -119,13 +120,19 @@ class LiveSim final : public FrameSource {
  private:
   struct Slot;
   struct Arm;
+  class ArmSource;
   void BuildArms();
   std::unique_ptr<Arm> MakeArm(const std::string& controller, const Eigen::VectorXd& q,
                                const Eigen::VectorXd& qd) const;
   // every slot's pose and the target into every arm's world; PlaceSlot: slot j only
   void PlaceObstacles();
   void PlaceSlot(int j);
-  void FillScene();
+  // the scene every arm's controller is told, from the slots and the target
+  void FillScene(rmp::Scene* scene) const;
+  // one physics step of the shared scene: the scenario moves what the page does not hold
+  void AdvanceShared(double dt);
+  // every slot's pose and the target into `world`
+  void PlaceInto(sim::World& world) const;
   void FillObstacleViews();
   void UpdateHello();
   std::string ActiveIds() const;
@@ -150,7 +157,7 @@ class LiveSim final : public FrameSource {
   std::uint64_t seed_ = 0;
   bool target_held_ = false;
   Eigen::Vector3d p_WT_ = Eigen::Vector3d::Zero(), v_WT_ = Eigen::Vector3d::Zero();
-  rmp::Scene scene_;
+  sim::TargetState live_target_;  // p_WT_ and the velocity the controllers are told
   std::vector<ObstacleView> obstacle_views_;
   std::string hello_;
   long hello_version_ = 0;

@@ -118,7 +118,7 @@ struct ArmView {
   const control::LearnedController* learned = nullptr;
   Eigen::Vector3d p_WE = Eigen::Vector3d::Zero();
   double clearance = 0.0;  ///< smallest robot–obstacle distance [m] (Clearance); +inf: no obstacle
-  long collisions = 0;     ///< control steps that began a collision
+  long collisions = 0;     ///< collision events of the arm (sim::EpisodeLoop: a link–obstacle pair entering penetration)
   double step_us = 0.0;    ///< last control step's compute time
 };
 

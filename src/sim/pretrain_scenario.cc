@@ -1,5 +1,5 @@
 // The pre-training scenario: moving target, one cube beside (or on) its path.
-#include "rmpmarl/tasks/pretrain_scenario.h"
+#include "rmpmarl/sim/pretrain_scenario.h"
 
 #include <fmt/format.h>
 
@@ -9,12 +9,12 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::sim {
 namespace {
 
-sim::SceneSpec PretrainScene(const PretrainScenarioOptions& o) {
-  sim::SceneSpec spec;
-  spec.obstacles.push_back(sim::ObstacleSpec::Cube(o.obstacle_side));
+SceneSpec PretrainScene(const PretrainScenarioOptions& o) {
+  SceneSpec spec;
+  spec.obstacles.push_back(ObstacleSpec::Cube(o.obstacle_side));
   spec.has_target = true;
   return spec;
 }
@@ -73,15 +73,29 @@ double PathCubeClearance(const Eigen::Vector3d& p, const Eigen::Vector3d& v, dou
   return d;
 }
 
+void ValidatePretrainScenarioOptions(const PretrainScenarioOptions& o, std::string_view where) {
+  const auto check = [&](bool ok, std::string_view key, std::string_view expected, const auto& got) {
+    if (!ok) throw InputError(fmt::format("{}.{}: expected {}, got {}", where, key, expected, got));
+  };
+  const auto range = [&](const std::array<double, 2>& r, std::string_view key, double lo, double hi) {
+    check(std::isfinite(r[0]) && std::isfinite(r[1]) && r[0] >= lo && r[0] <= r[1] && r[1] <= hi, key,
+          fmt::format("[min, max] with {} <= min <= max <= {}", lo, hi), fmt::format("[{}, {}]", r[0], r[1]));
+  };
+  range(o.target_speed, "target_speed", 0.0, 10.0);
+  check(std::isfinite(o.obstacle_side) && o.obstacle_side > 0.0, "obstacle_side", "a side > 0 m", o.obstacle_side);
+  range(o.obstacle_lead_time, "obstacle_lead_time", 0.0, 1000.0);
+  range(o.obstacle_path_offset, "obstacle_path_offset", 0.0, 10.0);
+  range(o.obstacle_speed, "obstacle_speed", 0.0, 10.0);
+  check(std::isfinite(o.start_clearance), "start_clearance", "a finite distance", o.start_clearance);
+  check(std::isfinite(o.target_clearance), "target_clearance", "a finite distance", o.target_clearance);
+  check(o.max_attempts >= 1, "max_attempts", "an integer >= 1", o.max_attempts);
+}
+
 PretrainScenario::PretrainScenario(const kinematics::Robot& robot, const PretrainScenarioOptions& options)
     : Scenario("pretrain-2link", robot, PretrainScene(options), 8.0, options.workspace, Eigen::VectorXd()),
       options_(options),
       ready_(q_start_) {
-  ValidateTaskConfig([&] {
-    TaskConfig c = DefaultTaskConfig(TaskKind::kPretrain2Link);
-    c.scenario.pretrain = options;
-    return c;
-  }(), "PretrainScenarioOptions");
+  ValidatePretrainScenarioOptions(options, "PretrainScenarioOptions");
 }
 
 void PretrainScenario::SetNextStart(const Eigen::VectorXd& q0) {
@@ -101,10 +115,10 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
   const PretrainScenarioOptions& o = options_;
   const double half_diagonal = 0.5 * o.obstacle_side * std::sqrt(3.0);
   double best_clearance = -std::numeric_limits<double>::infinity();
-  sim::TargetState best_target;
+  TargetState best_target;
   Eigen::Vector3d best_p = Eigen::Vector3d::Zero();
   for (int attempt = 0; attempt < o.max_attempts; ++attempt) {
-    const sim::TargetState t = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
+    const TargetState t = RandomMovingTarget(Uniform(rng, o.target_speed), rng);
     const double lead = Uniform(rng, o.obstacle_lead_time);
     Eigen::Vector3d p = ReflectedPosition(t.p_WT, t.v_WT, lead, t.bounds);
     if (o.obstacle_path_offset[1] > 0.0) {
@@ -142,7 +156,7 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
                                best_target.bounds);
   }
   target_ = best_target;
-  sim::ObstacleState& cube = obstacles_[0];
+  ObstacleState& cube = obstacles_[0];
   cube.p_start = best_p;
   cube.R_WO.setIdentity();
   cube.s = 0.0;
@@ -153,4 +167,4 @@ void PretrainScenario::Draw(std::mt19937_64& rng) {
   if (o.obstacle_out_of_reach) cube.p_start.z() += 10.0;  // after every draw: the episode is otherwise the same
 }
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::sim

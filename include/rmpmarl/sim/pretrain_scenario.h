@@ -6,11 +6,11 @@
 /// start and direction (Scenario helpers), speed, the cube's position along the path, its (optional) velocity, and
 /// the start configuration (SetNextStart, pre-training only).
 #include <Eigen/Core>
+#include <string_view>
 
-#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/sim/scenario.h"
 
-namespace rmpmarl::tasks {
+namespace rmpmarl::sim {
 
 /// the position reached after t seconds by a point starting at p with velocity v that reflects at the faces of
 /// `box` (as sim::Scenario::Advance moves the target); along degenerate box axes the coordinate is pinned.
@@ -26,8 +26,12 @@ Eigen::Vector3d ReflectedDirection(const Eigen::Vector3d& p, const Eigen::Vector
 double PathCubeClearance(const Eigen::Vector3d& p, const Eigen::Vector3d& v, double duration,
                          const Eigen::AlignedBox3d& box, const Eigen::Vector3d& c, double h);
 
+/// throws InputError naming `where` and the field unless the options are in range (the workspace is checked where
+/// it is computed).
+void ValidatePretrainScenarioOptions(const PretrainScenarioOptions& options, std::string_view where);
+
 /// `pretrain-2link`.
-class PretrainScenario final : public sim::Scenario {
+class PretrainScenario final : public Scenario {
  public:
   /// throws InputError for bad options.
   PretrainScenario(const kinematics::Robot& robot, const PretrainScenarioOptions& options);
@@ -44,4 +48,4 @@ class PretrainScenario final : public sim::Scenario {
   Eigen::VectorXd ready_;
 };
 
-}  // namespace rmpmarl::tasks
+}  // namespace rmpmarl::sim
