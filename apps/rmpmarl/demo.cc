@@ -123,7 +123,7 @@ DemoRun RunDemoEpisode(tasks::ControllerEpisodes& runner, const std::string& lab
       if (record) {
         viewer::ArmView arm;
         arm.world = frame.world;
-        arm.contacts = frame.contacts;
+        arm.warnings = frame.warnings;
         arm.learned = learned != nullptr ? *learned : nullptr;  // made with the controller at the episode's start
         run.frames.push_back(viewer::ScenarioFrame(frame.index, frame.time, *frame.scenario, {arm}));
       }

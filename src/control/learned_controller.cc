@@ -10,21 +10,15 @@
 #include "rmpmarl/math/geometry.h"
 
 namespace rmpmarl::control {
-namespace {
-
-math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCapsule& lc) {
-  const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
-  return {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
-}
-
-}  // namespace
 
 LearnedController::LearnedController(const kinematics::Robot& robot, const AgentConfig& config,
                                      const PolicyWeights& weights, LearnedControllerOptions options)
     : options_(std::move(options)),
       robot_(robot),
       agents_(config, &robot),
-      runtime_(weights, robot.model.nq()) {
+      runtime_(weights, robot.model.nq()),
+      warnings_(robot, {.margin = config.observation.warning_distance, .floor_height = options_.floor_height,
+                        .max_obstacles = std::max(options_.max_obstacles, 0)}) {
   if (config.interface != InterfaceMode::kPerJointRmp) {
     throw InputError(fmt::format("learned controller '{}': the per-joint-rmp interface runs as a controller, got {} "
                                  "(evaluate it in its task with `rmpmarl eval`)", options_.name,
@@ -48,19 +42,6 @@ LearnedController::LearnedController(const kinematics::Robot& robot, const Agent
   hold_scene_.obstacles.reserve(options_.max_obstacles);
   actions_.assign(static_cast<size_t>(nq) * action_size_, 0.0f);
   reads_.assign(nq, 1.0f);
-  // the pairs the tasks' MuJoCo worlds check: capsules of distinct, non-excluded links
-  const int nc = static_cast<int>(robot.capsules.size());
-  for (int c = 0; c < nc; ++c) {
-    for (int d = c + 1; d < nc; ++d) {
-      const int lc = robot.capsules[c].link, ld = robot.capsules[d].link;
-      if (lc != ld && !robot.IsExcludedPair(lc, ld)) self_pairs_.emplace_back(c, d);
-    }
-  }
-  on_moving_link_.assign(nc, 0);
-  for (int c = 0; c < nc; ++c) {
-    for (int i = 0; i < nq; ++i) on_moving_link_[c] |= robot.model.DofMovesLink(i, robot.capsules[c].link) ? 1 : 0;
-  }
-  contacts_.reserve(static_cast<size_t>(nc) * (options_.max_obstacles + 1) + self_pairs_.size());
 }
 
 LearnedController::~LearnedController() = default;
@@ -78,49 +59,6 @@ void LearnedController::Reset(const Eigen::Ref<const Eigen::VectorXd>& /*q0*/) {
   steps_ = 0;
   started_ = false;
   holding_ = false;
-}
-
-void LearnedController::ComputeWarnings(const rmp::Scene& scene) {
-  const kinematics::Data& kin = agents_.kinematics();
-  const double margin = agents_.config().observation.warning_distance;
-  contacts_.clear();
-  auto add = [&](int capsule, PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
-    if (!(r.distance < margin)) return;
-    WarningContact c;
-    c.link = robot_.capsules[capsule].link;
-    c.capsule = capsule;
-    c.other_kind = kind;
-    c.other_index = index;
-    c.other_capsule = other_capsule;
-    c.distance = r.distance;
-    c.p_W1 = r.p_W1;
-    c.p_W2 = r.p_W2;
-    c.n_W = r.n_W;
-    contacts_.push_back(c);
-  };
-  const int nc = static_cast<int>(robot_.capsules.size());
-  for (int c = 0; c < nc; ++c) {
-    const math::Capsule cap = WorldCapsule(kin, robot_.capsules[c]);
-    for (int j = 0; j < static_cast<int>(scene.obstacles.size()); ++j) {
-      add(c, PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
-    }
-    if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
-      // the capsule's lowest axis end point against the plane z = floor_height
-      const bool a_lower = cap.p_WA.z() <= cap.p_WB.z();
-      math::DistanceResult r;
-      const Eigen::Vector3d& axis_point = a_lower ? cap.p_WA : cap.p_WB;
-      r.distance = axis_point.z() - options_.floor_height - cap.radius;
-      r.n_W = Eigen::Vector3d::UnitZ();
-      r.p_W1 = axis_point - cap.radius * r.n_W;
-      r.p_W2 = Eigen::Vector3d(axis_point.x(), axis_point.y(), options_.floor_height);
-      add(c, PartnerKind::kFloor, -1, -1, r);
-    }
-  }
-  for (const auto& [c, d] : self_pairs_) {
-    const math::DistanceResult r = math::CapsuleCapsuleDistance(WorldCapsule(kin, robot_.capsules[c]),
-                                                                WorldCapsule(kin, robot_.capsules[d]));
-    add(c, PartnerKind::kLink, robot_.capsules[d].link, d, r);
-  }
 }
 
 void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -144,8 +82,8 @@ void LearnedController::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>
     }
     agents_.SenseState(q, qd, p_hold_, Eigen::Vector3d::Zero());
   }
-  ComputeWarnings(scene);
-  agents_.SenseContacts(contacts_, scene);
+  warnings_.Sense(agents_.kinematics(), scene);
+  agents_.SenseContacts(warnings_.contacts(), scene);
   if (started_) agents_.End();  // the last step's options end on what is sensed now, as in the env
   const int n = nq();
   for (int i = 0; i < n; ++i) agents_.WriteLocal(i, steps_, obs_.data() + static_cast<size_t>(i) * obs_dim_);

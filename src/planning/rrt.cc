@@ -70,6 +70,7 @@ void ValidateRrtOptions(const RrtOptions& o) {
   Require(std::isfinite(o.retry_period) && o.retry_period >= 0.0, "retry_period", "a finite period >= 0 s",
           o.retry_period);
   Require(positive(o.planning_time_budget), "planning_time_budget", "a finite budget > 0 s", o.planning_time_budget);
+  Require(o.planning_iterations >= 0, "planning_iterations", "an integer >= 0 (0: no limit)", o.planning_iterations);
   Require(o.ik_seeds >= 1, "ik_seeds", "an integer >= 1", o.ik_seeds);
   Require(o.ik_iterations >= 1, "ik_iterations", "an integer >= 1", o.ik_iterations);
   Require(positive(o.ik_damping), "ik_damping", "a finite damping > 0 m", o.ik_damping);
@@ -316,7 +317,15 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
   og::RRTConnect planner(si);
   planner.setProblemDefinition(pdef);
   planner.setup();
-  const ob::PlannerStatus status = planner.solve(ob::timedPlannerTerminationCondition(options.planning_time_budget));
+  ob::PlannerTerminationCondition budget = ob::timedPlannerTerminationCondition(options.planning_time_budget);
+  if (options.planning_iterations > 0) {
+    // RRT-Connect evaluates the condition once per iteration
+    budget = ob::plannerOrTerminationCondition(
+        budget, ob::PlannerTerminationCondition([n = options.planning_iterations, calls = 0]() mutable {
+          return ++calls > n;
+        }));
+  }
+  const ob::PlannerStatus status = planner.solve(budget);
   if (status != ob::PlannerStatus::EXACT_SOLUTION) return {};
 
   const auto& states = std::static_pointer_cast<og::PathGeometric>(pdef->getSolutionPath())->getStates();

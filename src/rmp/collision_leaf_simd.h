@@ -1,14 +1,11 @@
 #pragma once
-// Internal to the rmp module: the coupled layer's collision leaves four joints (or leaves) at a time with AVX2,
-// giving the same bits as the scalar loop of EvaluateCoupledLayer (joint_layer.cc, AddCollisionLeaves). The scalar
-// loop evaluates one exponential per joint and leaf (the repulsion at the joint's length scale) and one per leaf (its
-// velocity gate), the bulk of the layer's extra cost over RMPflow; here they run four at a time with the C library's
-// own exp algorithm and table, so each lane returns std::exp's result bit for bit. Every other operation is one IEEE
-// operation per lane, in the scalar loop's order, and never fused (both files are compiled with -ffp-contract=off).
+// Internal to the rmp module: the coupled layer's collision leaves four joints (or leaves) at a time with AVX2, the
+// same terms as the scalar loop of EvaluateCoupledLayer (joint_layer.cc, AddCollisionLeaves) up to rounding. The
+// scalar loop evaluates one exponential per joint and leaf (the repulsion at the joint's length scale) and one per
+// leaf (its velocity gate), the bulk of the layer's extra cost over RMPflow; here they run four at a time with an exp
+// of our own (within 2 ulp of the exact value; collision_leaf_simd_test.cc).
 //
-// Available only on a CPU with AVX2 and FMA, and only after a self-check against std::exp (run once, when the first
-// CoupledLayerWorkspace is built): a C library whose exp differs from the kernel's turns the kernel off, and the
-// scalar loop runs.
+// Available on a CPU with AVX2 and FMA; elsewhere the scalar loop runs.
 
 namespace rmpmarl::rmp::internal {
 
@@ -51,10 +48,11 @@ struct CollisionLeafBatch {
   double damping_force[kCapacity];  ///< (damping gain · σ(ḋ)) · ḋ
 };
 
-/// true where the kernel runs: AVX2 and FMA present, and the vectorised exp matches std::exp on the self-check
+/// true where the kernel runs: AVX2 and FMA present
 bool CollisionLeafKernelAvailable();
 
-/// The coupled layer's update for the batch's leaves, in order, as the scalar loop does it leaf by leaf: each leaf's
+/// The coupled layer's update for the batch's leaves, in order, as the scalar loop does it leaf by leaf (up to
+/// rounding): each leaf's
 /// velocity gate σ and metric m (CollisionVelocityGate, CollisionRmpMetric); then for leaf l and each of its dofs
 /// i < k, g_i = √s_m j_i (0 where inactive), mg_i = m g_i, b_i += s_m j_i m (s_a a_i − J̇q̇) where active, with
 /// j_i = n · (axis_i × (p − origin_i)) and a_i the collision acceleration at dof i's length scales; then
@@ -64,13 +62,13 @@ bool CollisionLeafKernelAvailable();
 void CollisionLeavesAvx2(CollisionLeafBatch* batch, const CollisionLeafConstants& constants,
                          const CollisionLeafLanes& lanes, int stride, double* scratch, double* b, double* A, int lda);
 
-/// A(i, j) += (g0_i m0_j + g1_i m1_j) + g2_i m2_j for i, j < n, each entry as the scalar loop's Dot3 sums it (the
-/// target leaf's Gᵀ (M G) in EvaluateCoupledLayer), where g0..g2 are the rows of G (3 × n) laid out as lanes and
+/// A(i, j) += g0_i m0_j + g1_i m1_j + g2_i m2_j for i, j < n (the target leaf's Gᵀ (M G) in EvaluateCoupledLayer),
+/// where g0..g2 are the rows of G (3 × n) laid out as lanes and
 /// m0..m2 the rows of M (3 × n, column-major). The lanes and A's columns (leading dimension lda) have room
 /// for n rounded up to a multiple of 4; rows of A past n get unspecified values. \pre CollisionLeafKernelAvailable().
 void AddGramAvx2(const double* const g[3], const double* M, int n, double* A, int lda);
 
-/// exp of n values with the vectorised algorithm (lanes outside its range by std::exp); for tests.
+/// exp of n values with the vectorised exp (lanes outside [−708, 709] and NaN by std::exp); for tests.
 /// \pre CollisionLeafKernelAvailable().
 void ExpAvx2(const double* x, double* y, int n);
 

@@ -335,15 +335,14 @@ void AddCollisionLeaves(const kinematics::Robot& robot, const kinematics::Data& 
           if (ws.collision_active[dof]) {
             const JointLayerWeights& w = weights[dof];
             const double a = ScaledCollisionAccel(ws.scaled_collision[dof], leaf, w.collision_length_scale);
-            const double j = internal::Dot3(
-                leaf.n, internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
+            const double j =
+                leaf.n.dot(internal::PointJacobianColumn(model, kin, dof, leaf.capsule->link, leaf.distance.p_W1));
             ws.g[dof] = ws.sqrt_collision_metric[dof] * j;
             ws.b[dof] += w.collision_metric_scale * j * leaf.rmp.m * (w.collision_accel_scale * a - leaf.jdqd);
           }
           ws.mg[dof] = leaf.rmp.m * ws.g[dof];
         }
-        // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g (each entry as the dense outer product
-        // forms it: g_j (m g_i))
+        // A += m g gᵀ over the leaf's dofs, the only non-zero entries of g
         for (int j : *leaf.dofs) {
           const double g_j = ws.g[j];
           for (int i : *leaf.dofs) ws.A(i, j) += g_j * ws.mg[i];
@@ -351,8 +350,8 @@ void AddCollisionLeaves(const kinematics::Robot& robot, const kinematics::Data& 
       });
 }
 
-// the target leaf's A += Gᵀ (M G) (ws.G, ws.MG), then AddCollisionLeaves, bit for bit, four joints or leaves at a
-// time (internal::AddGramAvx2, internal::CollisionLeavesAvx2)
+// the target leaf's A += Gᵀ (M G) (ws.G, ws.MG), then AddCollisionLeaves' terms, four joints or leaves at a time
+// (internal::AddGramAvx2, internal::CollisionLeavesAvx2)
 // \pre internal::CollisionLeafKernelAvailable(), VectorisableRobot(robot)
 void AddTargetGramAndCollisionLeavesAvx2(const kinematics::Robot& robot, const kinematics::Data& kin,
                                          const Scene& scene, const BasicRmpParams& params,
@@ -478,11 +477,7 @@ void EvaluateCoupledLayer(const kinematics::Robot& robot, const kinematics::Data
   if (vectorised) {
     AddTargetGramAndCollisionLeavesAvx2(robot, kin, scene, params, weights, target_gram, ws);
   } else {
-    if (target_gram) {  // A += Gᵀ (M G), each entry summed in Dot3's order (as AddGramAvx2)
-      for (int j = 0; j < nq; ++j) {
-        for (int i = 0; i < nq; ++i) ws.A(i, j) += internal::Dot3(ws.G.col(i), ws.MG.col(j));
-      }
-    }
+    if (target_gram) ws.A.noalias() += ws.G.transpose() * ws.MG;  // A += Gᵀ (M G)
     AddCollisionLeaves(robot, kin, scene, params, weights, ws);
   }
 

@@ -22,12 +22,6 @@ inline Eigen::Vector3d PointJacobianColumn(const kinematics::Model& model, const
   return axis.cross(p_W - kin.X_WL[joint_link].translation());
 }
 
-// a · b summed as (a0 b0 + a1 b1) + a2 b2, the order of Eigen's vectorised dot of 3-vectors, written out so that
-// the coupled layer's scalar loop and its AVX2 kernel (collision_leaf_simd.cc) sum alike whatever Eigen's build
-inline double Dot3(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
-}
-
 // row += sign · nᵀ J_WP for world point p_W fixed on `link` (only the dofs moving the link are touched), with per-dof
 // joint origins o_W (3 × nq) and prismatic flags gathered once per evaluation:
 // nᵀ (a × r) = a · (r × n) for a revolute axis a, nᵀ a for a prismatic one.

@@ -16,7 +16,6 @@ ObstacleSensor::~ObstacleSensor() = default;
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 void CheckLoopOptions(const LoopOptions& o, std::string_view what) {
@@ -30,6 +29,14 @@ void CheckLoopOptions(const LoopOptions& o, std::string_view what) {
   }
   if (!std::isfinite(o.settle_time) || o.settle_time < 0.0) {
     throw InputError(fmt::format("{}.settle_time: expected a finite time >= 0 s, got {}", what, o.settle_time));
+  }
+  if (!std::isfinite(o.warning_margin) || !(o.warning_margin > 0.0)) {
+    throw InputError(fmt::format("{}.warning_margin: expected a finite distance > 0 m, got {}", what,
+                                 o.warning_margin));
+  }
+  if (std::isinf(o.floor_height)) {
+    throw InputError(fmt::format("{}.floor_height: expected a finite height or NaN (no floor), got {}", what,
+                                 o.floor_height));
   }
 }
 
@@ -98,11 +105,21 @@ void EpisodeLoop::Begin(World* world, SceneSource* source, int physics_steps, co
   options_ = options;
   physics_steps_ = physics_steps;
   timestep_ = world->mj_model()->opt.timestep;
-  const kinematics::Model& model = world->model().robot().model;
+  const kinematics::Robot& robot = world->model().robot();
+  const kinematics::Model& model = robot.model;
+  const control::WarningSensorOptions sensing{options.warning_margin, options.floor_height,
+                                              world->model().num_obstacles()};
   if (kin_model_ != &model) {
     kin_.emplace(model);
     kin_model_ = &model;
     counter_ = CollisionCounter(model.num_links(), world->model().num_obstacles());
+    warnings_.reset();
+  }
+  const auto same = [](double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); };
+  if (!warnings_ || warnings_->options().margin != sensing.margin ||
+      !same(warnings_->options().floor_height, sensing.floor_height) ||
+      warnings_->options().max_obstacles != sensing.max_obstacles) {
+    warnings_.emplace(robot, sensing);
   }
   counter_.Reset();
   physics_step_ = 0;
@@ -121,11 +138,12 @@ void EpisodeLoop::Begin(World* world, SceneSource* source, int physics_steps, co
   metrics_.self_collisions = observed_.self;
   collision_physics_steps_ = 0;
   step_events_ = {};
-  step_min_clearance_ = observed_min_clearance_;
-  metrics_.min_clearance = observed_min_clearance_;
   source->FillScene(&scene_);
   if (sensor_ != nullptr) sensor_->Reset(*world);
-  UpdateError();
+  SenseState();
+  step_min_clearance_ = warnings_->min_clearance();
+  metrics_.min_clearance = warnings_->min_clearance();
+  metrics_.min_self_clearance = warnings_->min_self_clearance();
   if (error_ < options_.reach_tolerance) metrics_.time_to_reach = 0.0;
 }
 
@@ -137,22 +155,15 @@ const Scenario& EpisodeLoop::scenario() const {
 void EpisodeLoop::Observe(const ContactReport& report) {
   observed_ = counter_.Count(report, physics_step_);
   if (!report.colliding_pairs.empty()) ++collision_physics_steps_;
-  observed_min_clearance_ = kInf;
-  for (const WarningContact& w : report.warnings) {
-    if (w.other_kind == PartnerKind::kLink) {
-      metrics_.min_self_clearance = std::min(metrics_.min_self_clearance, w.distance);
-    } else {
-      observed_min_clearance_ = std::min(observed_min_clearance_, w.distance);
-    }
-  }
 }
 
-void EpisodeLoop::UpdateError() {
+void EpisodeLoop::SenseState() {
   const kinematics::Robot& robot = world_->model().robot();
   kinematics::CalcForwardKinematics(robot.model, world_->q(), &*kin_);
   const Eigen::Vector3d p_WE =
       kinematics::CalcPointPosition(*kin_, robot.end_effector.link, robot.end_effector.X_LE.translation());
   error_ = (p_WE - source_->target().p_WT).norm();
+  warnings_->Sense(*kin_, scene_);
 }
 
 void EpisodeLoop::RefreshScene() {
@@ -194,7 +205,6 @@ bool EpisodeLoop::PhysicsStep() {
   RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
   if (period_step_ == 0) {
     period_events_ = {};
-    period_min_clearance_ = kInf;
     period_ok_ = true;
   }
   if (options_.scenario_update == ScenarioUpdate::kPhysicsStep) {
@@ -209,7 +219,6 @@ bool EpisodeLoop::PhysicsStep() {
   Observe(*contacts_);
   period_events_.obstacle += observed_.obstacle;
   period_events_.self += observed_.self;
-  period_min_clearance_ = std::min(period_min_clearance_, observed_min_clearance_);
   period_ok_ = period_ok_ && ok;
   return ok;
 }
@@ -218,10 +227,10 @@ bool EpisodeLoop::EndPeriod() {
   RMPMARL_ASSERT(world_ != nullptr, "EpisodeLoop: Begin first");
   period_step_ = 0;
   step_events_ = period_events_;
-  step_min_clearance_ = period_min_clearance_;
   source_->FillScene(&scene_);
   ++steps_;
-  UpdateError();
+  SenseState();
+  step_min_clearance_ = warnings_->min_clearance();
   if (!period_ok_) {  // MuJoCo diverged (the World reset the robot): the episode is invalid, this step is not scored
     metrics_.invalid = true;
     return false;
@@ -230,6 +239,7 @@ bool EpisodeLoop::EndPeriod() {
   metrics_.obstacle_collisions += step_events_.obstacle;
   metrics_.self_collisions += step_events_.self;
   metrics_.min_clearance = std::min(metrics_.min_clearance, step_min_clearance_);
+  metrics_.min_self_clearance = std::min(metrics_.min_self_clearance, warnings_->min_self_clearance());
   tracking_sum_ += error_;
   metrics_.max_tracking_error = std::max(metrics_.max_tracking_error, error_);
   if (steps_ * (physics_steps_ * timestep_) >= options_.settle_time - 1e-9) {
@@ -262,7 +272,7 @@ EpisodeMetrics EpisodeLoop::Metrics() const {
 void MaybeFrame(const EpisodeLoop& loop, double fps, int* next_frame, const FrameCallback& on_frame) {
   if (!(fps > 0.0) || !on_frame || loop.time() + 1e-9 < *next_frame / fps) return;
   on_frame(FrameInfo{*next_frame, loop.time(), &loop.world(), loop.scenario_or_null(), &loop.contacts(),
-                     loop.tracking_error(), loop.sensor()});
+                     loop.tracking_error(), loop.sensor(), loop.warnings()});
   ++*next_frame;
 }
 

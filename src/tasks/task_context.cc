@@ -91,7 +91,9 @@ TaskContext::TaskContext(TaskConfig config, ScenarioMaker scenario)
   // the variant pool: K WorldModels, built here once
   sim::WorldOptions world_options;
   world_options.timestep = config_.episode.physics_timestep;
-  world_options.warning_margin = config_.observation.warning_distance;
+  // the warning contacts are sensed once per control step by the episode loop, from the capsules and the scene;
+  // the physics step looks for touching pairs only
+  world_options.warning_margin = 0.0;
   world_options.integrator = config_.episode.integrator;
   const RandomizationConfig& d = config_.randomization;
   std::mt19937_64 rng(d.seed);

@@ -32,6 +32,7 @@ TaskEpisode::TaskEpisode(std::shared_ptr<const TaskContext> context) : context_(
   const double timestep = config.episode.physics_timestep;
   physics_steps_ = static_cast<int>(std::lround(1.0 / (config.episode.control_rate * timestep)));
   loop_options_.settle_time = kSettleTime;
+  loop_options_.warning_margin = config.observation.warning_distance;
   loop_options_.scenario_update = config.episode.scenario_update;
   loop_options_.success_max_final_error = config.episode.success_max_final_error;
   if (std::isfinite(config.episode.success_max_final_error)) {
@@ -95,7 +96,7 @@ void TaskEpisode::Begin(sim::ObstacleSensor* sensor) {
 }
 
 void TaskEpisode::Sense() {
-  agents_->Sense(world_->q(), world_->qd(), p_WT_, v_WT_, loop_.contacts().warnings, loop_.scene());
+  agents_->Sense(world_->q(), world_->qd(), p_WT_, v_WT_, loop_.warnings(), loop_.scene());
 }
 
 void TaskEpisode::BeginStep() {

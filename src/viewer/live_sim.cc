@@ -73,7 +73,7 @@ struct LiveSim::Arm {
   control::LearnedController* learned = nullptr;  // the controller's policy when learned
   std::unique_ptr<ArmSource> source;
   sim::EpisodeLoop loop;
-  const sim::ContactReport* contacts = nullptr;
+
   double clearance = std::numeric_limits<double>::infinity();
   long collisions_before = 0;  // events counted before the arm's loop last restarted
   double step_us = 0.0;
@@ -184,7 +184,6 @@ void LiveSim::BuildArms() {
     Arm& arm = *arms_[a];
     arm.source = std::make_unique<ArmSource>(this, a == 0);
     arm.loop.Begin(arm.world.get(), arm.source.get(), physics_steps_, sim::LoopOptions{});
-    arm.contacts = &arm.loop.contacts();
   }
   UpdateHello();
 }
@@ -307,7 +306,6 @@ void LiveSim::ControlStep() {
   }
   FillObstacleViews();
   for (const auto& arm : arms_) {
-    arm->contacts = &arm->loop.contacts();
     arm->clearance = Clearance(*arm->world, obstacle_views_);
   }
 }
@@ -457,7 +455,7 @@ void LiveSim::Frame(const FrameStats& stats, std::string* out) {
     const Arm& arm = *arms_[a];
     ArmView v;
     v.world = arm.world.get();
-    v.contacts = arm.contacts;
+    v.warnings = arm.loop.warnings();
     v.learned = arm.learned;
     v.p_WE = end_effector(a);
     v.clearance = arm.clearance;

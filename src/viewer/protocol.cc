@@ -421,9 +421,9 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
         const control::JointWarning& w = agents.warning(i);
         if (w.present && w.partner == sim::PartnerKind::kObstacle) witness(i, w.p_W1, w.p_W2, w.distance);
       }
-    } else if (arm.contacts != nullptr) {
+    } else {
       // the nearest warning per (capsule, obstacle) pair
-      const auto& warnings = arm.contacts->warnings;
+      const std::span<const control::WarningContact> warnings = arm.warnings;
       int shown = 0;
       for (std::size_t n = 0; n < warnings.size() && shown < 64; ++n) {
         const sim::WarningContact& w = warnings[n];

@@ -73,12 +73,12 @@ TEST(BasicLayerFixesTest, WithoutObstaclesTheCompositeIsTheTargetOption) {
   const auto target = EvaluateMethod(Method::FixedOption("t", 0), c, {.episodes = 4, .eval_seed = 99});
   const auto composite = EvaluateMethod(Method::FixedOption("c", 2), c, {.episodes = 4, .eval_seed = 99});
   for (int i = 0; i < 4; ++i) {
-    EXPECT_EQ(1000.0 * target[i].metrics.mean_tracking_error, 1000.0 * composite[i].metrics.mean_tracking_error);
+    EXPECT_EQ(target[i].metrics.mean_tracking_error, composite[i].metrics.mean_tracking_error);
   }
   c.options.warnings = tasks::OptionWarnings::kAll;  // self-contacts make W_i non-empty: the composite differs
   const auto all = EvaluateMethod(Method::FixedOption("c", 2), c, {.episodes = 4, .eval_seed = 99});
   int differ = 0;
-  for (int i = 0; i < 4; ++i) differ += 1000.0 * all[i].metrics.mean_tracking_error != 1000.0 * target[i].metrics.mean_tracking_error;
+  for (int i = 0; i < 4; ++i) differ += all[i].metrics.mean_tracking_error != target[i].metrics.mean_tracking_error;
   EXPECT_GT(differ, 0);
 }
 
@@ -187,7 +187,7 @@ TEST(BasicLayerV2Test, FixedOptionOverridesTheActionsOptionIndex) {
   ExpectSameEpisodes(asks_target, composite, 0.0);
   int differ = 0;
   for (int i = 0; i < 3; ++i) {
-    differ += 1000.0 * target[i].metrics.mean_tracking_error != 1000.0 * composite[i].metrics.mean_tracking_error;
+    differ += target[i].metrics.mean_tracking_error != composite[i].metrics.mean_tracking_error;
   }
   EXPECT_GT(differ, 0);
 }
@@ -211,8 +211,8 @@ TEST(BasicLayerV2Test, RmpflowAdjustmentIsApplied) {
   const auto t = EvaluateMethod(tuned, c, {.episodes = 3, .eval_seed = 99});
   int differ = 0;
   for (int i = 0; i < 3; ++i) {
-    EXPECT_EQ(1000.0 * a[i].metrics.mean_tracking_error, 1000.0 * b[i].metrics.mean_tracking_error);
-    differ += 1000.0 * a[i].metrics.mean_tracking_error != 1000.0 * t[i].metrics.mean_tracking_error;
+    EXPECT_EQ(a[i].metrics.mean_tracking_error, b[i].metrics.mean_tracking_error);
+    differ += a[i].metrics.mean_tracking_error != t[i].metrics.mean_tracking_error;
   }
   EXPECT_GT(differ, 0);
   Method broken = Method::Rmpflow();

@@ -25,8 +25,11 @@ RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$example" rmpflow
 # the Python package as `make install` puts it (<prefix>/lib/python3/dist-packages), away from the source tree:
 # a shipped controller on a shipped robot
 if [[ -d "$prefix/lib/python3/dist-packages/rmpmarl" ]]; then
+  # a sanitized build's module needs the sanitizer runtimes loaded first (tests/CMakeLists.txt sets the list)
+  preload=(); [[ -n "${RMPMARL_SANITIZER_PRELOAD:-}" ]] && preload=(env LD_PRELOAD="$RMPMARL_SANITIZER_PRELOAD"
+    ASAN_OPTIONS=halt_on_error=1:detect_leaks=0)
   (cd "$prefix" && RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" PYTHONPATH="$prefix/lib/python3/dist-packages" \
-    /usr/bin/python3 -c "
+    "${preload[@]}" /usr/bin/python3 -c "
 import numpy as np, rmpmarl
 assert rmpmarl.__file__.startswith('$prefix'), rmpmarl.__file__
 c = rmpmarl.load_controller(rmpmarl.shipped_policy(), robot='panda')

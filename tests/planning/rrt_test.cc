@@ -25,6 +25,14 @@
 namespace rmpmarl::planning {
 namespace {
 
+// a search budget of RRT-Connect iterations instead of wall-clock time, so that a planning test finds the same path
+// on any machine and under the sanitizers (which run it several times slower)
+RrtOptions IterationBudget(RrtOptions options) {
+  options.planning_time_budget = 3600.0;
+  options.planning_iterations = 20000;
+  return options;
+}
+
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 
@@ -258,7 +266,7 @@ double PathClearance(RrtPolicy& policy, const std::vector<VectorXd>& path, const
 TEST(RrtPlanningTest, PathAroundAWallIsCollisionFreeAndReachesTheGoal) {
   const kinematics::Robot panda = Panda();
   const WallSetup w = MakeWall(panda);
-  RrtPolicy policy(panda, {.seed = 3});
+  RrtPolicy policy(panda, IterationBudget({.seed = 3}));
   ASSERT_TRUE(policy.IsStateValid(w.q_start, w.scene));
   const IkResult ik = policy.SolveIk(w.q_start, w.scene);
   ASSERT_TRUE(ik.reached);
@@ -278,12 +286,16 @@ TEST(RrtPlanningTest, PathAroundAWallIsCollisionFreeAndReachesTheGoal) {
   EXPECT_GT(clearance, 0.0);
   EXPECT_LT((EndEffector(panda, path.back()) - w.p_WT).norm(), policy.options().ik_tolerance);
 
+  // the iteration budget ends a search: one iteration does not get around the wall
+  RrtPolicy starved(panda, {.planning_time_budget = 3600.0, .planning_iterations = 1, .seed = 3});
+  EXPECT_TRUE(starved.PlanPath(w.q_start, ik.q, w.scene).empty());
+
   // the same seed gives the same path; the plan does not depend on other instances' sampling
-  RrtPolicy other(panda, {.seed = 99});
+  RrtPolicy other(panda, IterationBudget({.seed = 99}));
   const std::vector<VectorXd> other_path = other.PlanPath(w.q_start, ik.q, w.scene);
   ASSERT_GE(other_path.size(), 3u);
   EXPECT_NE(other_path[1], path[1]);  // another seed, another RRT state
-  RrtPolicy again(panda, {.seed = 3});
+  RrtPolicy again(panda, IterationBudget({.seed = 3}));
   const std::vector<VectorXd> repeat = again.PlanPath(w.q_start, ik.q, w.scene);
   ASSERT_EQ(repeat.size(), path.size());
   for (size_t k = 0; k < path.size(); ++k) EXPECT_EQ(repeat[k], path[k]);
@@ -360,7 +372,7 @@ TEST(RrtClosedLoopTest, ReachesTheTargetBehindAWallWithoutCollision) {
   const WallSetup w = MakeWall(panda);
   sim::StaticScenario scenario(panda, {.q_start = w.q_start, .p_WT = w.p_WT,
                                        .obstacles = {sim::ObstacleSpec::Box(w.half_size, w.X_WO)}});
-  Rig rig(scenario, {.seed = 1});
+  Rig rig(scenario, IterationBudget({.seed = 1}));
   ASSERT_NEAR(rig.controller->substep(), rig.policy->options().evaluation_period, 1e-12);
   const sim::EpisodeMetrics r = sim::RunEpisode({.duration = 6.0, .seed = 0}, rig.world, *rig.controller, scenario);
   const RrtStats& s = rig.policy->stats();
@@ -384,7 +396,7 @@ TEST(RrtClosedLoopTest, ReachesStaticTargetsBehindASphereOnEveryArm) {
   for (const std::string& name : kinematics::ShippedRobotNames()) {
     const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
     sim::StaticReachScenario scenario(robot, {.obstacle_on_path = true});
-    Rig rig(scenario, {.seed = 2});
+    Rig rig(scenario, IterationBudget({.seed = 2}));
     double worst = 0.0, slowest = 0.0, max_ms = 0.0;
     for (std::uint64_t seed = 0; seed < 3; ++seed) {
       const sim::EpisodeMetrics r =
@@ -404,7 +416,7 @@ TEST(RrtClosedLoopTest, ReachesStaticTargetsBehindASphereOnEveryArm) {
 TEST(RrtClosedLoopTest, CrossingScenarioStaysFinite) {
   const kinematics::Robot panda = Panda();
   sim::CrossingScenario scenario(panda);
-  Rig rig(scenario, {.seed = 4});
+  Rig rig(scenario, IterationBudget({.seed = 4}));
   const sim::EpisodeMetrics r = sim::RunEpisode({.duration = 10.0, .seed = 0}, rig.world, *rig.controller, scenario);
   const RrtStats& s = rig.policy->stats();
   const auto [mean_ms, max_ms] = MeanMaxMs(s.planning_times_s);

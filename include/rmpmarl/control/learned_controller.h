@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <limits>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -80,11 +81,9 @@ class LearnedController final : public AccelerationPolicy {
   /// there on: a controller running longer than the episodes it was trained on sees the end of an episode).
   int steps() const { return steps_; }
   /// the warning contacts of the last control step (computed from the geometry).
-  const std::vector<WarningContact>& warnings() const { return contacts_; }
+  std::span<const WarningContact> warnings() const { return warnings_.contacts(); }
 
  private:
-  void ComputeWarnings(const rmp::Scene& scene);
-
   LearnedControllerOptions options_;
   const kinematics::Robot& robot_;
   JointAgents agents_;
@@ -96,9 +95,7 @@ class LearnedController final : public AccelerationPolicy {
   bool started_ = false;
   std::vector<float> obs_, actions_;
   std::vector<float> reads_;  // per agent: 1 where this step's Apply reads its action (JointAgents::ReadsAction)
-  std::vector<WarningContact> contacts_;
-  std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
-  std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)
+  WarningSensor warnings_;
   // a scene without a target: the end effector is held where it was at the first such step
   bool holding_ = false;
   Eigen::Vector3d p_hold_ = Eigen::Vector3d::Zero();

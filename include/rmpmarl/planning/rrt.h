@@ -61,6 +61,9 @@ struct RrtOptions {
   double retry_period = 0.05;
   /// wall-clock budget of one RRT-Connect search [s] (OMPL planner termination condition).
   double planning_time_budget = 0.05;
+  /// the most RRT-Connect iterations of one search (0: no limit but the time budget); a search ends at whichever
+  /// budget runs out first. With a time budget that never runs out, a search is the same on any machine.
+  int planning_iterations = 0;
   /// IK starts per replan: the current q, the previous goal (when there is one), then uniform random configurations.
   int ik_seeds = 8;
   /// damped-least-squares iterations per seed.

@@ -9,10 +9,12 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "rmpmarl/control/controller.h"
+#include "rmpmarl/control/warning.h"
 #include "rmpmarl/kinematics/model.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/controlled_world.h"
@@ -124,6 +126,8 @@ class EpisodeLoop {
   const Scenario* scenario_or_null() const { return scenario_; }
   /// the source's scene at the current state (the truth).
   const rmp::Scene& scene() const { return scene_; }
+  /// the robot's warning contacts with the scene (the truth) at the current state, sensed once per control step.
+  std::span<const control::WarningContact> warnings() const { return warnings_->contacts(); }
   const ContactReport& contacts() const { return *contacts_; }
   const ObstacleSensor* sensor() const { return sensor_; }
   /// ‖p_WE − p_WT‖ now [m].
@@ -133,12 +137,13 @@ class EpisodeLoop {
   double time() const;
   /// collision events in the last control period.
   int step_collisions() const { return step_events_.total(); }
-  /// smallest robot–obstacle distance in the last period's contacts [m] (+inf: none within the margin).
+  /// smallest robot–obstacle distance sensed at the end of the last period [m] (+inf: none within the margin).
   double step_min_clearance() const { return step_min_clearance_; }
 
  private:
   void Observe(const ContactReport& report);
-  void UpdateError();
+  // the end effector's error and the warning contacts of the current state
+  void SenseState();
 
   World* world_ = nullptr;
   SceneSource* source_ = nullptr;
@@ -152,6 +157,7 @@ class EpisodeLoop {
   CollisionCounter counter_;
   std::optional<kinematics::Data> kin_;
   const kinematics::Model* kin_model_ = nullptr;
+  std::optional<control::WarningSensor> warnings_;
   long physics_step_ = 0;
   int steps_ = 0;
   double error_ = 0.0;
@@ -160,11 +166,9 @@ class EpisodeLoop {
   long collision_physics_steps_ = 0;
   double control_us_sum_ = 0.0;
   CollisionCounter::Events observed_;  // of the last report observed
-  double observed_min_clearance_ = std::numeric_limits<double>::infinity();
-  // the control period in progress: physics steps taken, events and smallest clearance so far, divergence
+  // the control period in progress: physics steps taken, events so far, divergence
   int period_step_ = 0;
   CollisionCounter::Events period_events_;
-  double period_min_clearance_ = std::numeric_limits<double>::infinity();
   bool period_ok_ = true;
   CollisionCounter::Events step_events_;
   double step_min_clearance_ = std::numeric_limits<double>::infinity();
@@ -191,6 +195,7 @@ struct FrameInfo {
   const ContactReport* contacts = nullptr;
   double tracking_error = 0.0;         ///< ‖p_WE − p_WT‖ [m]
   const ObstacleSensor* sensor = nullptr;
+  std::span<const control::WarningContact> warnings{};  ///< the robot's warning contacts (EpisodeLoop::warnings)
 };
 
 /// Called at EpisodeOptions::video_fps (first frame at t = 0), at control-period boundaries.

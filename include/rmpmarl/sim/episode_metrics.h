@@ -23,9 +23,10 @@ struct EpisodeMetrics {
   int obstacle_collisions = 0;   ///< of which robot–obstacle or robot–floor
   int self_collisions = 0;       ///< of which link–link
   double time_in_collision = 0.0;  ///< simulated time with at least one pair in penetration [s]
-  /// smallest signed robot–obstacle (or floor) distance seen [m]; +inf: nothing came within the warning margin
+  /// smallest signed robot–obstacle (or floor) distance sensed at a control step [m]; +inf: nothing came within the
+  /// warning margin
   double min_clearance = std::numeric_limits<double>::infinity();
-  /// smallest signed distance between checked link pairs [m]; +inf: none came within the margin
+  /// smallest signed distance between checked link pairs at a control step [m]; +inf: none came within the margin
   double min_self_clearance = std::numeric_limits<double>::infinity();
 
   // ‖p_WE − p_WT‖ after every control step
@@ -53,6 +54,11 @@ struct LoopOptions {
   /// success needs the final error below this [m] (+inf: success = no collision and not invalid)
   double success_max_final_error = std::numeric_limits<double>::infinity();
   double settle_time = 1.0;       ///< start of the settled phase [s], ≥ 0
+  /// the robot's warning contacts (control::WarningSensor: capsules against the scene's obstacles and each other)
+  /// are sensed within this distance once per control step [m], > 0; the clearances are read from them
+  double warning_margin = 0.15;
+  /// a floor plane z = floor_height in the warning contacts [m]; NaN: none
+  double floor_height = std::numeric_limits<double>::quiet_NaN();
   ScenarioUpdate scenario_update = ScenarioUpdate::kPhysicsStep;
 };
 

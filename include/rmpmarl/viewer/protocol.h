@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rmpmarl/control/warning.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/viewer/visuals.h"
@@ -20,7 +21,6 @@ class LearnedController;
 }
 namespace rmpmarl::sim {
 class World;
-struct ContactReport;
 }
 
 namespace rmpmarl::viewer {
@@ -112,9 +112,9 @@ struct ObstacleView {
 /// options, parameters and warnings are shown).
 struct ArmView {
   const sim::World* world = nullptr;
-  /// the world's last contact report (its robot–obstacle warnings are the witness points of an arm without a
-  /// learned controller); may be null
-  const sim::ContactReport* contacts = nullptr;
+  /// the arm's warning contacts (sim::EpisodeLoop::warnings: their robot–obstacle witness points are drawn for an
+  /// arm without a learned controller); may be empty
+  std::span<const control::WarningContact> warnings{};
   const control::LearnedController* learned = nullptr;
   Eigen::Vector3d p_WE = Eigen::Vector3d::Zero();
   double clearance = 0.0;  ///< smallest robot–obstacle distance [m] (Clearance); +inf: no obstacle

@@ -1,0 +1,93 @@
+// The warning contacts of a robot's capsules from geometry: obstacles, floor and self pairs within a margin.
+#include "rmpmarl/control/warning.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::control {
+namespace {
+
+math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCapsule& lc) {
+  const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
+  return {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+}
+
+}  // namespace
+
+WarningSensor::WarningSensor(const kinematics::Robot& robot, const WarningSensorOptions& options)
+    : robot_(&robot), options_(options) {
+  if (!std::isfinite(options.margin) || !(options.margin > 0.0)) {
+    throw InputError(fmt::format("WarningSensorOptions.margin: expected a finite distance > 0 m, got {}",
+                                 options.margin));
+  }
+  if (options.max_obstacles < 0) {
+    throw InputError(fmt::format("WarningSensorOptions.max_obstacles: expected >= 0, got {}", options.max_obstacles));
+  }
+  // the pairs the simulated worlds check: capsules of distinct, non-excluded links
+  const int nc = static_cast<int>(robot.capsules.size());
+  for (int c = 0; c < nc; ++c) {
+    for (int d = c + 1; d < nc; ++d) {
+      const int lc = robot.capsules[c].link, ld = robot.capsules[d].link;
+      if (lc != ld && !robot.IsExcludedPair(lc, ld)) self_pairs_.emplace_back(c, d);
+    }
+  }
+  const int nq = robot.model.nq();
+  on_moving_link_.assign(nc, 0);
+  for (int c = 0; c < nc; ++c) {
+    for (int i = 0; i < nq; ++i) on_moving_link_[c] |= robot.model.DofMovesLink(i, robot.capsules[c].link) ? 1 : 0;
+  }
+  contacts_.reserve(static_cast<size_t>(nc) * (options.max_obstacles + 1) + self_pairs_.size());
+}
+
+void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) {
+  const kinematics::Robot& robot = *robot_;
+  const double margin = options_.margin;
+  contacts_.clear();
+  min_clearance_ = min_self_clearance_ = std::numeric_limits<double>::infinity();
+  auto add = [&](int capsule, PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
+    if (!(r.distance < margin)) return;
+    WarningContact c;
+    c.link = robot.capsules[capsule].link;
+    c.capsule = capsule;
+    c.other_kind = kind;
+    c.other_index = index;
+    c.other_capsule = other_capsule;
+    c.distance = r.distance;
+    c.p_W1 = r.p_W1;
+    c.p_W2 = r.p_W2;
+    c.n_W = r.n_W;
+    contacts_.push_back(c);
+    double& slot = kind == PartnerKind::kLink ? min_self_clearance_ : min_clearance_;
+    slot = std::min(slot, r.distance);
+  };
+  const int nc = static_cast<int>(robot.capsules.size());
+  for (int c = 0; c < nc; ++c) {
+    const math::Capsule cap = WorldCapsule(kin, robot.capsules[c]);
+    for (int j = 0; j < static_cast<int>(scene.obstacles.size()); ++j) {
+      add(c, PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
+    }
+    if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
+      // the capsule's lowest axis end point against the plane z = floor_height
+      const bool a_lower = cap.p_WA.z() <= cap.p_WB.z();
+      math::DistanceResult r;
+      const Eigen::Vector3d& axis_point = a_lower ? cap.p_WA : cap.p_WB;
+      r.distance = axis_point.z() - options_.floor_height - cap.radius;
+      r.n_W = Eigen::Vector3d::UnitZ();
+      r.p_W1 = axis_point - cap.radius * r.n_W;
+      r.p_W2 = Eigen::Vector3d(axis_point.x(), axis_point.y(), options_.floor_height);
+      add(c, PartnerKind::kFloor, -1, -1, r);
+    }
+  }
+  for (const auto& [c, d] : self_pairs_) {
+    const math::DistanceResult r = math::CapsuleCapsuleDistance(WorldCapsule(kin, robot.capsules[c]),
+                                                                WorldCapsule(kin, robot.capsules[d]));
+    add(c, PartnerKind::kLink, robot.capsules[d].link, d, r);
+  }
+}
+
+}  // namespace rmpmarl::control
