@@ -16,7 +16,6 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/control/learned_controller.h"
-#include "rmpmarl/experiments/evaluation.h"
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/policy_file.h"
@@ -118,11 +117,14 @@ void RegisterEval(CLI::App& app) {
         tasks::ControllerMaker learned = tasks::LearnedControllerMaker(
             config, file.weights, std::filesystem::path(args->policy).stem().string(), slots);
         learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
+        // the episodes the env evaluation runs (rl::Evaluate): env k of --envs draws its episodes from a generator
+        // seeded seed + k, and runs the k-th share of them one after the other
         tasks::ControllerEpisodes runner(context, learned);
         std::vector<tasks::EpisodeMetrics> episodes;
-        for (int i = 0; i < args->episodes; ++i) {
-          std::mt19937_64 rng(experiments::EpisodeSeed(args->seed, i));
-          episodes.push_back(runner.Run(rng));
+        for (int k = 0; k < args->envs; ++k) {
+          std::mt19937_64 rng(args->seed + static_cast<std::uint64_t>(k));
+          const int share = args->episodes / args->envs + (k < args->episodes % args->envs ? 1 : 0);
+          for (int e = 0; e < share; ++e) episodes.push_back(runner.Run(rng));
         }
         r = rl::SummarizeEpisodes(episodes);
       } else {

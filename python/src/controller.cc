@@ -195,6 +195,8 @@ clear_cloud(). Give a cloud when the sensor has a new frame, not at every step.)
 
 }  // namespace
 
+void BindControllerMakers(py::module_& m);
+
 void BindControllers(py::module_& m) {
   py::class_<ControllerHandle, std::shared_ptr<ControllerHandle>>(m, "Controller", R"doc(
 A reactive controller: the learned per-joint agents of a controller file (rmpmarl.load_controller) or RMPflow
@@ -331,7 +333,11 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         return fmt::format("Controller('{}' on {}, {} Hz)", h.controller->policy().name(), h.robot->robot->name,
                            1.0 / h.controller->control_period());
       });
+  BindControllerMakers(m);
+}
 
+// the functions that make controllers (and read the clouds they take)
+void BindControllerMakers(py::module_& m) {
   m.def("load_controller", &LoadController, py::arg("policy_file"), py::arg("robot") = py::none(),
         py::arg("max_obstacles") = 16, py::arg("floor_height") = py::none(),
         "the learned controller of a controller file (.rmpp) on `robot` (an rmpmarl.Robot, a name or a .urdf path; "

@@ -305,6 +305,223 @@ std::vector<std::string> LearnedKeys(const std::vector<const MethodSpec*>& metho
   return keys;
 }
 
+// What every experiment's part of RunExperiment shares: the options, the methods, the training runs and budgets,
+// the evaluation protocol, and the report and rows it fills.
+struct ExperimentRun {
+  const ExperimentOptions& o;
+  const std::vector<const MethodSpec*>& entries;
+  const Budgets& budgets;
+  const RunnerOptions& runner;
+  EvalProtocol& protocol;
+  std::function<int(int)> episodes;  // --episodes, or `full` (2 with --quick)
+  std::function<void()> train;       // trains what the methods need (nothing with --shipped)
+  std::function<fs::path(const MethodSpec&, int)> final_policy;
+  const std::string& training_note;
+  ReportText& text;
+  std::vector<ResultRow>& rows;
+  std::vector<Job>& jobs;
+};
+
+// table3: pre-training on the two-link arm at the paper's three budgets
+void RunTable3(ExperimentRun& x) {
+  const ExperimentOptions& o = x.o;
+  const std::vector<const MethodSpec*>& entries = x.entries;
+  const Budgets& budgets = x.budgets;
+  const RunnerOptions& runner = x.runner;
+  EvalProtocol& protocol = x.protocol;
+  const auto& episodes = x.episodes;
+  const auto& train = x.train;
+  const auto& final_policy = x.final_policy;
+  const std::string& training_note = x.training_note;
+  ReportText& text = x.text;
+  std::vector<ResultRow>& rows = x.rows;
+  std::vector<Job>& jobs = x.jobs;
+  // The paper's budgets 5K / 10K / 15K: 15K is the pre-training budget (1200 updates × 16 envs × 128 steps =
+  // 2.46 M env steps with --budget full, as the shipped policy); 5K and 10K are the snapshots after 1/3 and 2/3.
+  const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
+  train();
+  protocol.episodes = episodes(100);
+  const tasks::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
+  const std::vector<std::string> names = {"5K", "10K", "15K"};
+  for (int b = 0; b < 3; ++b) {
+    if (o.shipped && b < 2) continue;  // the shipped policy is the full budget's
+    AddJobs(entries, names[b], task, o.seeds, [&](const MethodSpec& m, int s) {
+      return b == 2 ? final_policy(m, s) : RunPolicy(runner, RunId(m.key, s), at[b]);
+    }, &jobs);
+    // the untrained rows once, at the first budget evaluated
+    const int first = o.shipped ? 2 : 0;
+    std::erase_if(jobs, [&](const Job& j) { return b > first && j.train_seed == 0 && j.condition == names[b]; });
+  }
+  for (Job& j : jobs) {
+    if (j.train_seed == 0) j.condition = "-";
+  }
+  rows = RunJobs(jobs, protocol);
+  text.title = "Table 3 — pre-training on the two-link arm (paper IV.A)";
+  text.setup = fmt::format(
+      "Task `pretrain-2link` (configs/tasks/pretrain-2link.yaml): the randomised two-link arm tracks a target in "
+      "linear motion with a cube beside its path (its surface 5–12 cm from the path 1–3 s ahead, ≥ 5 cm everywhere). "
+      "HRL-RMP = the per-joint RMP options agent (MAPPO, shared actor, "
+      "configs/train/pretrain-2link.yaml); PPO = one agent commanding both joints directly "
+      "(configs/train/ppo-pretrain-2link.yaml). **Budgets:** the paper's 5K / 10K / 15K are mapped to 1/3, 2/3 and "
+      "all of our pre-training budget: {} / {} / {} updates of 16 envs × 128 steps ({:.2f} / {:.2f} / {:.2f} M env "
+      "steps, i.e. 1K ≈ {} updates); the 5K and 10K policies are snapshots of the 15K runs. {} episodes per "
+      "budget and seed.\n\n{}", at[0], at[1], at[2], at[0] * 2048e-6, at[1] * 2048e-6, at[2] * 2048e-6,
+      at[2] / 15, protocol.episodes, training_note);
+  const std::map<std::string, std::pair<std::string, std::string>> hrl = {
+      {"5K", {"83.4 %", "22.6 ± 12.1"}}, {"10K", {"95.6 %", "14.3 ± 5.4"}}, {"15K", {"99.6 %", "6.3 ± 0.6"}}};
+  const std::map<std::string, std::pair<std::string, std::string>> ppo = {
+      {"5K", {"45.5 %", "172.6 ± 44.2"}}, {"10K", {"73.7 %", "76.2 ± 26.2"}}, {"15K", {"87.1 %", "44.8 ± 14.6"}}};
+  for (const auto& [c, v] : hrl) text.paper[{"HRL-RMP", c}] = {v.first, v.second + " mm"};
+  for (const auto& [c, v] : ppo) text.paper[{"PPO", c}] = {v.first, v.second + " mm"};
+  text.notes += Table3Split(rows, "15K");
+}
+
+// table4 (line-crossing at five speeds) or cluttered
+void RunLineCrossingOrCluttered(ExperimentRun& x) {
+  const ExperimentOptions& o = x.o;
+  const std::vector<const MethodSpec*>& entries = x.entries;
+  EvalProtocol& protocol = x.protocol;
+  const auto& episodes = x.episodes;
+  const auto& train = x.train;
+  const auto& final_policy = x.final_policy;
+  const std::string& training_note = x.training_note;
+  ReportText& text = x.text;
+  std::vector<ResultRow>& rows = x.rows;
+  std::vector<Job>& jobs = x.jobs;
+  train();
+  if (o.name == "table4") {
+    protocol.episodes = episodes(40);
+    for (double v : {0.2, 0.6, 1.2, 1.8, 2.8}) {
+      tasks::TaskConfig task = ExperimentTask("line-crossing", o.quick);
+      task.scenario.line_speeds = {v};
+      AddJobs(entries, fmt::format("{:.1f} m/s", v), task, o.seeds, final_policy, &jobs);
+    }
+    rows = RunJobs(jobs, protocol);
+    text.title = "Table 4 — line-crossing at 0.2 … 2.8 m/s (paper IV.C)";
+    std::vector<std::string> on_lines;  // learned methods whose training scenes were line-crossing
+    for (const MethodSpec* m : entries) {
+      if (m->training && m->training->config.find("line-crossing") != std::string::npos) {
+        on_lines.push_back(m->label);
+      }
+    }
+    const std::string trained_on =
+        on_lines.empty()
+            ? std::string("never saw line-crossing")
+            : fmt::format("never saw line-crossing, except {} (trained on line-crossing scenes of the training "
+                          "seeds, never on these evaluation episodes)", fmt::join(on_lines, "; "));
+    text.setup = fmt::format(
+        "Task `line-crossing` (configs/tasks/line-crossing.yaml): Panda, a line of five 8 cm cubes crossing the "
+        "workspace again and again at the given speed; a cube that hits the robot stops there (Fig. 7). 6 s "
+        "episodes; {} episodes per speed and seed; the same episodes at every speed except for the speed. Learned "
+        "methods are trained on `reach-avoid` (paper IV.B) and {}. RMPflow: configs/rmpflow, "
+        "the demo's controller (2 ms substeps). RRT: RRT-Connect replanning in joint space (planning/rrt.h). "
+        "Basic layer: every joint's agent replaced by a fixed option with unit scales.\n\n{}",
+        protocol.episodes, trained_on, training_note);
+    const std::map<std::string, std::vector<std::string>> paper = {
+        {"PPO", {"90.4 %", "83.6 %", "Failed", "Failed", "Failed"}},
+        {"MAPPO (no pre-training)", {"95.2 %", "92.4 %", "52.2 %", "Failed", "Failed"}},
+        {"RMPflow", {"100 %", "94.4 %", "82.4 %", "74.8 %", "65.3 %"}},
+        {"MARL-RMP", {"100 %", "100 %", "87.6 %", "85.5 %", "80.5 %"}}};
+    const std::vector<std::string> speeds = {"0.2 m/s", "0.6 m/s", "1.2 m/s", "1.8 m/s", "2.8 m/s"};
+    for (const auto& [m, v] : paper) {
+      for (size_t k = 0; k < speeds.size(); ++k) text.paper[{m, speeds[k]}] = {v[k], ""};
+    }
+  } else {
+    protocol.episodes = episodes(50);
+    AddJobs(entries, "static 20–50 cm", ExperimentTask("cluttered", o.quick), o.seeds, final_policy, &jobs);
+    rows = RunJobs(jobs, protocol);
+    text.title = "Cluttered — static obstacles 20–50 cm around the start (paper IV.C, second experiment)";
+    text.setup = fmt::format(
+        "Task `cluttered` (configs/tasks/cluttered.yaml): Panda, six static 8 cm cubes at 20–50 cm from the start "
+        "end effector in random directions, a target moving at 0.1 m/s. The paper reports this experiment "
+        "qualitatively only. {} episodes per seed.\n\n{}", protocol.episodes, training_note);
+  }
+}
+
+// fig3: training curves and the final policies on reach-avoid
+void RunFig3(ExperimentRun& x) {
+  const ExperimentOptions& o = x.o;
+  const std::vector<const MethodSpec*>& entries = x.entries;
+  const Budgets& budgets = x.budgets;
+  const RunnerOptions& runner = x.runner;
+  EvalProtocol& protocol = x.protocol;
+  const auto& episodes = x.episodes;
+  const auto& train = x.train;
+  const auto& final_policy = x.final_policy;
+  const std::string& training_note = x.training_note;
+  ReportText& text = x.text;
+  std::vector<ResultRow>& rows = x.rows;
+  std::vector<Job>& jobs = x.jobs;
+  train();
+  std::vector<LearnedRuns> learned;
+  for (const MethodSpec* m : entries) {
+    if (m->kind != MethodSpec::Kind::kLearned) {
+      throw InputError(fmt::format("--methods: fig3 plots training curves; {} is not learned", m->key));
+    }
+    LearnedRuns l{m->label, m->interface, {}};
+    for (int s = 1; s <= o.seeds; ++s) l.run_ids.push_back(RunId(m->key, s));
+    learned.push_back(l);
+  }
+  WriteFig3Curves(learned, runner, o.out, &text.notes);
+  protocol.episodes = episodes(50);
+  AddJobs(entries, "reach-avoid", ExperimentTask("reach-avoid", o.quick), o.seeds, final_policy, &jobs);
+  rows = RunJobs(jobs, protocol);
+  text.title = "Figure 3 — training curves on reach-avoid (paper IV.B)";
+  text.setup = fmt::format(
+      "Training curves (`curves.csv`, `fig3_curves.png`: mean over seeds, band = min–max) of PPO (one agent, "
+      "direct joint control), MARL-PPO (per-joint direct agents pre-trained on the two-link arm with MAPPO), MAPPO "
+      "without pre-training (per-joint RMP agents from scratch) and MARL-RMP (per-joint RMP agents pre-trained with "
+      "HRL-RMP) on `reach-avoid` (Panda, one crossing cube, ±15 % link lengths), {} updates × 2048 env steps each. "
+      "The table below the curves evaluates each final policy on {} held-out reach-avoid episodes per seed.\n\n{}",
+      budgets.panda, protocol.episodes, training_note);
+}
+
+// fig5: every shipped arm (and --urdf arms) with a crossing cube
+void RunFig5(ExperimentRun& x) {
+  const ExperimentOptions& o = x.o;
+  const std::vector<const MethodSpec*>& entries = x.entries;
+  EvalProtocol& protocol = x.protocol;
+  const auto& episodes = x.episodes;
+  const auto& train = x.train;
+  const auto& final_policy = x.final_policy;
+  const std::string& training_note = x.training_note;
+  ReportText& text = x.text;
+  std::vector<ResultRow>& rows = x.rows;
+  std::vector<Job>& jobs = x.jobs;
+  train();
+  protocol.episodes = episodes(30);
+  std::vector<std::string> arms = kinematics::ShippedRobotNames();
+  if (o.quick) arms.resize(std::min<size_t>(arms.size(), 2));
+  std::vector<std::pair<std::string, std::string>> robots;  // (label, robot)
+  for (const std::string& arm : arms) robots.emplace_back(arm, arm);
+  for (const std::string& urdf : o.urdfs) {
+    if (!tasks::IsUrdfPath(urdf) || !std::filesystem::is_regular_file(urdf)) {
+      throw InputError(fmt::format("--urdf: expected existing .urdf files, got '{}'", urdf));
+    }
+    robots.emplace_back(std::filesystem::path(urdf).stem().string(), urdf);
+  }
+  for (const auto& [label, robot] : robots) {
+    tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
+    task.robot = robot;
+    task.scenario.crossing.num_obstacles = 1;
+    AddJobs(entries, label, task, o.seeds, final_policy, &jobs);
+  }
+  rows = RunJobs(jobs, protocol);
+  text.title = "Figure 5 — MARL-RMP on every shipped arm with a crossing obstacle (paper IV.B)";
+  text.setup = fmt::format(
+      "Task `reach-avoid` on each arm (link lengths randomised ±15 % as in training, one 10 cm cube crossing at "
+      "0.3 m/s, a target moving at 0.1 m/s, 5 s episodes). MARL-RMP was trained on the **Panda only**: every other "
+      "arm is unseen (its per-joint agents share the Panda-trained actor). RMPflow and the basic layer run on the "
+      "same episodes. {} episodes per arm and seed.\n\n{}", protocol.episodes, training_note);
+  if (std::find_if(entries.begin(), entries.end(), [](const MethodSpec* m) { return m->key == "marl-rmp"; }) !=
+      entries.end()) {
+    tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
+    task.scenario.crossing.num_obstacles = 1;
+    RenderFig5Frames(arms, task, final_policy(FindMethod("marl-rmp"), 1), o.eval_seed, o.out, &text.notes);
+  }
+  text.notes += Fig5Split(rows);
+}
+
 }  // namespace
 
 
@@ -413,150 +630,15 @@ fs::path RunExperiment(const ExperimentOptions& options) {
 
   fmt::print("experiment {}{}: output {}, runs {}\n", o.name, o.quick ? " (quick)" : "", o.out.string(),
              o.runs.string());
+  ExperimentRun x{o, entries, budgets, runner, protocol, episodes, train, final_policy, training_note, text, rows, jobs};
   if (o.name == "table3") {
-    // The paper's budgets 5K / 10K / 15K: 15K is the pre-training budget (1200 updates × 16 envs × 128 steps =
-    // 2.46 M env steps with --budget full, as the shipped policy); 5K and 10K are the snapshots after 1/3 and 2/3.
-    const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
-    train();
-    protocol.episodes = episodes(100);
-    const tasks::TaskConfig task = ExperimentTask("pretrain-2link", o.quick);
-    const std::vector<std::string> names = {"5K", "10K", "15K"};
-    for (int b = 0; b < 3; ++b) {
-      if (o.shipped && b < 2) continue;  // the shipped policy is the full budget's
-      AddJobs(entries, names[b], task, o.seeds, [&](const MethodSpec& m, int s) {
-        return b == 2 ? final_policy(m, s) : RunPolicy(runner, RunId(m.key, s), at[b]);
-      }, &jobs);
-      // the untrained rows once, at the first budget evaluated
-      const int first = o.shipped ? 2 : 0;
-      std::erase_if(jobs, [&](const Job& j) { return b > first && j.train_seed == 0 && j.condition == names[b]; });
-    }
-    for (Job& j : jobs) {
-      if (j.train_seed == 0) j.condition = "-";
-    }
-    rows = RunJobs(jobs, protocol);
-    text.title = "Table 3 — pre-training on the two-link arm (paper IV.A)";
-    text.setup = fmt::format(
-        "Task `pretrain-2link` (configs/tasks/pretrain-2link.yaml): the randomised two-link arm tracks a target in "
-        "linear motion with a cube beside its path (its surface 5–12 cm from the path 1–3 s ahead, ≥ 5 cm everywhere). "
-        "HRL-RMP = the per-joint RMP options agent (MAPPO, shared actor, "
-        "configs/train/pretrain-2link.yaml); PPO = one agent commanding both joints directly "
-        "(configs/train/ppo-pretrain-2link.yaml). **Budgets:** the paper's 5K / 10K / 15K are mapped to 1/3, 2/3 and "
-        "all of our pre-training budget: {} / {} / {} updates of 16 envs × 128 steps ({:.2f} / {:.2f} / {:.2f} M env "
-        "steps, i.e. 1K ≈ {} updates); the 5K and 10K policies are snapshots of the 15K runs. {} episodes per "
-        "budget and seed.\n\n{}", at[0], at[1], at[2], at[0] * 2048e-6, at[1] * 2048e-6, at[2] * 2048e-6,
-        at[2] / 15, protocol.episodes, training_note);
-    const std::map<std::string, std::pair<std::string, std::string>> hrl = {
-        {"5K", {"83.4 %", "22.6 ± 12.1"}}, {"10K", {"95.6 %", "14.3 ± 5.4"}}, {"15K", {"99.6 %", "6.3 ± 0.6"}}};
-    const std::map<std::string, std::pair<std::string, std::string>> ppo = {
-        {"5K", {"45.5 %", "172.6 ± 44.2"}}, {"10K", {"73.7 %", "76.2 ± 26.2"}}, {"15K", {"87.1 %", "44.8 ± 14.6"}}};
-    for (const auto& [c, v] : hrl) text.paper[{"HRL-RMP", c}] = {v.first, v.second + " mm"};
-    for (const auto& [c, v] : ppo) text.paper[{"PPO", c}] = {v.first, v.second + " mm"};
-    text.notes += Table3Split(rows, "15K");
+    RunTable3(x);
   } else if (o.name == "table4" || o.name == "cluttered") {
-    train();
-    if (o.name == "table4") {
-      protocol.episodes = episodes(40);
-      for (double v : {0.2, 0.6, 1.2, 1.8, 2.8}) {
-        tasks::TaskConfig task = ExperimentTask("line-crossing", o.quick);
-        task.scenario.line_speeds = {v};
-        AddJobs(entries, fmt::format("{:.1f} m/s", v), task, o.seeds, final_policy, &jobs);
-      }
-      rows = RunJobs(jobs, protocol);
-      text.title = "Table 4 — line-crossing at 0.2 … 2.8 m/s (paper IV.C)";
-      std::vector<std::string> on_lines;  // learned methods whose training scenes were line-crossing
-      for (const MethodSpec* m : entries) {
-        if (m->training && m->training->config.find("line-crossing") != std::string::npos) {
-          on_lines.push_back(m->label);
-        }
-      }
-      const std::string trained_on =
-          on_lines.empty()
-              ? std::string("never saw line-crossing")
-              : fmt::format("never saw line-crossing, except {} (trained on line-crossing scenes of the training "
-                            "seeds, never on these evaluation episodes)", fmt::join(on_lines, "; "));
-      text.setup = fmt::format(
-          "Task `line-crossing` (configs/tasks/line-crossing.yaml): Panda, a line of five 8 cm cubes crossing the "
-          "workspace again and again at the given speed; a cube that hits the robot stops there (Fig. 7). 6 s "
-          "episodes; {} episodes per speed and seed; the same episodes at every speed except for the speed. Learned "
-          "methods are trained on `reach-avoid` (paper IV.B) and {}. RMPflow: configs/rmpflow, "
-          "the demo's controller (2 ms substeps). RRT: RRT-Connect replanning in joint space (planning/rrt.h). "
-          "Basic layer: every joint's agent replaced by a fixed option with unit scales.\n\n{}",
-          protocol.episodes, trained_on, training_note);
-      const std::map<std::string, std::vector<std::string>> paper = {
-          {"PPO", {"90.4 %", "83.6 %", "Failed", "Failed", "Failed"}},
-          {"MAPPO (no pre-training)", {"95.2 %", "92.4 %", "52.2 %", "Failed", "Failed"}},
-          {"RMPflow", {"100 %", "94.4 %", "82.4 %", "74.8 %", "65.3 %"}},
-          {"MARL-RMP", {"100 %", "100 %", "87.6 %", "85.5 %", "80.5 %"}}};
-      const std::vector<std::string> speeds = {"0.2 m/s", "0.6 m/s", "1.2 m/s", "1.8 m/s", "2.8 m/s"};
-      for (const auto& [m, v] : paper) {
-        for (size_t k = 0; k < speeds.size(); ++k) text.paper[{m, speeds[k]}] = {v[k], ""};
-      }
-    } else {
-      protocol.episodes = episodes(50);
-      AddJobs(entries, "static 20–50 cm", ExperimentTask("cluttered", o.quick), o.seeds, final_policy, &jobs);
-      rows = RunJobs(jobs, protocol);
-      text.title = "Cluttered — static obstacles 20–50 cm around the start (paper IV.C, second experiment)";
-      text.setup = fmt::format(
-          "Task `cluttered` (configs/tasks/cluttered.yaml): Panda, six static 8 cm cubes at 20–50 cm from the start "
-          "end effector in random directions, a target moving at 0.1 m/s. The paper reports this experiment "
-          "qualitatively only. {} episodes per seed.\n\n{}", protocol.episodes, training_note);
-    }
+    RunLineCrossingOrCluttered(x);
   } else if (o.name == "fig3") {
-    train();
-    std::vector<LearnedRuns> learned;
-    for (const MethodSpec* m : entries) {
-      if (m->kind != MethodSpec::Kind::kLearned) {
-        throw InputError(fmt::format("--methods: fig3 plots training curves; {} is not learned", m->key));
-      }
-      LearnedRuns l{m->label, m->interface, {}};
-      for (int s = 1; s <= o.seeds; ++s) l.run_ids.push_back(RunId(m->key, s));
-      learned.push_back(l);
-    }
-    WriteFig3Curves(learned, runner, o.out, &text.notes);
-    protocol.episodes = episodes(50);
-    AddJobs(entries, "reach-avoid", ExperimentTask("reach-avoid", o.quick), o.seeds, final_policy, &jobs);
-    rows = RunJobs(jobs, protocol);
-    text.title = "Figure 3 — training curves on reach-avoid (paper IV.B)";
-    text.setup = fmt::format(
-        "Training curves (`curves.csv`, `fig3_curves.png`: mean over seeds, band = min–max) of PPO (one agent, "
-        "direct joint control), MARL-PPO (per-joint direct agents pre-trained on the two-link arm with MAPPO), MAPPO "
-        "without pre-training (per-joint RMP agents from scratch) and MARL-RMP (per-joint RMP agents pre-trained with "
-        "HRL-RMP) on `reach-avoid` (Panda, one crossing cube, ±15 % link lengths), {} updates × 2048 env steps each. "
-        "The table below the curves evaluates each final policy on {} held-out reach-avoid episodes per seed.\n\n{}",
-        budgets.panda, protocol.episodes, training_note);
+    RunFig3(x);
   } else if (o.name == "fig5") {
-    train();
-    protocol.episodes = episodes(30);
-    std::vector<std::string> arms = kinematics::ShippedRobotNames();
-    if (o.quick) arms.resize(std::min<size_t>(arms.size(), 2));
-    std::vector<std::pair<std::string, std::string>> robots;  // (label, robot)
-    for (const std::string& arm : arms) robots.emplace_back(arm, arm);
-    for (const std::string& urdf : o.urdfs) {
-      if (!tasks::IsUrdfPath(urdf) || !std::filesystem::is_regular_file(urdf)) {
-        throw InputError(fmt::format("--urdf: expected existing .urdf files, got '{}'", urdf));
-      }
-      robots.emplace_back(std::filesystem::path(urdf).stem().string(), urdf);
-    }
-    for (const auto& [label, robot] : robots) {
-      tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
-      task.robot = robot;
-      task.scenario.crossing.num_obstacles = 1;
-      AddJobs(entries, label, task, o.seeds, final_policy, &jobs);
-    }
-    rows = RunJobs(jobs, protocol);
-    text.title = "Figure 5 — MARL-RMP on every shipped arm with a crossing obstacle (paper IV.B)";
-    text.setup = fmt::format(
-        "Task `reach-avoid` on each arm (link lengths randomised ±15 % as in training, one 10 cm cube crossing at "
-        "0.3 m/s, a target moving at 0.1 m/s, 5 s episodes). MARL-RMP was trained on the **Panda only**: every other "
-        "arm is unseen (its per-joint agents share the Panda-trained actor). RMPflow and the basic layer run on the "
-        "same episodes. {} episodes per arm and seed.\n\n{}", protocol.episodes, training_note);
-    if (std::find_if(entries.begin(), entries.end(), [](const MethodSpec* m) { return m->key == "marl-rmp"; }) !=
-        entries.end()) {
-      tasks::TaskConfig task = ExperimentTask("reach-avoid", o.quick);
-      task.scenario.crossing.num_obstacles = 1;
-      RenderFig5Frames(arms, task, final_policy(FindMethod("marl-rmp"), 1), o.eval_seed, o.out, &text.notes);
-    }
-    text.notes += Fig5Split(rows);
+    RunFig5(x);
   }
   if (!runs.empty()) text.notes += "\n## Training runs\n\n" + DescribeRuns(runs, runner);
   WriteResultFiles(rows, o.out);

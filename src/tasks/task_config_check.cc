@@ -39,6 +39,87 @@ int ScenarioObstacleCount(const TaskConfig& c) {
   return 0;
 }
 
+// the task's own scene's options (scenario.*)
+void CheckScenario(const Checker& check, const TaskConfig& c) {
+  switch (c.task) {
+    case TaskKind::kPretrain2Link: {
+      const PretrainScenarioOptions& s = c.scenario.pretrain;
+      check.Range(s.target_speed, "scenario.target_speed", 0.0, 10.0);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check.Range(s.obstacle_lead_time, "scenario.obstacle_lead_time", 0.0, 1000.0);
+      check.Range(s.obstacle_path_offset, "scenario.obstacle_path_offset", 0.0, 10.0);
+      check.Range(s.obstacle_speed, "scenario.obstacle_speed", 0.0, 10.0);
+      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
+      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
+      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kReachAvoid: {
+      const sim::CrossingOptions& s = c.scenario.crossing;
+      check(s.num_obstacles >= 0 && s.num_obstacles <= 4, "scenario.num_obstacles",
+            "an integer in [0, 4] (the paper's up to four cubes)", s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.obstacle_speed) && s.obstacle_speed >= 0.0 && s.obstacle_speed <= 10.0,
+            "scenario.obstacle_speed", "a speed in [0, 10] m/s", s.obstacle_speed);
+      check(std::isfinite(s.obstacle_speed_max) &&
+                (s.obstacle_speed_max == 0.0 || (s.obstacle_speed_max > s.obstacle_speed && s.obstacle_speed_max <= 10.0)),
+            "scenario.obstacle_speed_max", "0 (fixed speed) or a top speed in (obstacle_speed, 10] m/s",
+            s.obstacle_speed_max);
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
+            s.min_base_distance);
+      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kLineCrossing: {
+      const sim::LineCrossingOptions& s = c.scenario.line_crossing;
+      check(s.num_obstacles >= 1 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [1, 64]",
+            s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.spacing) && s.spacing > 0.0, "scenario.spacing", "a spacing > 0 m", s.spacing);
+      check(!c.scenario.line_speeds.empty(), "scenario.speeds", "a non-empty list", "an empty one");
+      for (size_t i = 0; i < c.scenario.line_speeds.size(); ++i) {
+        const double v = c.scenario.line_speeds[i];
+        check(std::isfinite(v) && v > 0.0 && v <= 20.0, fmt::format("scenario.speeds[{}]", i),
+              "a speed in (0, 20] m/s", v);
+      }
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.max_yaw_deg) && s.max_yaw_deg >= 0.0 && s.max_yaw_deg <= 90.0, "scenario.max_yaw_deg",
+            "an angle in [0, 90] deg", s.max_yaw_deg);
+      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
+            s.min_base_distance);
+      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kCluttered: {
+      const sim::ClutteredOptions& s = c.scenario.cluttered;
+      check(s.num_obstacles >= 0 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [0, 64]",
+            s.num_obstacles);
+      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
+            s.obstacle_side);
+      check(std::isfinite(s.min_distance) && s.min_distance >= 0.0, "scenario.min_distance", "a distance >= 0 m",
+            s.min_distance);
+      check(std::isfinite(s.max_distance) && s.max_distance >= s.min_distance, "scenario.max_distance",
+            "a distance >= scenario.min_distance", s.max_distance);
+      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
+            s.target_speed);
+      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
+      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
+      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
@@ -120,84 +201,7 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
   check(std::isfinite(p.velocity_limit) && p.velocity_limit > 0.0, "planar2.velocity_limit", "a limit > 0 rad/s",
         p.velocity_limit);
 
-  // scenario
-  switch (c.task) {
-    case TaskKind::kPretrain2Link: {
-      const PretrainScenarioOptions& s = c.scenario.pretrain;
-      check.Range(s.target_speed, "scenario.target_speed", 0.0, 10.0);
-      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
-            s.obstacle_side);
-      check.Range(s.obstacle_lead_time, "scenario.obstacle_lead_time", 0.0, 1000.0);
-      check.Range(s.obstacle_path_offset, "scenario.obstacle_path_offset", 0.0, 10.0);
-      check.Range(s.obstacle_speed, "scenario.obstacle_speed", 0.0, 10.0);
-      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
-      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
-      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
-      CheckWorkspace(check, s.workspace, "scenario.workspace");
-      break;
-    }
-    case TaskKind::kReachAvoid: {
-      const sim::CrossingOptions& s = c.scenario.crossing;
-      check(s.num_obstacles >= 0 && s.num_obstacles <= 4, "scenario.num_obstacles",
-            "an integer in [0, 4] (the paper's up to four cubes)", s.num_obstacles);
-      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
-            s.obstacle_side);
-      check(std::isfinite(s.obstacle_speed) && s.obstacle_speed >= 0.0 && s.obstacle_speed <= 10.0,
-            "scenario.obstacle_speed", "a speed in [0, 10] m/s", s.obstacle_speed);
-      check(std::isfinite(s.obstacle_speed_max) &&
-                (s.obstacle_speed_max == 0.0 || (s.obstacle_speed_max > s.obstacle_speed && s.obstacle_speed_max <= 10.0)),
-            "scenario.obstacle_speed_max", "0 (fixed speed) or a top speed in (obstacle_speed, 10] m/s",
-            s.obstacle_speed_max);
-      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
-            s.target_speed);
-      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
-            s.min_base_distance);
-      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
-      CheckWorkspace(check, s.workspace, "scenario.workspace");
-      break;
-    }
-    case TaskKind::kLineCrossing: {
-      const sim::LineCrossingOptions& s = c.scenario.line_crossing;
-      check(s.num_obstacles >= 1 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [1, 64]",
-            s.num_obstacles);
-      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
-            s.obstacle_side);
-      check(std::isfinite(s.spacing) && s.spacing > 0.0, "scenario.spacing", "a spacing > 0 m", s.spacing);
-      check(!c.scenario.line_speeds.empty(), "scenario.speeds", "a non-empty list", "an empty one");
-      for (size_t i = 0; i < c.scenario.line_speeds.size(); ++i) {
-        const double v = c.scenario.line_speeds[i];
-        check(std::isfinite(v) && v > 0.0 && v <= 20.0, fmt::format("scenario.speeds[{}]", i),
-              "a speed in (0, 20] m/s", v);
-      }
-      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
-            s.target_speed);
-      check(std::isfinite(s.max_yaw_deg) && s.max_yaw_deg >= 0.0 && s.max_yaw_deg <= 90.0, "scenario.max_yaw_deg",
-            "an angle in [0, 90] deg", s.max_yaw_deg);
-      check(std::isfinite(s.min_base_distance) && s.min_base_distance >= 0.0, "scenario.min_base_distance", ">= 0",
-            s.min_base_distance);
-      check(std::isfinite(s.spawn_margin) && s.spawn_margin >= 0.0, "scenario.spawn_margin", ">= 0", s.spawn_margin);
-      CheckWorkspace(check, s.workspace, "scenario.workspace");
-      break;
-    }
-    case TaskKind::kCluttered: {
-      const sim::ClutteredOptions& s = c.scenario.cluttered;
-      check(s.num_obstacles >= 0 && s.num_obstacles <= 64, "scenario.num_obstacles", "an integer in [0, 64]",
-            s.num_obstacles);
-      check(std::isfinite(s.obstacle_side) && s.obstacle_side > 0.0, "scenario.obstacle_side", "a side > 0 m",
-            s.obstacle_side);
-      check(std::isfinite(s.min_distance) && s.min_distance >= 0.0, "scenario.min_distance", "a distance >= 0 m",
-            s.min_distance);
-      check(std::isfinite(s.max_distance) && s.max_distance >= s.min_distance, "scenario.max_distance",
-            "a distance >= scenario.min_distance", s.max_distance);
-      check(std::isfinite(s.target_speed) && s.target_speed >= 0.0, "scenario.target_speed", "a speed >= 0",
-            s.target_speed);
-      check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
-      check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
-      check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
-      CheckWorkspace(check, s.workspace, "scenario.workspace");
-      break;
-    }
-  }
+  CheckScenario(check, c);
 
   const int scenario_obstacles = ScenarioObstacleCount(c);
   const ObservationConfig& o = c.observation;
