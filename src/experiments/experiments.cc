@@ -320,22 +320,13 @@ struct ExperimentRun {
   ReportText& text;
   std::vector<ResultRow>& rows;
   std::vector<Job>& jobs;
+
+  void Table3();                   // pre-training on the two-link arm at the paper's three budgets
+  void LineCrossingOrCluttered();    void Fig3();                     // training curves and the final policies on reach-avoid
+  void Fig5();                     // every shipped arm (and --urdf arms) with a crossing cube
 };
 
-// table3: pre-training on the two-link arm at the paper's three budgets
-void RunTable3(ExperimentRun& x) {
-  const ExperimentOptions& o = x.o;
-  const std::vector<const MethodSpec*>& entries = x.entries;
-  const Budgets& budgets = x.budgets;
-  const RunnerOptions& runner = x.runner;
-  EvalProtocol& protocol = x.protocol;
-  const auto& episodes = x.episodes;
-  const auto& train = x.train;
-  const auto& final_policy = x.final_policy;
-  const std::string& training_note = x.training_note;
-  ReportText& text = x.text;
-  std::vector<ResultRow>& rows = x.rows;
-  std::vector<Job>& jobs = x.jobs;
+void ExperimentRun::Table3() {
   // The paper's budgets 5K / 10K / 15K: 15K is the pre-training budget (1200 updates × 16 envs × 128 steps =
   // 2.46 M env steps with --budget full, as the shipped policy); 5K and 10K are the snapshots after 1/3 and 2/3.
   const std::vector<int> at = {budgets.pretrain / 3, 2 * budgets.pretrain / 3, budgets.pretrain};
@@ -377,17 +368,7 @@ void RunTable3(ExperimentRun& x) {
 }
 
 // table4 (line-crossing at five speeds) or cluttered
-void RunLineCrossingOrCluttered(ExperimentRun& x) {
-  const ExperimentOptions& o = x.o;
-  const std::vector<const MethodSpec*>& entries = x.entries;
-  EvalProtocol& protocol = x.protocol;
-  const auto& episodes = x.episodes;
-  const auto& train = x.train;
-  const auto& final_policy = x.final_policy;
-  const std::string& training_note = x.training_note;
-  ReportText& text = x.text;
-  std::vector<ResultRow>& rows = x.rows;
-  std::vector<Job>& jobs = x.jobs;
+void ExperimentRun::LineCrossingOrCluttered() {
   train();
   if (o.name == "table4") {
     protocol.episodes = episodes(40);
@@ -438,20 +419,7 @@ void RunLineCrossingOrCluttered(ExperimentRun& x) {
   }
 }
 
-// fig3: training curves and the final policies on reach-avoid
-void RunFig3(ExperimentRun& x) {
-  const ExperimentOptions& o = x.o;
-  const std::vector<const MethodSpec*>& entries = x.entries;
-  const Budgets& budgets = x.budgets;
-  const RunnerOptions& runner = x.runner;
-  EvalProtocol& protocol = x.protocol;
-  const auto& episodes = x.episodes;
-  const auto& train = x.train;
-  const auto& final_policy = x.final_policy;
-  const std::string& training_note = x.training_note;
-  ReportText& text = x.text;
-  std::vector<ResultRow>& rows = x.rows;
-  std::vector<Job>& jobs = x.jobs;
+void ExperimentRun::Fig3() {
   train();
   std::vector<LearnedRuns> learned;
   for (const MethodSpec* m : entries) {
@@ -476,18 +444,7 @@ void RunFig3(ExperimentRun& x) {
       budgets.panda, protocol.episodes, training_note);
 }
 
-// fig5: every shipped arm (and --urdf arms) with a crossing cube
-void RunFig5(ExperimentRun& x) {
-  const ExperimentOptions& o = x.o;
-  const std::vector<const MethodSpec*>& entries = x.entries;
-  EvalProtocol& protocol = x.protocol;
-  const auto& episodes = x.episodes;
-  const auto& train = x.train;
-  const auto& final_policy = x.final_policy;
-  const std::string& training_note = x.training_note;
-  ReportText& text = x.text;
-  std::vector<ResultRow>& rows = x.rows;
-  std::vector<Job>& jobs = x.jobs;
+void ExperimentRun::Fig5() {
   train();
   protocol.episodes = episodes(30);
   std::vector<std::string> arms = kinematics::ShippedRobotNames();
@@ -632,13 +589,13 @@ fs::path RunExperiment(const ExperimentOptions& options) {
              o.runs.string());
   ExperimentRun x{o, entries, budgets, runner, protocol, episodes, train, final_policy, training_note, text, rows, jobs};
   if (o.name == "table3") {
-    RunTable3(x);
+    x.Table3();
   } else if (o.name == "table4" || o.name == "cluttered") {
-    RunLineCrossingOrCluttered(x);
+    x.LineCrossingOrCluttered();
   } else if (o.name == "fig3") {
-    RunFig3(x);
+    x.Fig3();
   } else if (o.name == "fig5") {
-    RunFig5(x);
+    x.Fig5();
   }
   if (!runs.empty()) text.notes += "\n## Training runs\n\n" + DescribeRuns(runs, runner);
   WriteResultFiles(rows, o.out);
