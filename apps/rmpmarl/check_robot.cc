@@ -1,8 +1,11 @@
 // `rmpmarl check-robot`: loads a URDF + collision YAML (or fits one in memory), validates them and prints joints,
 // limits, capsules, end effector; checks the home posture for overlapping capsules and builds the MuJoCo world.
 #include <fmt/core.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
@@ -113,6 +116,17 @@ void RegisterCheckRobot(CLI::App& app) {
                                           "the URDF, else capsules fitted in memory as setup-robot does)");
   cmd->add_option("--package-path", package_paths, "directory holding the packages of package:// meshes");
   cmd->callback([] {
+    if (!std::filesystem::is_regular_file(urdf)) {
+      const std::vector<std::string> names = kinematics::ShippedRobotNames();
+      const std::filesystem::path robots = kinematics::ModelsDirectory() / "robots";
+      if (std::find(names.begin(), names.end(), urdf) != names.end()) {
+        throw InputError(fmt::format("check-robot {}: no such file; '{}' is a shipped robot, whose description is {}",
+                                     urdf, urdf, (robots / urdf / (urdf + ".urdf")).string()));
+      }
+      throw InputError(fmt::format("check-robot {}: no such file (expected a .urdf file; the shipped robots' are "
+                                   "{}/<name>/<name>.urdf, <name> one of {})", urdf, robots.string(),
+                                   fmt::join(names, ", ")));
+    }
     const UserRobot user = LoadUserRobot(urdf, collision, package_paths);
     if (user.setup) PrintLinkFits(*user.setup);
     PrintRobot(user.robot);

@@ -29,6 +29,16 @@ struct UserRobot {
 /// in memory (saying so on stdout; the home found goes into robot.home).
 UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
                         const std::vector<std::string>& package_paths = {});
+/// a seed option's check: a whole number from 0 to 2^64 − 1 (a negative one would wrap around silently).
+inline CLI::Validator SeedCheck() {
+  return CLI::Validator(
+      [](std::string& value) {
+        const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos;
+        return digits ? std::string() : "expected a seed: a whole number from 0 to 2^64 − 1, got '" + value + "'";
+      },
+      "SEED");
+}
+
 /// adds the robot and scenario options every simulation command takes: --robot (a shipped robot), --urdf and
 /// --collision (a user's robot), --scenario and --seed.
 void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* urdf, std::string* collision,

@@ -158,6 +158,11 @@ DemoTask MakeDemoTask(const DemoArgs& args, const std::optional<std::string>& po
   if (policy_path) {
     t.file = control::LoadPolicyFile(*policy_path);
     t.file_path = *policy_path;
+    if (!t.file->has_task()) {
+      throw InputError(fmt::format("--policy {}: the file carries no task (a policy of a task outside the manipulator "
+                                   "tasks), so demo has no scene to run it in; evaluate it on its task with "
+                                   "`rmpmarl eval {} --task NAME`", *policy_path, *policy_path));
+    }
   }
   const std::string config_source = policy_path ? *policy_path : ShippedDefaultPolicyPath().string();
   if (task_scene && (policy_path || std::filesystem::exists(config_source))) {
@@ -361,7 +366,7 @@ void RegisterDemo(CLI::App& app) {
   static DemoArgs args;
   AddRobotAndScenarioOptions(cmd, &args.robot, &args.urdf, &args.collision, &args.scenario, &args.seed);
   cmd->add_option("--duration", args.duration, "simulated seconds (default: the scenario's)")
-      ->check(CLI::Range(0.0, 3600.0));
+      ->check(CLI::Range(0.001, 3600.0));
   cmd->add_option("--video", args.video,
                   "write an MP4 here (PNG frames when ffmpeg is absent); with the learned controller beside RMPflow, "
                   "one per controller beside it: <stem>-<controller>.mp4");
@@ -382,6 +387,10 @@ void RegisterDemo(CLI::App& app) {
                   "played at --camera-rate): the controllers know only its obstacles");
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
+    if (!args.policy.empty() && args.policy != "rmpflow" && !std::filesystem::exists(args.policy)) {
+      throw InputError(fmt::format("--policy {}: no such controller file (expected a .rmpp file, or `rmpflow` for "
+                                   "RMPflow alone)", args.policy));
+    }
     std::optional<std::string> policy;
     if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;
     const bool learned_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||

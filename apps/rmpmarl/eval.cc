@@ -30,13 +30,17 @@ void PrintEvalResult(const rl::EvalResult& r) {
   fmt::print("  success rate      {:.1f} %\n", 100.0 * r.success_rate);
   fmt::print("  tracking error    {:.1f} ± {:.1f} mm (episode means; final {:.1f} mm)\n", r.tracking_error_mean_mm,
              r.tracking_error_std_mm, r.final_tracking_error_mean_mm);
-  fmt::print("settled tracking error {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
-             r.settled_tracking_error_mean_mm, tasks::kSettleTime);
-  if (std::isfinite(r.min_clearance_mean_m)) {
-    fmt::print("  clearance         {:.3f} m (mean of the episodes' minimum robot–obstacle distance)\n",
-               r.min_clearance_mean_m);
+  if (std::isfinite(r.settled_tracking_error_mean_mm)) {
+    fmt::print("  settled           {:.1f} mm (mean end-effector–target distance over t >= {:g} s)\n",
+               r.settled_tracking_error_mean_mm, tasks::kSettleTime);
   } else {
-    fmt::print("  clearance         - (no obstacle within the warning distance)\n");
+    fmt::print("  settled           – (no episode lasted {:g} s)\n", tasks::kSettleTime);
+  }
+  if (std::isfinite(r.min_clearance_mean_m)) {
+    fmt::print("  clearance         {:.1f} mm (mean of the episodes' minimum robot–obstacle distance)\n",
+               1000.0 * r.min_clearance_mean_m);
+  } else {
+    fmt::print("  clearance         – (no obstacle came within the warning distance)\n");
   }
   fmt::print("  collisions        {:.2f} per episode, {:.1f} % of episodes collision-free\n", r.collisions_per_episode,
              100.0 * r.collision_free_rate);
@@ -81,7 +85,7 @@ void RegisterEval(CLI::App& app) {
   cmd->add_option("--episodes", args->episodes, "episodes to run (default 100)")->check(CLI::Range(1, 1000000));
   cmd->add_option("--envs", args->envs, "parallel envs (default 8)")->check(CLI::Range(1, 4096));
   cmd->add_option("--env-threads", args->env_threads, "env worker threads (default 1)")->check(CLI::Range(1, 256));
-  cmd->add_option("--seed", args->seed, "seed of the evaluation envs");
+  cmd->add_option("--seed", args->seed, "seed of the evaluation envs")->check(SeedCheck());
   AddPerceptionOptions(cmd, &args->perception);
   cmd->add_flag("--stochastic", args->stochastic, "sample actions (default: deterministic modes)");
   cmd->callback([args] {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "rmpmarl/experiments/experiments.h"
+#include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/methods.h"
 #include "rmpmarl/experiments/probe.h"
 #include "rmpmarl/control/policy_file.h"
@@ -46,8 +47,9 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
   cmd->add_option("--episodes", options->episodes,
                   "episodes per method x condition x seed (default: the experiment's)")
       ->check(CLI::Range(1, 100000));
-  cmd->add_option("--eval-seed", options->eval_seed, "evaluation seed (default 20231001)");
-  cmd->add_option("--methods", *methods,
+  cmd->add_option("--eval-seed", options->eval_seed, "evaluation seed (default 20231001)")
+      ->check(SeedCheck());
+  CLI::Option* methods_option = cmd->add_option("--methods", *methods,
                   "comma-separated method keys (default: the experiment's, see --list; any file stem of "
                   "configs/methods/ or configs/ablations/)");
   cmd->add_flag("--list", *list, "print the experiment's default method keys, one per line, and exit");
@@ -67,7 +69,7 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
                 "learned methods run as control::LearnedController, as in a user's loop (always so with --perception depth)");
   std::string command_line = "rmpmarl";
   for (int k = 1; k < argc; ++k) command_line += std::string(" ") + argv[k];
-  cmd->callback([options, out, runs, methods, list, command_line, perception_args] {
+  cmd->callback([options, out, runs, methods, methods_option, list, command_line, perception_args] {
     options->perception = perception_args->mode;
     if (UsesDepth(*perception_args)) options->depth = DepthOptions(*perception_args, options->eval_seed);
     if (*list) {
@@ -82,6 +84,10 @@ void RegisterExperiment(CLI::App& app, int argc, char** argv) {
       const size_t comma = std::min(methods->find(',', start), methods->size());
       if (comma > start) options->methods.push_back(methods->substr(start, comma - start));
       start = comma + 1;
+    }
+    if (methods_option->count() > 0 && options->methods.empty()) {
+      throw InputError(fmt::format("--methods: expected method keys separated by commas (`rmpmarl experiment {} "
+                                   "--list` names them), got '{}'", options->name, *methods));
     }
     experiments::RunExperiment(*options);
   });
@@ -104,7 +110,8 @@ void RegisterProbeLookahead(CLI::App& app) {
   cmd->add_option("--speed", args->speed, "line-crossing: the line's speed [m/s], also the substituted pass's")
       ->check(CLI::Range(0.01, 20.0))->capture_default_str();
   cmd->add_option("--episodes", args->probe.episodes, "episodes")->check(CLI::Range(1, 100000))->capture_default_str();
-  cmd->add_option("--eval-seed", args->probe.eval_seed, "evaluation seed of the episodes")->capture_default_str();
+  cmd->add_option("--eval-seed", args->probe.eval_seed, "evaluation seed of the episodes")
+      ->check(SeedCheck())->capture_default_str();
   cmd->add_option("--clearance", args->probe.threat_clearance, "substituted pass: predicted clearance [m]")
       ->capture_default_str();
   cmd->add_option("--time", args->probe.threat_time, "substituted pass: time of closest approach [s]")

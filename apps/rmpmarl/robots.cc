@@ -90,13 +90,16 @@ void RunRobotsTable(double duration) {
   robots.push_back(kinematics::MakePlanar2());
   for (const kinematics::Robot& robot : robots) {
     const SweepResult r = Sweep(robot, duration);
-    fmt::print("{:<8} {:>3} {:>5} {:>8.3f} {:>9.1e} {:>12.3f} {:>13.1f} {:>14.1f} {:>8.1f}\n", robot.name,
+    // "–" where no checked link pair came within the warning margin (a two-link arm has none)
+    const std::string self = std::isfinite(r.min_self_clearance) ? fmt::format("{:.1f}", 1000.0 * r.min_self_clearance)
+                                                                   : std::string("–");
+    fmt::print("{:<8} {:>3} {:>5} {:>8.3f} {:>9.1e} {:>12.3f} {:>13.1f} {:>14} {:>8.1f}\n", robot.name,
                robot.model.nq(), robot.capsules.size(), r.reach, r.fk_error, r.tracking_rms * 180.0 / M_PI,
-               100.0 * r.self_collision_steps / r.steps,
-               std::isfinite(r.min_self_clearance) ? 1000.0 * r.min_self_clearance : NAN, r.step_us);
+               100.0 * r.self_collision_steps / r.steps, self, r.step_us);
   }
   fmt::print("\nself-coll: share of the sweep with a link–link penetration between non-excluded links (a blind sweep "
-             "folds arms into themselves; the reactive controllers avoid this).\n");
+             "folds arms into themselves; the reactive controllers avoid this). min self: – where no checked pair of "
+             "links came within the warning margin.\n");
 }
 
 void RegisterRobots(CLI::App& app) {

@@ -117,7 +117,8 @@ void RegisterSetupRobot(CLI::App& app) {
                                      "the URDF)");
   cmd->add_option("--package-path", args.package_paths,
                   "directory holding the packages of package:// meshes (repeatable; ROS_PACKAGE_PATH is read too)");
-  cmd->add_option("--seed", args.seed, "seed of the configuration samples")->capture_default_str();
+  cmd->add_option("--seed", args.seed, "seed of the configuration samples")
+      ->check(SeedCheck())->capture_default_str();
   cmd->add_option("--samples", args.samples, "configuration samples for the exclusions")
       ->check(CLI::Range(1, 10'000'000))
       ->capture_default_str();

@@ -141,7 +141,8 @@ void RegisterTrain(CLI::App& app, int, char** argv) {
                                           "config; writes checkpoints, metrics.csv, TensorBoard events and policy.rmpp");
   cmd->add_option("config", args->config, "training config, e.g. configs/train/pretrain-2link.yaml")->required();
   cmd->add_flag("--resume", args->resume, "continue exactly from <output_dir>/checkpoint.ckpt");
-  cmd->add_option("--seed", args->seed, "override the config's seed (the default output_dir gets a -seed<N> suffix)");
+  cmd->add_option("--seed", args->seed, "override the config's seed (the default output_dir gets a -seed<N> suffix)")
+      ->check(SeedCheck());
   cmd->add_option("--output", args->output, "override output_dir (default: the config's, else runs/<name>)");
   cmd->add_option("--updates", args->updates, "override total_updates")->check(CLI::Range(1, 10000000));
   cmd->add_option("--torch-threads", args->torch_threads, "override torch_threads")->check(CLI::Range(1, 256));

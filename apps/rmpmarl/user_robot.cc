@@ -2,6 +2,9 @@
 // robot and scenario options and the default controller those commands share.
 #include <fmt/core.h>
 
+#include <algorithm>
+#include <filesystem>
+
 #include "commands.h"
 #include "rmpmarl/kinematics/robot_setup.h"
 #include "rmpmarl/sim/scenario.h"
@@ -30,12 +33,28 @@ void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* 
   std::string robots, scenarios;
   for (const auto& n : kinematics::ShippedRobotNames()) robots += (robots.empty() ? "" : ", ") + n;
   for (const auto& n : sim::ScenarioNames()) scenarios += (scenarios.empty() ? "" : ", ") + n;
-  cmd->add_option("--robot", *robot, "shipped robot: " + robots)->capture_default_str();
+  cmd->add_option("--robot", *robot, "shipped robot: " + robots)
+      ->check(CLI::Validator(
+          [robots](std::string& name) {
+            const std::vector<std::string> names = kinematics::ShippedRobotNames();
+            if (std::find(names.begin(), names.end(), name) != names.end()) return std::string();
+            return "expected a shipped robot, one of " + robots + " (a robot of your own: --urdf FILE), got '" + name +
+                   "'";
+          },
+          "ROBOT"))
+      ->capture_default_str();
   cmd->add_option("--urdf", *urdf, "your robot's URDF instead of --robot (its collision YAML: --collision, else "
-                                  "<stem>.collision.yaml or collision.yaml beside it, else capsules fitted in memory)");
+                                  "<stem>.collision.yaml or collision.yaml beside it, else capsules fitted in memory)")
+      ->check(CLI::Validator(
+          [](std::string& path) {
+            return std::filesystem::is_regular_file(path) ? std::string()
+                                                          : "expected an existing .urdf file, got '" + path +
+                                                                "' (no such file)";
+          },
+          "FILE"));
   cmd->add_option("--collision", *collision, "collision YAML of --urdf (rmpmarl setup-robot writes one)");
   cmd->add_option("--scenario", *scenario, "scenario: " + scenarios)->capture_default_str();
-  cmd->add_option("--seed", *seed, "episode seed")->capture_default_str();
+  cmd->add_option("--seed", *seed, "episode seed")->check(SeedCheck())->capture_default_str();
 }
 
 }  // namespace rmpmarl::apps

@@ -236,8 +236,12 @@ def main():
             writer.writerow([update, update * T * N, stats[0], stats[1], stats[2], f"{seconds:.2f}"])
             out_file.flush()
         if update % 10 == 0 or update == args.updates:
-            print(f"update {update}/{args.updates}: success {stats[0]:.2f}, tracking {stats[1]:.1f} mm, "
-                  f"return {stats[2]:.0f}, {seconds:.0f} s", flush=True)
+            if window:
+                print(f"update {update}/{args.updates}: success {stats[0]:.2f}, tracking {stats[1]:.1f} mm, "
+                      f"return {stats[2]:.0f}, {seconds:.0f} s", flush=True)
+            else:  # no episode has ended yet (an episode lasts longer than the updates so far)
+                print(f"update {update}/{args.updates}: success –, tracking –, return – (no episode ended yet), "
+                      f"{seconds:.0f} s", flush=True)
     if args.eval_episodes:
         rows = [("untrained", *before), ("trained", *evaluate(act, args, args.eval_seed))]
         for path in args.compare:

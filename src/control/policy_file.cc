@@ -188,6 +188,10 @@ PolicyFile ReadFile(const std::string& path, std::uint32_t want) {
         "it), this version reads format 2, which carries them. Upgrade it once: `rmpmarl policy upgrade {} --task "
         "TASK --out NEW.rmpp` (reads the YAML card beside it when there is one)", path, path));
   }
+  if (version == 2 && want == 1) {
+    throw InputError(fmt::format("policy file {}: already format 2 (network, basic layer and provenance in one "
+                                 "file): nothing to upgrade; `rmpmarl policy show {}` prints its card", path, path));
+  }
   if (version != want) {
     throw InputError(fmt::format("policy file {}: format version {} is not supported (expected {})", path, version,
                                  want));

@@ -25,7 +25,7 @@ using control::PolicyWeights;
 tasks::TaskConfig PolicyTaskConfig(const control::PolicyFile& file, const std::string& path) {
   if (!file.has_task()) {
     throw InputError(fmt::format("policy file {} carries no task (a policy of a task outside the manipulator "
-                                 "tasks): name one with --task", path));
+                                 "tasks): evaluate it on a task named with `rmpmarl eval FILE --task NAME`", path));
   }
   return tasks::ParseTaskConfig(file.task_yaml, path + " (its task)");
 }

@@ -32,7 +32,34 @@ TEST(CliTest, CheckRobotPrintsAValidRobot) {
 TEST(CliTest, CheckRobotFailsClearlyOnMissingFile) {
   const CommandResult r = RunCli("check-robot /no/such.urdf /no/such.yaml");
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find("rmpmarl: error: /no/such.urdf: cannot open URDF file"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rmpmarl: error: check-robot /no/such.urdf: no such file"), std::string::npos) << r.output;
+  // a shipped robot's name is pointed at its file
+  const CommandResult shipped = RunCli("check-robot panda");
+  EXPECT_EQ(shipped.exit_code, 2) << shipped.output;
+  EXPECT_NE(shipped.output.find("'panda' is a shipped robot, whose description is"), std::string::npos)
+      << shipped.output;
+}
+
+// what a new user mistypes is refused at once, naming the input, what was expected and what was given
+TEST(CliTest, MistypedArgumentsAreRefusedWithTheReason) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"demo --seed -1", "--seed: expected a seed: a whole number from 0 to 2^64 − 1, got '-1'"},
+      {"eval models/policies/marl-rmp.rmpp --seed -3", "--seed: expected a seed"},
+      {"demo --duration 0", "--duration: Value 0 not in range"},
+      {"experiment table4 --methods \"\"", "--methods: expected method keys separated by commas"},
+      {"demo --robot pandaa", "--robot: expected a shipped robot, one of gen3, iiwa14, irb120, panda, ur5e, xarm6 (a "
+                              "robot of your own: --urdf FILE), got 'pandaa'"},
+      {"demo --urdf /nope/arm.urdf", "--urdf: expected an existing .urdf file, got '/nope/arm.urdf' (no such file)"},
+      {"demo --policy rmpflo", "--policy rmpflo: no such controller file (expected a .rmpp file, or `rmpflow` for "
+                               "RMPflow alone)"},
+  };
+  for (const auto& [args, message] : cases) {
+    SCOPED_TRACE(args);
+    const CommandResult r = RunCli(args);
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("planar2"), std::string::npos) << r.output;  // not a robot --robot takes
+  }
 }
 
 TEST(CliTest, CheckRobotFailsClearlyOnMismatchedYaml) {

@@ -50,6 +50,10 @@ TEST(PolicyCli, ShowPrintsTheCardShippedBesideTheFile) {
   const CommandResult missing = RunCli("policy show /no/such.rmpp");
   EXPECT_EQ(missing.exit_code, 2) << missing.output;
   EXPECT_NE(missing.output.find("/no/such.rmpp: cannot open it"), std::string::npos) << missing.output;
+  // a current file is not upgraded: it says so
+  const CommandResult current = RunCli("policy upgrade " + Shipped("marl-rmp.rmpp").string() + " --out /tmp/x.rmpp");
+  EXPECT_EQ(current.exit_code, 2) << current.output;
+  EXPECT_NE(current.output.find("already format 2"), std::string::npos) << current.output;
 }
 
 // a format-1 file (the network alone) is refused with the upgrade command; the upgrade gives a file that runs its
