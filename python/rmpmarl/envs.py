@@ -21,6 +21,11 @@ from .spaces import ActionBox, Box
 
 __all__ = ["VectorEnv", "ParallelEnv", "make_vec_env", "parallel_env"]
 
+try:  # PettingZoo's base class where PettingZoo is installed (its API tests and wrappers check for it)
+    from pettingzoo.utils.env import ParallelEnv as _ParallelEnvBase
+except ImportError:  # pragma: no cover - Debian 12 has no PettingZoo package
+    _ParallelEnvBase = object
+
 
 def _overrides_text(overrides):
     if overrides is None:
@@ -143,11 +148,13 @@ def make_vec_env(task, num_envs=1, *, robot=None, collision=None, interface=None
                      num_threads=num_threads, seed=seed, copy=copy)
 
 
-class ParallelEnv:
-    """One environment of a task as a PettingZoo parallel environment (duck-typed): agents 'joint_0' ... 'joint_{n-1}'
-    (one 'agent_0' for the direct interface); reset(seed) -> (observations, infos), step(actions) -> (observations,
-    rewards, terminations, truncations, infos), all dicts keyed by agent; state() is the centralised critic's input.
-    Every agent gets the team reward. After an episode ends `agents` is empty until reset()."""
+class ParallelEnv(_ParallelEnvBase):
+    """One environment of a task as a PettingZoo parallel environment (a pettingzoo.ParallelEnv where PettingZoo is
+    installed, duck-typed otherwise): agents 'joint_0' ... 'joint_{n-1}' (one 'agent_0' for the direct interface);
+    reset(seed, options) -> (observations, infos), step(actions) -> (observations, rewards, terminations,
+    truncations, infos), all dicts keyed by agent; state() is the centralised critic's input. Every agent gets the
+    team reward. After an episode ends `agents` is empty until reset(). No reset options are defined (the task
+    configures the episodes, the seed draws them): a dict of options is accepted and has no effect."""
 
     metadata = {"name": "rmpmarl", "is_parallelizable": True}
 
@@ -184,8 +191,22 @@ class ParallelEnv:
             raise ValueError("state: call reset() first")
         return self._state.copy()
 
+    @property
+    def unwrapped(self):
+        return self
+
+    @property
+    def num_agents(self):
+        return len(self.agents)
+
+    @property
+    def max_num_agents(self):
+        return len(self.possible_agents)
+
     def reset(self, seed=None, options=None):
-        obs, info = self._vec.reset(seed=seed, options=options)
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(f"options: expected a dict or None, got {type(options).__name__}")
+        obs, info = self._vec.reset(seed=seed)
         self.agents = list(self.possible_agents)
         self._state = info["state"][0]
         return ({a: obs[0, i] for i, a in enumerate(self.agents)}, {a: {} for a in self.agents})
