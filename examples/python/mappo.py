@@ -105,10 +105,10 @@ def evaluate(act, args, seed):
     done, success, tracking = 0, [], []
     while done < args.eval_episodes:
         obs, _, _, _, info = envs.step(act(obs))
-        if "episode" in info:
-            ended = info["_episode"]
-            success += list(info["episode"]["success"][ended])
-            tracking += list(1000.0 * info["episode"]["tracking_error"][ended])
+        if "metrics" in info:
+            ended = info["_metrics"]
+            success += list(info["metrics"]["success"][ended])
+            tracking += list(1000.0 * info["metrics"]["tracking_error"][ended])
             done += int(ended.sum())
     return float(np.mean(success[:args.eval_episodes])), float(np.mean(tracking[:args.eval_episodes]))
 
@@ -135,8 +135,8 @@ def main():
 
     envs = rmpmarl.make_vec_env(args.task, args.envs, interface=args.interface, overrides=args.overrides,
                                 seed=1000 * args.seed)
-    N, A, D = envs.num_envs, envs.num_agents, envs.spec["local_obs_dim"]
-    S, T = envs.spec["global_state_dim"], args.steps
+    N, A, D = envs.num_envs, envs.num_agents, envs.task_spec["local_obs_dim"]
+    S, T = envs.task_spec["global_state_dim"], args.steps
     actor = Actor(D, envs.action_layout)
     critic = mlp([S, 128, 128, 128, 1], 1.0)
     opt_actor = torch.optim.Adam(actor.parameters(), lr=args.lr, eps=1e-5)
@@ -180,9 +180,9 @@ def main():
                          ("reward", torch.from_numpy(reward)), ("valid", torch.from_numpy(~resetting)),
                          ("opt", torch.from_numpy(info["option_started"])), ("end", torch.from_numpy(ended))]:
                 buf[k].append(v)
-            if "episode" in info:
-                e = info["episode"]
-                for k in np.flatnonzero(info["_episode"]):
+            if "metrics" in info:
+                e = info["metrics"]
+                for k in np.flatnonzero(info["_metrics"]):
                     window.append((e["success"][k], 1000.0 * e["tracking_error"][k], e["return"][k]))
             resetting = ended
         with torch.no_grad():

@@ -12,7 +12,8 @@ Policies, from Python.
     obs, rewards, terminated, truncated, info = envs.step(actions)   # float32 [64, agents, action_size]
 
 Robots, controllers and the policy runtime are the C++ library's own (rmpmarl._core); the environments follow
-Gymnasium's vector API (rmpmarl.envs) and PettingZoo's parallel API (rmpmarl.parallel_env). See docs/python.md.
+Gymnasium's vector API (rmpmarl.envs) and PettingZoo's parallel API (rmpmarl.parallel_env), and are those packages'
+own classes where they are installed (with one Gymnasium id per task: rmpmarl.gym). See docs/python.md.
 """
 import os as _os
 
@@ -35,6 +36,15 @@ from ._core import (  # noqa: E402
 from .envs import ParallelEnv, VectorEnv, make_vec_env, parallel_env  # noqa: E402
 from .runs import read_run  # noqa: E402
 from .spaces import Box  # noqa: E402
+
+try:  # the tasks' Gymnasium ids (rmpmarl/ReachAvoid-v0, ...) where Gymnasium is installed (rmpmarl.gym)
+    import gymnasium as _gymnasium  # noqa: F401
+except ImportError:  # pragma: no cover - Debian 12 has no Gymnasium package
+    pass
+else:
+    from . import gym as _gym  # noqa: E402
+
+    _gym.register()
 
 __all__ = [
     "Box",

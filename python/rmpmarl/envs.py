@@ -21,6 +21,14 @@ from .spaces import ActionBox, Box
 
 __all__ = ["VectorEnv", "ParallelEnv", "make_vec_env", "parallel_env"]
 
+try:  # Gymnasium's vector base class and autoreset mode where Gymnasium is installed (its wrappers check for them)
+    from gymnasium.vector import AutoresetMode as _AutoresetMode
+    from gymnasium.vector import VectorEnv as _VectorEnvBase
+    _NEXT_STEP = _AutoresetMode.NEXT_STEP
+except ImportError:  # pragma: no cover - Debian 12 has no Gymnasium package
+    _VectorEnvBase = object
+    _NEXT_STEP = "NextStep"
+
 try:  # PettingZoo's base class where PettingZoo is installed (its API tests and wrappers check for it)
     from pettingzoo.utils.env import ParallelEnv as _ParallelEnvBase
 except ImportError:  # pragma: no cover - Debian 12 has no PettingZoo package
@@ -63,22 +71,26 @@ def _action_bounds(action):
     return np.asarray(low, np.float32), np.asarray(high, np.float32), np.asarray(whole, bool)
 
 
-class VectorEnv:
-    """N environments of one task stepped as a batch (Gymnasium 1.x's VectorEnv API, duck-typed).
+class VectorEnv(_VectorEnvBase):
+    """N environments of one task stepped as a batch: a gymnasium.vector.VectorEnv where Gymnasium is installed (its
+    spaces, its autoreset mode, its vector wrappers), the same API duck-typed where it is not.
 
     reset(seed=None) -> (obs, info); step(actions) -> (obs, rewards, terminated, truncated, info):
     obs float32 [num_envs, num_agents, obs_dim], actions float32 [num_envs, num_agents, action_size],
     rewards float32 [num_envs] (the team reward), terminated and truncated bool [num_envs].
     info: 'state' float32 [num_envs, state_dim] (the centralised critic's input), 'reward_terms'
     [num_envs, terms], 'option_started' [num_envs, num_agents] (1 where the action started a new option: the only
-    steps whose option index took effect), and 'episode' with the metrics of the episodes that ended in this step (arrays [num_envs]
-    and the mask '_episode', as Gymnasium's RecordEpisodeStatistics does).
+    steps whose option index took effect), and 'metrics' with the metrics of the episodes that ended in this step
+    (arrays [num_envs] and the mask '_metrics'; Gymnasium's RecordEpisodeStatistics adds its own 'episode' beside
+    them). `task_spec` describes the task's layout (a Gymnasium env's `spec` is its registration, None unless made by
+    gymnasium.make_vec).
 
     The flat action of one agent is [option index (as a float)?, continuous values..., terminate flag?] as
     `action_layout` describes; the environment clips continuous values to their bounds and rounds the option index.
     """
 
-    metadata = {"autoreset_mode": "NextStep"}
+    metadata = {"autoreset_mode": _NEXT_STEP}
+    render_mode = None
 
     def __init__(self, task, num_envs=1, *, robot=None, collision=None, interface=None, overrides=None,
                  num_threads=1, seed=0, copy=True):
@@ -86,7 +98,7 @@ class VectorEnv:
                                  interface=interface, overrides=_overrides_text(overrides),
                                  num_threads=int(num_threads), seed=int(seed))
         spec = self._env.spec
-        self.spec = spec
+        self.task_spec = spec
         self.num_envs = spec["num_envs"]
         self.num_agents = spec["num_agents"]
         self.copy = copy
@@ -110,15 +122,20 @@ class VectorEnv:
                 "option_started": self._out(self._env.option_started)}
         if self._env.terminated.any() or self._env.truncated.any():  # the metrics only when an episode ended
             metrics = self._env.episode_metrics()
-            info["_episode"] = metrics.pop("ended")
-            info["episode"] = metrics
+            info["_metrics"] = metrics.pop("ended")
+            info["metrics"] = metrics
         return info
 
     def reset(self, *, seed=None, options=None):
         """resets every environment: with a seed, environment k's generator is seeded with seed + k; without one, the
-        first reset uses the constructor's seed and later ones continue (new episodes). Returns (obs, info)."""
-        if options:
-            raise ValueError(f"options: expected None (tasks are configured by make_vec_env), got {options!r}")
+        first reset uses the constructor's seed and later ones continue (new episodes). Returns (obs, info). No reset
+        options are defined (make_vec_env configures the task): a dict is accepted and has no effect, except
+        'reset_mask', which is refused (every environment resets; the ended ones reset themselves at the next step)."""
+        if options is not None and not isinstance(options, dict):
+            raise ValueError(f"options: expected a dict or None, got {type(options).__name__}")
+        if options and "reset_mask" in options:
+            raise ValueError("options['reset_mask']: expected none: reset() resets every environment, and an "
+                             "environment whose episode ended resets itself at the next step (next-step autoreset)")
         if seed is not None and (not isinstance(seed, (int, np.integer)) or seed < 0):
             raise ValueError(f"seed: expected a non-negative int or None, got {seed!r}")
         self._env.reset(None if seed is None else int(seed))
@@ -134,8 +151,8 @@ class VectorEnv:
         self.closed = True
 
     def __repr__(self):
-        return (f"VectorEnv({self.spec['task']!r} on {self.spec['robot']!r}, {self.num_envs} envs x "
-                f"{self.num_agents} agents, interface {self.spec['interface']!r})")
+        return (f"VectorEnv({self.task_spec['task']!r} on {self.task_spec['robot']!r}, {self.num_envs} envs x "
+                f"{self.num_agents} agents, interface {self.task_spec['interface']!r})")
 
 
 def make_vec_env(task, num_envs=1, *, robot=None, collision=None, interface=None, overrides=None, num_threads=1,
@@ -162,14 +179,14 @@ class ParallelEnv(_ParallelEnvBase):
         self._vec = VectorEnv(task, 1, robot=robot, collision=collision, interface=interface, overrides=overrides,
                               seed=seed, copy=True)
         n = self._vec.num_agents
-        per_joint = self._vec.spec["interface"] != "direct"
+        per_joint = self._vec.task_spec["interface"] != "direct"
         self.possible_agents = [f"joint_{i}" if per_joint else f"agent_{i}" for i in range(n)]
         self.agents = []
-        low, high, whole = _action_bounds(self._vec.spec["action"])
-        d = self._vec.spec["local_obs_dim"]
+        low, high, whole = _action_bounds(self._vec.task_spec["action"])
+        d = self._vec.task_spec["local_obs_dim"]
         self._observation_space = Box(-np.inf, np.inf, (d,), np.float32)
         self._action_space = ActionBox(low, high, whole, (low.size,), np.float32)
-        self.state_space = Box(-np.inf, np.inf, (self._vec.spec["global_state_dim"],), np.float32)
+        self.state_space = Box(-np.inf, np.inf, (self._vec.task_spec["global_state_dim"],), np.float32)
         self._state = None
         self._actions = np.zeros((1, n, low.size), np.float32)
 
@@ -227,7 +244,7 @@ class ParallelEnv(_ParallelEnvBase):
         agents = self.agents
         out = ({a: obs[0, i] for i, a in enumerate(agents)}, {a: float(rewards[0]) for a in agents},
                {a: bool(terminated[0]) for a in agents}, {a: bool(truncated[0]) for a in agents},
-               {a: ({"episode": {k: v[0] for k, v in info["episode"].items()}} if "episode" in info else {})
+               {a: ({"metrics": {k: v[0] for k, v in info["metrics"].items()}} if "metrics" in info else {})
                 for a in agents})
         if terminated[0] or truncated[0]:
             self.agents = []

@@ -45,3 +45,68 @@ def test_reset_options_must_be_a_dict():
     env.reset(seed=1, options={"anything": 1})  # accepted, no effect (PettingZoo's API passes some)
     with pytest.raises(ValueError, match="options: expected a dict or None"):
         env.reset(options=3)
+
+
+def test_the_vector_env_is_gymnasiums_and_its_vector_wrappers_run_on_it():
+    r = run_with_deps("""
+import numpy as np
+import gymnasium
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.wrappers.vector import ClipAction, NormalizeObservation, NormalizeReward, RecordEpisodeStatistics
+import rmpmarl
+envs = rmpmarl.make_vec_env("reach-avoid", 4, overrides={"episode": {"max_steps": 30}}, seed=3)
+assert isinstance(envs, VectorEnv), type(envs).__mro__
+assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+assert isinstance(envs.single_action_space, gymnasium.spaces.Box) and envs.single_action_space.integer.any()
+assert envs.unwrapped is envs and envs.render_mode is None
+wrapped = RecordEpisodeStatistics(NormalizeReward(NormalizeObservation(ClipAction(envs))))
+obs, info = wrapped.reset(seed=3)
+ended = 0
+for _ in range(70):
+    # ClipAction lets an agent act outside the bounds (its action space is unbounded): valid actions come from the
+    # environment's own space, whose option index is a whole number
+    obs, rewards, terminated, truncated, info = wrapped.step(envs.action_space.sample())
+    assert np.isfinite(obs).all() and np.isfinite(rewards).all()
+    if "episode" in info:
+        ended += int(info["_episode"].sum())
+        assert np.all(info["episode"]["l"][info["_episode"]] == 30), info["episode"]
+        assert np.array_equal(info["_episode"], info["_metrics"])
+print("episodes", ended)
+""")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "episodes 8" in r.stdout, r.stdout + r.stderr  # two 30-step episodes per environment in 70 steps
+
+
+def test_every_task_has_a_gymnasium_id_whose_env_passes_check_env():
+    r = run_with_deps("""
+import warnings
+import numpy as np
+import gymnasium
+from gymnasium.utils.env_checker import check_env
+import rmpmarl
+from rmpmarl.gym import TASK_IDS
+for task, env_id in TASK_IDS.items():
+    env = gymnasium.make(env_id, overrides={"episode": {"max_steps": 40}})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped)
+    # the checker's only remarks may be on the observations' infinite bounds: the features (velocities, distances,
+    # the look-ahead's times) have no finite bound to state
+    remarks = [str(w.message) for w in caught if "infinity" not in str(w.message)]
+    assert not remarks, remarks
+    obs, info = env.reset(seed=1)
+    assert obs.shape == env.observation_space.shape and "state" in info
+    steps = 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        steps += 1
+        if terminated or truncated:
+            break
+    assert steps <= 40 and "metrics" in info, (steps, info.keys())
+    envs = gymnasium.make_vec(env_id, num_envs=3)
+    assert isinstance(envs.unwrapped, rmpmarl.VectorEnv) and envs.num_envs == 3, type(envs)
+    print("passed", env_id)
+""")
+    assert r.returncode == 0, r.stdout + r.stderr
+    for env_id in ("PretrainTwoLink", "ReachAvoid", "LineCrossing", "Cluttered"):
+        assert f"passed rmpmarl/{env_id}-v0" in r.stdout, r.stdout + r.stderr

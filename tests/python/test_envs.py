@@ -21,7 +21,7 @@ def test_a_python_rollout_is_bit_identical_to_the_cpp_engine(tmp_path, reference
     actions.tofile(tmp_path / "actions.f32")
     reference("rollout", task, robot, interface, n, seed, steps, tmp_path / "actions.f32", tmp_path / "out.f32",
               overrides)
-    a, d, s = envs.num_agents, envs.spec["local_obs_dim"], envs.spec["global_state_dim"]
+    a, d, s = envs.num_agents, envs.task_spec["local_obs_dim"], envs.task_spec["global_state_dim"]
     row = n * a * d + n * s + n + 2 * n
     expected = np.fromfile(tmp_path / "out.f32", dtype=np.float32).reshape(steps + 1, row)
 
@@ -42,13 +42,13 @@ def test_a_python_rollout_is_bit_identical_to_the_cpp_engine(tmp_path, reference
 
 def test_next_step_autoreset_returns_the_last_observation_then_the_new_episode():
     envs = rmpmarl.make_vec_env("pretrain-2link", 2, seed=3)
-    horizon = envs.spec["max_episode_steps"]
+    horizon = envs.task_spec["max_episode_steps"]
     obs, _ = envs.reset()
     actions = np.zeros(envs.action_space.shape, np.float32)  # option 0 (target), unit scales: nothing ends early
     for t in range(horizon):
         obs, rewards, terminated, truncated, info = envs.step(actions)
-    assert np.all(truncated | terminated) and "episode" in info and np.all(info["_episode"])
-    assert np.all(info["episode"]["length"] == horizon) or np.any(terminated)
+    assert np.all(truncated | terminated) and "metrics" in info and np.all(info["_metrics"])
+    assert np.all(info["metrics"]["length"] == horizon) or np.any(terminated)
     last = obs.copy()
     obs, rewards, terminated, truncated, info = envs.step(np.full_like(actions, np.float32(7.0)))  # ignored
     assert np.all(rewards == 0) and not terminated.any() and not truncated.any() and "episode" not in info
@@ -99,14 +99,14 @@ def test_views_are_overwritten_by_the_next_step_copies_are_not():
 def test_spaces_describe_the_arrays():
     envs = rmpmarl.make_vec_env("reach-avoid", 3, seed=0)
     obs, info = envs.reset()
-    assert obs.dtype == np.float32 and obs.shape == envs.observation_space.shape == (3, 7, envs.spec["local_obs_dim"])
+    assert obs.dtype == np.float32 and obs.shape == envs.observation_space.shape == (3, 7, envs.task_spec["local_obs_dim"])
     assert info["state"].shape == envs.state_space.shape
     space = envs.single_action_space
     assert space.shape == (7, envs.action_layout["size"]) and space.dtype == np.float32
     sample = envs.action_space.sample()
     assert envs.action_space.contains(sample)
     assert not envs.action_space.contains(sample + 0.5)  # a half option index is not an action
-    assert envs.spec["autoreset"] == "next-step" and envs.metadata["autoreset_mode"] == "NextStep"
+    assert envs.task_spec["autoreset"] == "next-step" and str(envs.metadata["autoreset_mode"]) in ("NextStep", "AutoresetMode.NEXT_STEP")
 
 
 @pytest.mark.parametrize("make_actions, message", [
@@ -145,7 +145,7 @@ def test_bad_construction_arguments_raise():
 
 def test_overrides_and_robots_reach_the_task():
     envs = rmpmarl.make_vec_env("reach-avoid", 1, robot="ur5e", overrides={"episode": {"max_steps": 7}})
-    assert envs.num_agents == 6 and envs.spec["max_episode_steps"] == 7
+    assert envs.num_agents == 6 and envs.task_spec["max_episode_steps"] == 7
     envs.reset()
     for _ in range(7):
         _, _, terminated, truncated, info = envs.step(np.zeros(envs.action_space.shape, np.float32))
@@ -165,7 +165,7 @@ def test_parallel_env_speaks_pettingzoo():
         assert len(set(rewards.values())) == 1  # the team reward
         steps += 1
     assert any(terminations.values()) or any(truncations.values())
-    assert "episode" in infos["joint_0"] and steps == infos["joint_0"]["episode"]["length"]
+    assert "metrics" in infos["joint_0"] and steps == infos["joint_0"]["metrics"]["length"]
     with pytest.raises(ValueError, match="the episode has ended"):
         env.step(actions)
     env.reset()
