@@ -1,6 +1,6 @@
 #pragma once
-/// Signed distances with witness points between the primitives the paper uses: link capsules, sphere and
-/// oriented-box (cube) obstacles. Frame W is whatever common frame the inputs are expressed in (usually world).
+/// Signed distances with witness points between the primitives the paper uses — link capsules, sphere and
+/// oriented-box (cube) obstacles — and cylinders, as the field's benchmark scenes write them. Frame W is whatever common frame the inputs are expressed in (usually world).
 /// Convention: `distance` < 0 means penetration (its magnitude is the penetration depth); `p_W1` lies on the first
 /// shape's surface, `p_W2` on the second's; `n_W` is the unit normal pointing from shape 2 towards shape 1, i.e. the
 /// gradient of the distance with respect to a translation of shape 1 (so p_W1 ≈ p_W2 + distance · n_W).
@@ -27,6 +27,14 @@ struct Sphere {
 struct Box {
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
   Eigen::Vector3d half_size = Eigen::Vector3d::Zero();
+};
+
+/// A solid cylinder: pose X_WC of its centre frame C, whose z axis is the cylinder's axis; `radius` and the half
+/// length along z.
+struct Cylinder {
+  Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();
+  double radius = 0.0;
+  double half_length = 0.0;
 };
 
 /// Result of a signed-distance query (see the file comment for conventions).
@@ -86,5 +94,20 @@ DistanceResult CapsuleCapsuleDistance(const Capsule& capsule1, const Capsule& ca
 /// p_W1 = deepest/closest axis point − radius · n_W always lies on the capsule's surface; p_W2 = p_W1 − distance · n_W
 /// lies on the box's surface except when gradient_norm < 1, where it is inside the box.
 DistanceResult CapsuleBoxDistance(const Capsule& capsule, const Box& box);
+
+/// the cylinder's signed distance function at p_W: the Euclidean distance to the solid outside it, minus the
+/// distance to the nearest of its surfaces (side or cap) inside it.
+double CylinderSignedDistance(const Cylinder& cylinder, const Eigen::Vector3d& p_W);
+
+/// signed distance capsule (shape 1) – cylinder (shape 2), defined as CapsuleBoxDistance is: the minimum over the
+/// capsule's axis segment of the cylinder's signed distance function, minus the radius. The function is convex along
+/// the segment (the cylinder is convex), and its minimum is found by golden-section search to the last bits of the
+/// segment parameter (the distance exact to rounding; CylinderDistanceTest holds it to a brute-force minimum over
+/// 20001 axis points; where the minimum is flat, e.g. a capsule across a cap, the axis point and so n_W to about
+/// 1e-8). n_W is the signed distance function's gradient at the axis point found — from the cylinder's closest
+/// surface point outside it, the nearest face's outward normal inside it — and p_W2 = p_W1 − distance · n_W lies
+/// on the cylinder's surface. p_W1 = axis point − radius · n_W is on the capsule's surface where the axis point is
+/// an end point or n_W is perpendicular to the axis (always when the axis misses the cylinder).
+DistanceResult CapsuleCylinderDistance(const Capsule& capsule, const Cylinder& cylinder);
 
 }  // namespace rmpmarl::math
