@@ -42,11 +42,16 @@ WarningSensor::WarningSensor(const kinematics::Robot& robot, const WarningSensor
     for (int i = 0; i < nq; ++i) on_moving_link_[c] |= robot.model.DofMovesLink(i, robot.capsules[c].link) ? 1 : 0;
   }
   contacts_.reserve(static_cast<size_t>(nc) * (options.max_obstacles + 1) + self_pairs_.size());
+  world_capsules_.resize(nc);
+  spheres_.resize(nc);
 }
 
 void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) {
   const kinematics::Robot& robot = *robot_;
   const double margin = options_.margin;
+  // a pair whose bounding spheres are farther apart than this is not within the margin (the slack keeps a pair at
+  // the margin's edge to the exact test)
+  const double reach = margin + 1e-9;
   contacts_.clear();
   min_clearance_ = min_self_clearance_ = std::numeric_limits<double>::infinity();
   auto add = [&](int capsule, PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
@@ -67,8 +72,16 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
   };
   const int nc = static_cast<int>(robot.capsules.size());
   for (int c = 0; c < nc; ++c) {
-    const math::Capsule cap = WorldCapsule(kin, robot.capsules[c]);
-    for (int j = 0; j < static_cast<int>(scene.obstacles.size()); ++j) {
+    world_capsules_[c] = WorldCapsule(kin, robot.capsules[c]);
+    const math::Capsule& cap = world_capsules_[c];
+    spheres_[c] << 0.5 * (cap.p_WA + cap.p_WB), 0.5 * (cap.p_WB - cap.p_WA).norm() + cap.radius;
+  }
+  const int no = static_cast<int>(scene.obstacles.size());
+  for (int c = 0; c < nc; ++c) {
+    const math::Capsule& cap = world_capsules_[c];
+    for (int j = 0; j < no; ++j) {
+      const Eigen::Vector4d obstacle = rmp::BoundingSphere(scene.obstacles[j]);
+      if ((spheres_[c].head<3>() - obstacle.head<3>()).norm() - spheres_[c][3] - obstacle[3] >= reach) continue;
       add(c, PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
     }
     if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
@@ -84,9 +97,9 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
     }
   }
   for (const auto& [c, d] : self_pairs_) {
-    const math::DistanceResult r = math::CapsuleCapsuleDistance(WorldCapsule(kin, robot.capsules[c]),
-                                                                WorldCapsule(kin, robot.capsules[d]));
-    add(c, PartnerKind::kLink, robot.capsules[d].link, d, r);
+    if ((spheres_[c].head<3>() - spheres_[d].head<3>()).norm() - spheres_[c][3] - spheres_[d][3] >= reach) continue;
+    add(c, PartnerKind::kLink, robot.capsules[d].link, d,
+        math::CapsuleCapsuleDistance(world_capsules_[c], world_capsules_[d]));
   }
 }
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/model.h"
+#include "rmpmarl/math/geometry.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 
@@ -70,6 +71,8 @@ class WarningSensor {
   std::vector<WarningContact> contacts_;
   std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
   std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)
+  std::vector<math::Capsule> world_capsules_;     // the capsules at the sensed state
+  std::vector<Eigen::Vector4d> spheres_;          // their bounding spheres (centre, radius), for the broad phase
   double min_clearance_ = std::numeric_limits<double>::infinity();
   double min_self_clearance_ = std::numeric_limits<double>::infinity();
 };
