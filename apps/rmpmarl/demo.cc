@@ -147,17 +147,14 @@ struct DemoTask {
   tasks::TaskConfig config;
   tasks::ScenarioMaker scenario;  // empty: the task's own scene
   std::optional<control::PolicyFile> file;  // the learned controller's, when one runs
-  std::string file_path;
 };
 
 DemoTask MakeDemoTask(const DemoArgs& args, const std::optional<std::string>& policy_path) {
   DemoTask t;
   const std::string robot = !args.urdf.empty() ? args.urdf : args.robot;
-  const bool task_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||
-                          args.scenario == "cluttered";
+  const bool task_scene = tasks::IsArmTaskScene(args.scenario);
   if (policy_path) {
     t.file = control::LoadPolicyFile(*policy_path);
-    t.file_path = *policy_path;
     if (!t.file->has_task()) {
       throw InputError(fmt::format("--policy {}: the file carries no task (a policy of a task outside the manipulator "
                                    "tasks), so demo has no scene to run it in; evaluate it on its task with "
@@ -236,8 +233,7 @@ void PrintDemoTable(const std::vector<DemoRun>& runs, const tasks::TaskConfig& c
     for (const DemoRun& r : runs) line += fmt::format("{:>24}", cell(r.metrics));
     fmt::print("{}\n", line);
   };
-  const double tolerance = std::isfinite(config.episode.success_max_final_error) ? config.episode.success_max_final_error
-                                                                                 : sim::LoopOptions{}.reach_tolerance;
+  const double tolerance = tasks::TaskLoopOptions(config).reach_tolerance;
   fmt::print("\n");
   std::string header = fmt::format("  {:<26}", "");
   for (const DemoRun& r : runs) header += fmt::format("{:>24}", r.label);
@@ -393,8 +389,7 @@ void RegisterDemo(CLI::App& app) {
     }
     std::optional<std::string> policy;
     if (!args.policy.empty() && args.policy != "rmpflow") policy = args.policy;
-    const bool learned_scene = args.scenario == "crossing" || args.scenario == "line-crossing" ||
-                               args.scenario == "cluttered";
+    const bool learned_scene = tasks::IsArmTaskScene(args.scenario);
     if (args.policy.empty() && learned_scene && std::filesystem::exists(ShippedDefaultPolicyPath())) {
       policy = ShippedDefaultPolicyPath().string();
     }

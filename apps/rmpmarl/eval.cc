@@ -122,13 +122,13 @@ void RegisterEval(CLI::App& app) {
             config, file.weights, std::filesystem::path(args->policy).stem().string(), slots);
         learned.make_sensor = MakeSensorFactory(args->perception, args->seed);
         // the episodes the env evaluation runs (rl::Evaluate): env k of --envs draws its episodes from a generator
-        // seeded seed + k, and runs the k-th share of them one after the other
+        // seeded seed + k, and runs its share of them one after the other
         tasks::ControllerEpisodes runner(context, learned);
         std::vector<tasks::EpisodeMetrics> episodes;
+        const std::vector<int> shares = rl::EvaluationShares(args->episodes, args->envs);
         for (int k = 0; k < args->envs; ++k) {
           std::mt19937_64 rng(args->seed + static_cast<std::uint64_t>(k));
-          const int share = args->episodes / args->envs + (k < args->episodes % args->envs ? 1 : 0);
-          for (int e = 0; e < share; ++e) episodes.push_back(runner.Run(rng));
+          for (int e = 0; e < shares[k]; ++e) episodes.push_back(runner.Run(rng));
         }
         r = rl::SummarizeEpisodes(episodes);
       } else {

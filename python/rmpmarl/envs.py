@@ -221,9 +221,7 @@ class ParallelEnv(_ParallelEnvBase):
         return len(self.possible_agents)
 
     def reset(self, seed=None, options=None):
-        if options is not None and not isinstance(options, dict):
-            raise ValueError(f"options: expected a dict or None, got {type(options).__name__}")
-        obs, info = self._vec.reset(seed=seed)
+        obs, info = self._vec.reset(seed=seed, options=options)
         self.agents = list(self.possible_agents)
         self._state = info["state"][0]
         return ({a: obs[0, i] for i, a in enumerate(self.agents)}, {a: {} for a in self.agents})

@@ -11,6 +11,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/common/random.h"
+#include "rmpmarl/math/golden_section.h"
 
 namespace rmpmarl::kinematics {
 namespace {
@@ -31,27 +32,10 @@ double MinimiseOnInterval(const std::function<double(double)>& f, double lo, dou
       best = k;
     }
   }
-  double a = lo + (hi - lo) * std::max(best - 1, 0) / grid;
-  double b = lo + (hi - lo) * std::min(best + 1, grid) / grid;
-  const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
-  double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
-  double f1 = f(x1), f2 = f(x2);
-  for (int it = 0; it < golden_iterations; ++it) {
-    if (f1 < f2) {
-      b = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = b - phi * (b - a);
-      f1 = f(x1);
-    } else {
-      a = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = a + phi * (b - a);
-      f2 = f(x2);
-    }
-  }
-  const double x = 0.5 * (a + b);
+  const double a = lo + (hi - lo) * std::max(best - 1, 0) / grid;
+  const double b = lo + (hi - lo) * std::min(best + 1, grid) / grid;
+  const math::GoldenBracket g = math::GoldenSectionSearch(f, a, b, golden_iterations);
+  const double x = 0.5 * (g.a + g.b);
   const double grid_x = lo + (hi - lo) * best / grid;
   return f(x) <= best_value ? x : grid_x;
 }

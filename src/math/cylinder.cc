@@ -5,6 +5,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/math/geometry.h"
+#include "rmpmarl/math/golden_section.h"
 
 namespace rmpmarl::math {
 namespace {
@@ -58,28 +59,10 @@ DistanceResult CapsuleCylinderDistance(const Capsule& capsule, const Cylinder& c
   const Vector3d d_C = X_CW.linear() * (capsule.p_WB - capsule.p_WA);
   auto f = [&](double s) { return Sdf(p_CA + s * d_C, R, h); };
   // golden-section search on [0, 1]: the restriction of a convex function to a segment is convex, so unimodal;
-  // 80 steps shrink the bracket below 2^-55
-  constexpr double kInvPhi = 0.6180339887498949;
-  double lo = 0.0, hi = 1.0;
-  double x1 = hi - kInvPhi * (hi - lo), x2 = lo + kInvPhi * (hi - lo);
-  double f1 = f(x1), f2 = f(x2);
-  for (int it = 0; it < 80 && hi - lo > 0.0; ++it) {
-    if (f1 <= f2) {
-      hi = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = hi - kInvPhi * (hi - lo);
-      f1 = f(x1);
-    } else {
-      lo = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = lo + kInvPhi * (hi - lo);
-      f2 = f(x2);
-    }
-  }
-  // the best of the bracket's points and the end points (a minimum at an end point is common)
-  double s = f1 <= f2 ? x1 : x2, best = std::min(f1, f2);
+  // 80 steps shrink the bracket below 2^-55. Then the best of the bracket's points and the end points (a minimum at
+  // an end point is common).
+  const GoldenBracket g = GoldenSectionSearch(f, 0.0, 1.0, 80);
+  double s = g.f1 <= g.f2 ? g.x1 : g.x2, best = std::min(g.f1, g.f2);
   for (const double end : {0.0, 1.0}) {
     if (const double v = f(end); v < best) {
       best = v;

@@ -47,8 +47,7 @@ tasks::TaskConfig PolicyTaskConfig(const control::PolicyFile& file, const std::s
       throw InputError(fmt::format("{}: --scenario {}: expected one of the scenes {}", path, move.scene,
                                    fmt::join(sim::ScenarioNames(), ", ")));
     }
-    const bool arm_task = move.scene == "crossing" || move.scene == "line-crossing" || move.scene == "cluttered";
-    if (!arm_task) {
+    if (!tasks::IsArmTaskScene(move.scene)) {
       throw InputError(fmt::format("{}: --scenario {}: a learned controller runs in the scenes of the arm tasks: "
                                    "crossing (reach-avoid), line-crossing, cluttered (the other scenes run "
                                    "RMPflow alone: `rmpmarl demo --policy rmpflow --scenario {}`)", path, move.scene,

@@ -141,7 +141,6 @@ void EpisodeLoop::Begin(World* world, SceneSource* source, int physics_steps, co
   source->FillScene(&scene_);
   if (sensor_ != nullptr) sensor_->Reset(*world);
   SenseState();
-  step_min_clearance_ = warnings_->min_clearance();
   metrics_.min_clearance = warnings_->min_clearance();
   metrics_.min_self_clearance = warnings_->min_self_clearance();
   if (error_ < options_.reach_tolerance) metrics_.time_to_reach = 0.0;
@@ -230,7 +229,6 @@ bool EpisodeLoop::EndPeriod() {
   source_->FillScene(&scene_);
   ++steps_;
   SenseState();
-  step_min_clearance_ = warnings_->min_clearance();
   if (!period_ok_) {  // MuJoCo diverged (the World reset the robot): the episode is invalid, this step is not scored
     metrics_.invalid = true;
     return false;
@@ -238,7 +236,7 @@ bool EpisodeLoop::EndPeriod() {
   metrics_.collisions += step_events_.total();
   metrics_.obstacle_collisions += step_events_.obstacle;
   metrics_.self_collisions += step_events_.self;
-  metrics_.min_clearance = std::min(metrics_.min_clearance, step_min_clearance_);
+  metrics_.min_clearance = std::min(metrics_.min_clearance, warnings_->min_clearance());
   metrics_.min_self_clearance = std::min(metrics_.min_self_clearance, warnings_->min_self_clearance());
   tracking_sum_ += error_;
   metrics_.max_tracking_error = std::max(metrics_.max_tracking_error, error_);

@@ -129,6 +129,13 @@ TaskKind TaskOfScene(std::string_view scene) {
   throw InputError(fmt::format("scene '{}': expected a scene a task runs, one of {}", scene, scenes));
 }
 
+bool IsArmTaskScene(std::string_view scene) {
+  for (TaskKind kind : {TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered}) {
+    if (TaskSceneName(kind) == scene) return true;
+  }
+  return false;
+}
+
 control::AgentConfig AgentConfigOf(const TaskConfig& config) {
   control::AgentConfig a;
   a.interface = config.interface;

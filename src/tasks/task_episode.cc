@@ -20,6 +20,16 @@ double Uniform(std::mt19937_64& rng, double lo, double hi) {
 
 }  // namespace
 
+sim::LoopOptions TaskLoopOptions(const TaskConfig& config) {
+  sim::LoopOptions o;
+  o.settle_time = kSettleTime;
+  o.warning_margin = config.observation.warning_distance;
+  o.scenario_update = config.episode.scenario_update;
+  o.success_max_final_error = config.episode.success_max_final_error;
+  if (std::isfinite(config.episode.success_max_final_error)) o.reach_tolerance = config.episode.success_max_final_error;
+  return o;
+}
+
 TaskEpisode::TaskEpisode(std::shared_ptr<const TaskContext> context) : context_(std::move(context)) {
   RMPMARL_ASSERT(context_ != nullptr, "TaskEpisode: null context");
   const TaskContext& c = *context_;
@@ -31,13 +41,7 @@ TaskEpisode::TaskEpisode(std::shared_ptr<const TaskContext> context) : context_(
   agents_ = std::make_unique<control::JointAgents>(AgentConfigOf(config), &world_->model().robot());
   const double timestep = config.episode.physics_timestep;
   physics_steps_ = static_cast<int>(std::lround(1.0 / (config.episode.control_rate * timestep)));
-  loop_options_.settle_time = kSettleTime;
-  loop_options_.warning_margin = config.observation.warning_distance;
-  loop_options_.scenario_update = config.episode.scenario_update;
-  loop_options_.success_max_final_error = config.episode.success_max_final_error;
-  if (std::isfinite(config.episode.success_max_final_error)) {
-    loop_options_.reach_tolerance = config.episode.success_max_final_error;
-  }
+  loop_options_ = TaskLoopOptions(config);
   joint_weights_.resize(nq_);
   const std::vector<double>& w = config.reward.joint_reach_weights;
   for (int i = 0; i < nq_; ++i) joint_weights_[i] = w.size() == 1 ? w[0] : w[i];

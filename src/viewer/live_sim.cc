@@ -214,8 +214,7 @@ void LiveSim::Reset(std::uint64_t seed) {
 void LiveSim::PlaceObstacles() {
   live_target_.p_WT = p_WT_;
   live_target_.v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
-  for (std::size_t j = 0; j < slots_.size(); ++j) PlaceSlot(static_cast<int>(j));
-  for (const auto& arm : arms_) arm->world->SetTargetPosition(p_WT_);
+  for (const auto& arm : arms_) PlaceInto(*arm->world);
 }
 
 void LiveSim::PlaceInto(sim::World& world) const {
@@ -228,17 +227,6 @@ void LiveSim::PlaceInto(sim::World& world) const {
     }
   }
   world.SetTargetPosition(p_WT_);
-}
-
-void LiveSim::PlaceSlot(int j) {
-  const Slot& s = slots_[j];
-  for (const auto& arm : arms_) {
-    if (s.active) {
-      arm->world->SetObstaclePose(j, s.p, s.R);
-    } else {
-      arm->world->SetObstaclePose(j, sim::ParkedPose());
-    }
-  }
 }
 
 void LiveSim::FillObstacleViews() {

@@ -137,8 +137,6 @@ class EpisodeLoop {
   double time() const;
   /// collision events in the last control period.
   int step_collisions() const { return step_events_.total(); }
-  /// smallest robot–obstacle distance sensed at the end of the last period [m] (+inf: none within the margin).
-  double step_min_clearance() const { return step_min_clearance_; }
 
  private:
   void Observe(const ContactReport& report);
@@ -171,7 +169,6 @@ class EpisodeLoop {
   CollisionCounter::Events period_events_;
   bool period_ok_ = true;
   CollisionCounter::Events step_events_;
-  double step_min_clearance_ = std::numeric_limits<double>::infinity();
   EpisodeMetrics metrics_;
 };
 

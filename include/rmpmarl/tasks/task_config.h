@@ -50,6 +50,8 @@ std::string_view TaskKindName(TaskKind kind);
 std::string_view TaskSceneName(TaskKind kind);
 /// the task whose scene is `scene`; throws InputError naming the scenes that have a task.
 TaskKind TaskOfScene(std::string_view scene);
+/// whether `scene` is the scene of an arm task (crossing, line-crossing, cluttered): where the learned controllers run.
+bool IsArmTaskScene(std::string_view scene);
 
 /// Episode timing and ending: the agents' horizon and clock (control::AgentEpisode) and how training runs them.
 struct EpisodeConfig : control::AgentEpisode {

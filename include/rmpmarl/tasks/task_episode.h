@@ -29,6 +29,10 @@ struct StepScore {
   int collision_events = 0;        ///< collision events in this step
 };
 
+/// the episode loop's options for a task: its settle time, warning distance, scenario update and success
+/// tolerance; reached = within that tolerance where the task has one, within LoopOptions' default otherwise.
+sim::LoopOptions TaskLoopOptions(const TaskConfig& config);
+
 /// One episode of a task at a time. Per episode: Draw, reset the controllers on world(), Begin; per control step:
 /// BeginStep, the control step (on loop()), Advance, Score. Allocates nothing after the first episode of a variant.
 class TaskEpisode {

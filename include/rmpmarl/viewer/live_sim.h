@@ -124,9 +124,8 @@ class LiveSim final : public FrameSource {
   void BuildArms();
   std::unique_ptr<Arm> MakeArm(const std::string& controller, const Eigen::VectorXd& q,
                                const Eigen::VectorXd& qd) const;
-  // every slot's pose and the target into every arm's world; PlaceSlot: slot j only
+  // every slot's pose and the target into every arm's world (PlaceInto each), after the page changed them
   void PlaceObstacles();
-  void PlaceSlot(int j);
   // the scene every arm's controller is told, from the slots and the target
   void FillScene(rmp::Scene* scene) const;
   // one physics step of the shared scene: the scenario moves what the page does not hold

@@ -249,9 +249,8 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
     };
   }
 
-  // env k runs quota[k] episodes: the first `episodes` episodes in (env, episode) order.
-  std::vector<int> quota(N, options.episodes / N), done(N, 0);
-  for (int k = 0; k < options.episodes % N; ++k) ++quota[k];
+  const std::vector<int> quota = EvaluationShares(options.episodes, N);
+  std::vector<int> done(N, 0);
   std::vector<float> actions(static_cast<size_t>(N) * A * as);
   std::vector<tasks::EpisodeMetrics> ended;
   env.Reset();
@@ -270,6 +269,16 @@ EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& fac
     }
   }
   return SummarizeEpisodes(ended);
+}
+
+std::vector<int> EvaluationShares(int episodes, int num_envs) {
+  if (episodes < 1 || num_envs < 1) {
+    throw InputError(fmt::format("EvaluationShares: expected episodes >= 1 and num_envs >= 1, got {} and {}", episodes,
+                                 num_envs));
+  }
+  std::vector<int> share(num_envs, episodes / num_envs);
+  for (int k = 0; k < episodes % num_envs; ++k) ++share[k];
+  return share;
 }
 
 EvalResult SummarizeEpisodes(const std::vector<tasks::EpisodeMetrics>& episodes) {

@@ -179,6 +179,10 @@ struct EvalResult {
 /// the actor of a checkpoint (.ckpt, libtorch) or of an exported policy file (.rmpp, the Eigen runtime).
 EvalResult Evaluate(const std::string& policy_path, const tasks::EnvFactory& factory, const EvalOptions& options);
 
+/// the episodes env k of `num_envs` runs in an evaluation: the first `episodes` in (env, episode) order, so env k
+/// runs episodes / num_envs, one more for k < episodes % num_envs (Evaluate; a controller on the same episodes).
+std::vector<int> EvaluationShares(int episodes, int num_envs);
+
 /// the summary of ended episodes (Evaluate's, or a controller's on tasks::ControllerEpisodes). Throws InputError
 /// for none.
 EvalResult SummarizeEpisodes(const std::vector<tasks::EpisodeMetrics>& episodes);
