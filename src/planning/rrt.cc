@@ -58,6 +58,10 @@ bool SameObstacle(const rmp::Obstacle& a, const rmp::Obstacle& b) {
   }
   // a point set's index is rebuilt in place by its owner: never the same obstacle twice
   if (a.shape == rmp::ObstacleShape::kPoints) return false;
+  if (a.shape == rmp::ObstacleShape::kCylinder) {
+    return a.cylinder.X_WC.matrix() == b.cylinder.X_WC.matrix() && a.cylinder.radius == b.cylinder.radius &&
+           a.cylinder.half_length == b.cylinder.half_length;
+  }
   return a.box.X_WB.matrix() == b.box.X_WB.matrix() && a.box.half_size == b.box.half_size;
 }
 

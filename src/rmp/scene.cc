@@ -28,6 +28,17 @@ Obstacle Obstacle::MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d&
   return o;
 }
 
+Obstacle Obstacle::MakeCylinder(const Eigen::Isometry3d& X_WC, double radius, double half_length,
+                                const Eigen::Vector3d& v_WO) {
+  Obstacle o;
+  o.shape = ObstacleShape::kCylinder;
+  o.cylinder.X_WC = X_WC;
+  o.cylinder.radius = radius;
+  o.cylinder.half_length = half_length;
+  o.v_WO = v_WO;
+  return o;
+}
+
 Obstacle Obstacle::MakePoints(const math::PointCloudIndex& index, double point_radius, const Eigen::Vector3d& v_WO) {
   Obstacle o;
   o.shape = ObstacleShape::kPoints;
@@ -61,9 +72,11 @@ void ValidateScene(const Scene& scene, std::string_view what) {
       }
       continue;
     }
-    const Eigen::Vector3d p = o.shape == ObstacleShape::kSphere ? o.sphere.p_WC : o.box.X_WB.translation();
-    const Eigen::Vector3d size = o.shape == ObstacleShape::kSphere ? Eigen::Vector3d::Constant(o.sphere.radius)
-                                                                   : o.box.half_size;
+    const Eigen::Vector3d p = Centre(o);
+    Eigen::Vector3d size = Eigen::Vector3d::Constant(o.sphere.radius);
+    if (o.shape == ObstacleShape::kBox) size = o.box.half_size;
+    if (o.shape == ObstacleShape::kCylinder) size = Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius,
+                                                                    o.cylinder.half_length);
     if (p.allFinite() && o.v_WO.allFinite() && size.allFinite() &&
         !(in_range(p) && in_range(o.v_WO) && in_range(size))) {
       throw InputError(fmt::format("{}: obstacles[{}]: expected a position, velocity and size within ±{} m (m/s), got "
@@ -71,18 +84,31 @@ void ValidateScene(const Scene& scene, std::string_view what) {
                                    text(size)));
     }
     if (!o.v_WO.allFinite()) throw InputError(fmt::format("{}: obstacles[{}].v_WO must be finite", what, i));
-    if (o.shape == ObstacleShape::kSphere) {
-      if (!o.sphere.p_WC.allFinite() || !(o.sphere.radius > 0.0) || !std::isfinite(o.sphere.radius)) {
-        throw InputError(fmt::format("{}: obstacles[{}] (sphere) needs a finite centre and a finite radius > 0, got "
-                                     "radius {}", what, i, o.sphere.radius));
-      }
-    } else {
-      const Eigen::Matrix3d R = o.box.X_WB.linear();
-      if (!o.box.X_WB.matrix().allFinite() || !o.box.half_size.allFinite() || !(o.box.half_size.minCoeff() > 0.0) ||
-          !(R.transpose() * R).isIdentity(1e-9) || !(R.determinant() > 0.0)) {
-        throw InputError(fmt::format("{}: obstacles[{}] (box) needs a finite pose with a rotation matrix and half "
-                                     "sizes > 0", what, i));
-      }
+    auto is_rotation = [](const Eigen::Isometry3d& X) {
+      const Eigen::Matrix3d R = X.linear();
+      return X.matrix().allFinite() && (R.transpose() * R).isIdentity(1e-9) && R.determinant() > 0.0;
+    };
+    switch (o.shape) {
+      case ObstacleShape::kSphere:
+        if (!o.sphere.p_WC.allFinite() || !(o.sphere.radius > 0.0) || !std::isfinite(o.sphere.radius)) {
+          throw InputError(fmt::format("{}: obstacles[{}] (sphere) needs a finite centre and a finite radius > 0, "
+                                       "got radius {}", what, i, o.sphere.radius));
+        }
+        break;
+      case ObstacleShape::kBox:
+        if (!is_rotation(o.box.X_WB) || !o.box.half_size.allFinite() || !(o.box.half_size.minCoeff() > 0.0)) {
+          throw InputError(fmt::format("{}: obstacles[{}] (box) needs a finite pose with a rotation matrix and half "
+                                       "sizes > 0", what, i));
+        }
+        break;
+      case ObstacleShape::kCylinder:
+        if (!is_rotation(o.cylinder.X_WC) || !size.allFinite() || !(size.minCoeff() > 0.0)) {
+          throw InputError(fmt::format("{}: obstacles[{}] (cylinder) needs a finite pose with a rotation matrix, a "
+                                       "radius > 0 and a half length > 0, got radius {}, half length {}", what, i,
+                                       o.cylinder.radius, o.cylinder.half_length));
+        }
+        break;
+      case ObstacleShape::kPoints: break;
     }
   }
   if (!scene.p_WT.allFinite() || !scene.v_WT.allFinite()) {
@@ -100,6 +126,8 @@ math::DistanceResult CapsuleObstacleDistance(const math::Capsule& capsule, const
       return math::CapsuleSphereDistance(capsule, obstacle.sphere);
     case ObstacleShape::kBox:
       return math::CapsuleBoxDistance(capsule, obstacle.box);
+    case ObstacleShape::kCylinder:
+      return math::CapsuleCylinderDistance(capsule, obstacle.cylinder);
     case ObstacleShape::kPoints:
       break;
   }
@@ -112,6 +140,8 @@ double BoundingRadius(const Obstacle& obstacle) {
       return obstacle.sphere.radius;
     case ObstacleShape::kBox:
       return obstacle.box.half_size.norm();
+    case ObstacleShape::kCylinder:
+      return std::hypot(obstacle.cylinder.radius, obstacle.cylinder.half_length);
     case ObstacleShape::kPoints:
       break;
   }
@@ -124,6 +154,8 @@ Eigen::Vector3d Centre(const Obstacle& obstacle) {
       return obstacle.sphere.p_WC;
     case ObstacleShape::kBox:
       return obstacle.box.X_WB.translation();
+    case ObstacleShape::kCylinder:
+      return obstacle.cylinder.X_WC.translation();
     case ObstacleShape::kPoints:
       break;
   }

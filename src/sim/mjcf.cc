@@ -158,6 +158,35 @@ ObstacleSpec ObstacleSpec::Sphere(double radius, const Eigen::Vector3d& p_WO) {
   return spec;
 }
 
+ObstacleSpec ObstacleSpec::Cylinder(double radius, double half_length, const Eigen::Isometry3d& X_WO) {
+  ObstacleSpec spec;
+  spec.shape = ObstacleShape::kCylinder;
+  spec.radius = radius;
+  spec.half_length = half_length;
+  spec.X_WO = X_WO;
+  return spec;
+}
+
+ObstacleSpec ObstacleSpec::Of(const rmp::Obstacle& obstacle) {
+  switch (obstacle.shape) {
+    case rmp::ObstacleShape::kSphere: return Sphere(obstacle.sphere.radius, obstacle.sphere.p_WC);
+    case rmp::ObstacleShape::kBox: return Box(obstacle.box.half_size, obstacle.box.X_WB);
+    case rmp::ObstacleShape::kCylinder:
+      return Cylinder(obstacle.cylinder.radius, obstacle.cylinder.half_length, obstacle.cylinder.X_WC);
+    case rmp::ObstacleShape::kPoints: break;
+  }
+  throw InputError("ObstacleSpec::Of: a point-set obstacle has no MuJoCo shape (give spheres, boxes or cylinders)");
+}
+
+rmp::Obstacle ObstacleSpec::AsRmp(const Eigen::Isometry3d& X_WO, const Eigen::Vector3d& v_WO) const {
+  switch (shape) {
+    case ObstacleShape::kSphere: return rmp::Obstacle::MakeSphere(X_WO.translation(), radius, v_WO);
+    case ObstacleShape::kCylinder: return rmp::Obstacle::MakeCylinder(X_WO, radius, half_length, v_WO);
+    case ObstacleShape::kBox: break;
+  }
+  return rmp::Obstacle::MakeBox(X_WO, half_size, v_WO);
+}
+
 std::string MjcfNames::LinkBody(const Robot& robot, int link) {
   const std::string& name = robot.model.link(link).name;
   const bool reserved = name == "world" || name.starts_with("scene/") || name.starts_with("link/");
@@ -219,6 +248,7 @@ void CheckWorldInputs(const Robot& robot, const SceneSpec& scene, const WorldOpt
       for (int a = 0; a < 3; ++a) CheckPositive(obs.half_size[a], fmt::format("{}.half_size[{}]", what, a));
     } else {
       CheckPositive(obs.radius, what + ".radius");
+      if (obs.shape == ObstacleShape::kCylinder) CheckPositive(obs.half_length, what + ".half_length");
     }
     CheckPose(obs.X_WO, what + ".X_WO");
   }
@@ -293,9 +323,11 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
     const ObstacleSpec& obs = scene.obstacles[j];
     out += fmt::format("    <body name=\"{}\" mocap=\"true\" pos=\"{}\" quat=\"{}\">\n", MjcfNames::ObstacleBody(j),
                        Vec(obs.X_WO.translation()), Quat(obs.X_WO.linear()));
-    const std::string shape = obs.shape == ObstacleShape::kBox
-                                  ? fmt::format("type=\"box\" size=\"{}\"", Vec(obs.half_size))
-                                  : fmt::format("type=\"sphere\" size=\"{}\"", Num(obs.radius));
+    std::string shape = fmt::format("type=\"sphere\" size=\"{}\"", Num(obs.radius));
+    if (obs.shape == ObstacleShape::kBox) shape = fmt::format("type=\"box\" size=\"{}\"", Vec(obs.half_size));
+    if (obs.shape == ObstacleShape::kCylinder) {
+      shape = fmt::format("type=\"cylinder\" size=\"{} {}\"", Num(obs.radius), Num(obs.half_length));
+    }
     out += fmt::format(
         "      <geom name=\"{}\" {} contype=\"{}\" conaffinity=\"{}\" condim=\"1\" group=\"2\" "
         "rgba=\"0.9 0.3 0.2 1\"/>\n",

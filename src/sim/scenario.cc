@@ -225,7 +225,8 @@ void Scenario::Reset(std::uint64_t seed, World& world) {
     const ObstacleSpec& a = spec_.obstacles[j];
     const ObstacleSpec& b = wm.scene().obstacles[j];
     const bool same = a.shape == b.shape && (a.shape == ObstacleShape::kBox ? a.half_size.isApprox(b.half_size, 1e-12)
-                                                                           : std::abs(a.radius - b.radius) < 1e-12);
+                                                                           : std::abs(a.radius - b.radius) < 1e-12) &&
+                      (a.shape != ObstacleShape::kCylinder || std::abs(a.half_length - b.half_length) < 1e-12);
     if (!same) {
       throw InputError(fmt::format("{}: obstacle {}: expected the shape and size of scene_spec(), got a different "
                                    "one (build the WorldModel from Scenario::scene_spec())", where, j));
@@ -296,11 +297,10 @@ void Scenario::Advance(double dt, const ContactReport& contacts, World& world) {
 rmp::Obstacle Scenario::ObstacleAsRmp(int j) const {
   const ObstacleSpec& spec = spec_.obstacles[j];
   const ObstacleState& o = obstacles_[j];
-  if (spec.shape == ObstacleShape::kSphere) return rmp::Obstacle::MakeSphere(o.p_WO(), spec.radius, o.v_WO());
   Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
   X_WO.linear() = o.R_WO;
   X_WO.translation() = o.p_WO();
-  return rmp::Obstacle::MakeBox(X_WO, spec.half_size, o.v_WO());
+  return spec.AsRmp(X_WO, o.v_WO());
 }
 
 void Scenario::FillScene(rmp::Scene* scene) const {
@@ -347,8 +347,7 @@ double Scenario::RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Ve
   Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
   X_WO.linear() = obstacles_[j].R_WO;
   X_WO.translation() = p_WO;
-  const rmp::Obstacle o = spec.shape == ObstacleShape::kSphere ? rmp::Obstacle::MakeSphere(p_WO, spec.radius)
-                                                                : rmp::Obstacle::MakeBox(X_WO, spec.half_size);
+  const rmp::Obstacle o = spec.AsRmp(X_WO);
   double d = kInf;
   for (const auto& c : robot_.capsules) {
     d = std::min(d, rmp::CapsuleObstacleDistance(WorldCapsule(c, data), o).distance);

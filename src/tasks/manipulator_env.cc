@@ -162,8 +162,10 @@ void ManipulatorEnv::WriteGlobal(float* s) const {
     Put3(slot + 7, o.R_WO.col(0));
     Put3(slot + 10, o.R_WO.col(1));
     const sim::ObstacleSpec& os = spec.obstacles[j];
-    Put3(slot + 13, os.shape == sim::ObstacleShape::kBox ? Eigen::Vector3d(os.half_size / l)
-                                                          : Eigen::Vector3d::Constant(os.radius / l));
+    Eigen::Vector3d half_size = Eigen::Vector3d::Constant(os.radius);
+    if (os.shape == sim::ObstacleShape::kBox) half_size = os.half_size;
+    if (os.shape == sim::ObstacleShape::kCylinder) half_size.z() = os.half_length;
+    Put3(slot + 13, half_size / l);
   }
   s[g.robot_reach] = static_cast<float>(scenario.workspace().reach / l);
   s[g.progress] = static_cast<float>(episode_.steps()) / static_cast<float>(config_.episode.max_steps);

@@ -39,11 +39,10 @@ struct LiveSim::Slot {
   double drag_time = -1.0;  // simulated time of the last drag update
 
   rmp::Obstacle AsRmp() const {
-    if (spec.shape == sim::ObstacleShape::kSphere) return rmp::Obstacle::MakeSphere(p, spec.radius, v);
     Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
     X.linear() = R;
     X.translation() = p;
-    return rmp::Obstacle::MakeBox(X, spec.half_size, v);
+    return spec.AsRmp(X, v);
   }
 };
 

@@ -366,16 +366,20 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
     first = false;
     const rmp::Obstacle& ob = ov.obstacle;
     const bool sphere = ob.shape == rmp::ObstacleShape::kSphere;
-    fmt::format_to(o, R"({{"id":{},"shape":"{}","size":)", ov.id, sphere ? "sphere" : "box");
+    const bool cylinder = ob.shape == rmp::ObstacleShape::kCylinder;
+    fmt::format_to(o, R"({{"id":{},"shape":"{}","size":)", ov.id, sphere ? "sphere" : cylinder ? "cylinder" : "box");
     if (sphere) {
       fmt::format_to(o, "[{:.4f}]", ob.sphere.radius);
+    } else if (cylinder) {
+      fmt::format_to(o, "[{:.4f},{:.4f}]", ob.cylinder.radius, ob.cylinder.half_length);
     } else {
       AppendVec(out, ob.box.half_size);
     }
     out += R"(,"p":)";
     AppendVec(out, rmp::Centre(ob));
-    const Eigen::Quaterniond quat = sphere ? Eigen::Quaterniond::Identity()
-                                           : Eigen::Quaterniond(ob.box.X_WB.linear()).normalized();
+    const Eigen::Quaterniond quat = sphere     ? Eigen::Quaterniond::Identity()
+                                    : cylinder ? Eigen::Quaterniond(ob.cylinder.X_WC.linear()).normalized()
+                                               : Eigen::Quaterniond(ob.box.X_WB.linear()).normalized();
     fmt::format_to(o, R"(,"q":[{:.5f},{:.5f},{:.5f},{:.5f}],"v":)", quat.w(), quat.x(), quat.y(), quat.z());
     AppendVec(out, ob.v_WO);
     fmt::format_to(o, R"(,"held":{}}})", ov.held);

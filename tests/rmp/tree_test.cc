@@ -93,6 +93,32 @@ TEST(SceneTest, ValidateSceneRejectsBadObstacles) {
   ExpectInputError([&] { ValidateScene(bad, "scene"); }, "size [0.1, 0.2, 5000]");
 }
 
+TEST(SceneTest, CylindersAreValidatedAndMeasuredExactly) {
+  Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();
+  X_WC.linear() = Eigen::AngleAxisd(0.5 * M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();  // axis along −y
+  X_WC.translation() = Eigen::Vector3d(0.5, 0.0, 0.2);
+  Scene scene;
+  scene.obstacles.push_back(Obstacle::MakeCylinder(X_WC, 0.05, 0.2));
+  EXPECT_NO_THROW(ValidateScene(scene, "scene"));
+  Scene bad = scene;
+  bad.obstacles[0].cylinder.half_length = 0.0;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "obstacles[0] (cylinder)");
+  bad = scene;
+  bad.obstacles[0].cylinder.X_WC.linear() *= -1.0;  // a reflection
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "rotation matrix");
+  bad = scene;
+  bad.obstacles[0].cylinder.radius = 2e3;
+  ExpectInputError([&] { ValidateScene(bad, "scene"); }, "size [2000, 2000, 0.2]");
+
+  // a vertical capsule above the lying cylinder: the gap is hand-derived (0.2 − 0.05 above the axis − 0.05 − 0.02)
+  const math::Capsule capsule{Eigen::Vector3d(0.5, 0.1, 0.3), Eigen::Vector3d(0.5, 0.1, 0.6), 0.02};
+  const math::DistanceResult d = CapsuleObstacleDistance(capsule, scene.obstacles[0]);
+  EXPECT_NEAR(d.distance, 0.3 - 0.2 - 0.05 - 0.02, 1e-9);
+  EXPECT_TRUE(d.n_W.isApprox(Eigen::Vector3d::UnitZ(), 1e-6));
+  EXPECT_TRUE(Centre(scene.obstacles[0]).isApprox(X_WC.translation()));
+  EXPECT_NEAR(BoundingRadius(scene.obstacles[0]), std::hypot(0.05, 0.2), 1e-15);
+}
+
 TEST(TreeBuildTest, OrdersParentsBeforeChildren) {
   const kinematics::Robot robot = kinematics::MakePlanar2();
   const AffineMap square{Eigen::MatrixXd::Identity(2, 2), Eigen::VectorXd::Zero(2)};

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/math/geometry.h"
@@ -107,6 +108,60 @@ TEST(ContactsTest, BoxTenCentimetresFromALinkIsAWarningNotACollision) {
   world.SetObstaclePose(0, Eigen::Vector3d(0.25, 0.0, 0.04 + 0.16 + 0.05), Eigen::Matrix3d::Identity());
   EXPECT_TRUE(world.QueryContacts().warnings.empty());
   EXPECT_TRUE(std::isinf(world.QueryContacts().min_clearance));
+}
+
+// a cylinder obstacle in MuJoCo (its general convex collider) against math::CapsuleCylinderDistance: a standing and a
+// lying cylinder over link1, apart (no collision) and overlapping (one collision of that depth), in many poses
+TEST(ContactsTest, CylinderCollisionsAgreeWithTheExactDistance) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();  // link1 along x from 0 to 0.5, radius 0.04
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cylinder(0.05, 0.1)};
+  auto wm = std::make_shared<const WorldModel>(robot, scene, WorldOptions{.warning_margin = 0.0});
+  World world(wm);
+  world.Reset(Eigen::Vector2d(0.0, 0.0));
+  kinematics::Data kin(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, world.q(), &kin);
+  const math::Capsule link1 = WorldCapsule(robot, kin, 0);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI), along(0.1, 0.4), gap(-0.03, 0.03);
+  int collisions = 0, apart = 0;
+  double worst = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Matrix3d R = (Eigen::AngleAxisd(angle(rng), Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(k % 2 == 0 ? 0.0 : 0.5 * M_PI, Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    const double g = gap(rng);
+    if (std::abs(g) < 2e-3) continue;  // too close to touching for a yes/no
+    // place the cylinder above the link, then lower it to the exact gap g (its closest direction is vertical: the
+    // lying cylinder's lowest line and the standing one's bottom cap face the horizontal capsule)
+    Eigen::Isometry3d X_WC = Eigen::Isometry3d::Identity();
+    X_WC.linear() = R;
+    X_WC.translation() = Eigen::Vector3d(along(rng), 0.0, 1.0);
+    const math::Cylinder at_zero{X_WC, 0.05, 0.1};
+    const double d0 = math::CapsuleCylinderDistance(link1, at_zero).distance;
+    X_WC.translation().z() += g - d0;
+    const double d = math::CapsuleCylinderDistance(link1, {X_WC, 0.05, 0.1}).distance;
+    ASSERT_NEAR(d, g, 1e-9);
+    world.SetObstaclePose(0, X_WC.translation(), R);
+    // link1's pair only (a cylinder near the elbow may touch link2 too)
+    std::vector<CollidingPair> link1_pairs;
+    for (const CollidingPair& p : world.QueryContacts().colliding_pairs) {
+      if (p.link == 1) link1_pairs.push_back(p);
+    }
+    if (d > 0.0) {
+      EXPECT_TRUE(link1_pairs.empty()) << "gap " << d;
+      ++apart;
+    } else {
+      ASSERT_EQ(link1_pairs.size(), 1u) << "depth " << -d;
+      EXPECT_EQ(link1_pairs[0].other_kind, PartnerKind::kObstacle);
+      worst = std::max(worst, std::abs(link1_pairs[0].depth + d));
+      ++collisions;
+    }
+  }
+  fmt::print("  {} overlapping and {} apart; max |MuJoCo depth − math| = {:.2e} m\n", collisions, apart, worst);
+  EXPECT_GT(collisions, 50);
+  EXPECT_GT(apart, 50);
+  EXPECT_LT(worst, 1e-3);
 }
 
 TEST(ContactsTest, TargetAndObstacleObstacleContactsNeverCount) {

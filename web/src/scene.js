@@ -14,6 +14,16 @@ const EE_RADIUS = 0.012;
 const MAX_WITNESSES = 64;
 const MAX_LABELS = 48;
 
+// an obstacle's mesh geometry in its own frame: a sphere (size [r]), a cylinder along z (size [r, half length];
+// three.js builds cylinders along y) or a box (size: half sides).
+function obstacleGeometry(o) {
+  if (o.shape === 'sphere') return new THREE.SphereGeometry(o.size[0], 28, 18);
+  if (o.shape === 'cylinder') {
+    return new THREE.CylinderGeometry(o.size[0], o.size[0], 2 * o.size[1], 32).rotateX(Math.PI / 2);
+  }
+  return new THREE.BoxGeometry(2 * o.size[0], 2 * o.size[1], 2 * o.size[2]);
+}
+
 // true when WebGL runs on a software rasteriser (no GPU)
 function softwareRenderer() {
   try {
@@ -220,9 +230,7 @@ export class SceneView {
       let entry = this.obstacles.get(o.id);
       if (!entry || entry.key !== key) {
         if (entry) { this.obstacleGroup.remove(entry.mesh); entry.mesh.geometry.dispose(); }
-        const geometry = o.shape === 'sphere'
-          ? new THREE.SphereGeometry(o.size[0], 28, 18)
-          : new THREE.BoxGeometry(2 * o.size[0], 2 * o.size[1], 2 * o.size[2]);
+        const geometry = obstacleGeometry(o);
         entry = { mesh: new THREE.Mesh(geometry, this.obstacleMaterial), key };
         entry.mesh.userData.obstacleId = o.id;
         this.obstacles.set(o.id, entry);

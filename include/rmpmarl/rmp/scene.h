@@ -1,6 +1,6 @@
 #pragma once
 /// What the RMPs see of the world, as plain data filled by callers (a simulator, a test, a perception stack): sphere,
-/// box and point-cloud obstacles with linear velocities, and the end-effector target with its velocity. The rmp module
+/// box, cylinder and point-cloud obstacles with linear velocities, and the end-effector target with its velocity. The rmp module
 /// never reads the simulator itself.
 #include <Eigen/Geometry>
 #include <string_view>
@@ -11,15 +11,16 @@
 
 namespace rmpmarl::rmp {
 
-enum class ObstacleShape { kSphere, kBox, kPoints };
+enum class ObstacleShape { kSphere, kBox, kPoints, kCylinder };
 
-/// One obstacle: a sphere, an oriented box or a set of points (spheres of `point_radius`, e.g. one cluster of a depth
+/// One obstacle: a sphere, an oriented box, a solid cylinder of any orientation or a set of points (spheres of `point_radius`, e.g. one cluster of a depth
 /// camera's cloud) moving with linear velocity v_WO (no rotation). Every capsule sees a point set through its nearest
 /// point (math::CapsulePointCloudDistance), so the collision RMPs (eq 8–9) and the agents' warnings use it unchanged.
 struct Obstacle {
   ObstacleShape shape = ObstacleShape::kSphere;
   math::Sphere sphere;                            ///< used when shape == kSphere
   math::Box box;                                  ///< used when shape == kBox
+  math::Cylinder cylinder;                        ///< used when shape == kCylinder
   /// used when shape == kPoints: the points' index, not owned — it must outlive every use of the Scene holding it
   /// (control::CloudObstacles owns its clusters' indices until its next update).
   const math::PointCloudIndex* points = nullptr;
@@ -32,6 +33,9 @@ struct Obstacle {
   /// a box with centre pose X_WB and half side lengths moving with v_WO.
   static Obstacle MakeBox(const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& half_size,
                           const Eigen::Vector3d& v_WO = Eigen::Vector3d::Zero());
+  /// a solid cylinder with centre pose X_WC (its axis along C's z), radius and half length, moving with v_WO.
+  static Obstacle MakeCylinder(const Eigen::Isometry3d& X_WC, double radius, double half_length,
+                               const Eigen::Vector3d& v_WO = Eigen::Vector3d::Zero());
   /// the points of a non-empty `index`, each a sphere of `point_radius`, moving with v_WO; `index` must outlive the
   /// obstacle's use.
   static Obstacle MakePoints(const math::PointCloudIndex& index, double point_radius,
@@ -46,8 +50,8 @@ struct Scene {
   Eigen::Vector3d v_WT = Eigen::Vector3d::Zero();  ///< end-effector target velocity [m/s]
 };
 
-/// throws InputError naming `what` unless every obstacle has finite data, radius/half sizes > 0 and a rotation
-/// matrix (a point set: a non-empty index and a point radius ≥ 0), and the target is finite.
+/// throws InputError naming `what` unless every obstacle has finite data, radius/half sizes/half length > 0 and a
+/// rotation matrix (a point set: a non-empty index and a point radius ≥ 0), and the target is finite.
 void ValidateScene(const Scene& scene, std::string_view what);
 
 /// signed distance (with witness points and normal, capsule = shape 1) between a capsule and an obstacle.
@@ -57,7 +61,7 @@ math::DistanceResult CapsuleObstacleDistance(const math::Capsule& capsule, const
 /// plus the point radius).
 double BoundingRadius(const Obstacle& obstacle);
 
-/// centre of the obstacle (sphere centre, box centre, a point set's bounding-box centre).
+/// centre of the obstacle (sphere, box or cylinder centre, a point set's bounding-box centre).
 Eigen::Vector3d Centre(const Obstacle& obstacle);
 
 /// (Centre, BoundingRadius) of the obstacle in one vector: its bounding sphere, for the broad phases.

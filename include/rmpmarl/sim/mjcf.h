@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rmp/scene.h"
 
 namespace rmpmarl::sim {
 
@@ -44,8 +45,8 @@ struct WorldOptions {
   ServoOptions servo;
 };
 
-/// Shape of an obstacle (the paper's obstacles are cubes).
-enum class ObstacleShape { kBox, kSphere };
+/// Shape of an obstacle (the paper's obstacles are cubes; benchmark cells add cylinders).
+enum class ObstacleShape { kBox, kSphere, kCylinder };
 
 /// Where obstacles wait until placed: 10 m below the origin, out of reach of any arm (and below a floor).
 inline Eigen::Isometry3d ParkedPose() {
@@ -56,7 +57,8 @@ inline Eigen::Isometry3d ParkedPose() {
 struct ObstacleSpec {
   ObstacleShape shape = ObstacleShape::kBox;
   Eigen::Vector3d half_size = Eigen::Vector3d::Constant(0.05);  ///< box half side lengths [m]
-  double radius = 0.05;                                        ///< sphere radius [m]
+  double radius = 0.05;                                        ///< sphere or cylinder radius [m]
+  double half_length = 0.05;                                   ///< cylinder half length along O's z axis [m]
   Eigen::Isometry3d X_WO = ParkedPose();                       ///< initial pose of the obstacle centre frame O
 
   /// a box of half side lengths `half_size` at X_WO.
@@ -65,6 +67,12 @@ struct ObstacleSpec {
   static ObstacleSpec Cube(double side, const Eigen::Isometry3d& X_WO = ParkedPose());
   /// a sphere of radius `radius` centred at p_WO.
   static ObstacleSpec Sphere(double radius, const Eigen::Vector3d& p_WO = ParkedPose().translation());
+  /// a cylinder of `radius` and `half_length` whose axis is the z axis of X_WO.
+  static ObstacleSpec Cylinder(double radius, double half_length, const Eigen::Isometry3d& X_WO = ParkedPose());
+  /// the spec of an rmp obstacle's shape and pose (sphere, box or cylinder; a point set is refused: InputError).
+  static ObstacleSpec Of(const rmp::Obstacle& obstacle);
+  /// this shape at pose X_WO (a sphere: its translation), moving with v_WO, as the RMPs see it.
+  rmp::Obstacle AsRmp(const Eigen::Isometry3d& X_WO, const Eigen::Vector3d& v_WO = Eigen::Vector3d::Zero()) const;
 };
 
 /// Everything in the world besides the robot.
