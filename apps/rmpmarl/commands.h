@@ -76,6 +76,9 @@ std::string DescribePerception(const PerceptionArgs& args);
 void RegisterRobots(CLI::App& app);
 void RunRobotsTable(double duration);
 
+/// `rmpmarl benchmark mbm --problems DIR`: MotionBenchMaker problems run by every method (benchmark.cc).
+void RegisterBenchmark(CLI::App& app, int argc, char** argv);
+
 /// `rmpmarl demo`: the README's main job.
 void RegisterDemo(CLI::App& app);
 /// `rmpmarl view`: the live viewer in the browser (docs/viewer.md).

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   rmpmarl::apps::RegisterExportPolicy(app);
   rmpmarl::apps::RegisterUpgradeCheckpoint(app);
   rmpmarl::apps::RegisterExperiment(app, argc, argv);
+  rmpmarl::apps::RegisterBenchmark(app, argc, argv);
   rmpmarl::apps::RegisterProbeLookahead(app);
 #endif
   try {

@@ -186,11 +186,9 @@ Model ParseUrdfModel(const std::string& urdf_xml, const std::string& source) {
         throw InputError(fmt::format("{}: joint '{}': type not supported (expected revolute, continuous, "
                                      "prismatic or fixed)", source, joint->name));
     }
-    if (joint->mimic && link.joint_type == JointType::kFixed) {
-      throw InputError(fmt::format("{}: joint '{}': <mimic> on a fixed joint (expected revolute, continuous or "
-                                   "prismatic)", source, joint->name));
-    }
-    if (joint->mimic) {
+    // a <mimic> on a fixed joint has no value to set (a gripper frozen open, as MotionBenchMaker's Panda has it):
+    // the joint stays fixed, as in ROS and MoveIt
+    if (joint->mimic && link.joint_type != JointType::kFixed) {
       if (axis.norm() < 1e-12) {
         throw InputError(fmt::format("{}: joint '{}': <axis xyz> must be non-zero, got [{} {} {}]", source,
                                      joint->name, axis.x(), axis.y(), axis.z()));

@@ -94,7 +94,9 @@ struct RrtPolicy::Impl {
   Impl(const kinematics::Robot& r, const RrtOptions& o) : robot(r), options(o), kin(robot.model) {}
 
   // smallest signed distance at q over the obstacles (and, unless obstacles_only, the floor and checked capsule
-  // pairs); returns early, with a value <= stop_below, once one distance is that small.
+  // pairs); returns early, with a value <= stop_below, once one distance is that small. Exact when it is <= stop_below
+  // (always for stop_below = −inf); otherwise some value > stop_below (pairs that cannot come within stop_below are
+  // skipped: a validity check needs no more).
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
   // q within the bounds of the current plan and every checked distance > margin.
   bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && Clearance(q, false, margin) > margin; }
@@ -173,15 +175,27 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
         0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + lc.radius;
   }
   double d = kInf;
-  // a pair whose bounding spheres are farther apart than the smallest distance so far cannot lower it
-  auto bounded_out = [&d](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
-    return (a.head<3>() - centre).norm() - a[3] - radius >= d;
+  // a pair whose distance is bounded below by the smallest distance so far cannot lower it, nor, in a validity check
+  // (a finite stop_below), one bounded below by more than stop_below make the answer <= stop_below
+  const double cull_above = std::isfinite(stop_below) ? stop_below : kInf;
+  auto cannot_matter = [&d, cull_above](double lower_bound) { return lower_bound >= d || lower_bound > cull_above; };
+  auto bounded_out = [&](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+    return cannot_matter((a.head<3>() - centre).norm() - a[3] - radius);
   };
   for (const rmp::Obstacle& o : obstacles) {
     const Eigen::Vector3d centre = rmp::Centre(o);
     const double radius = rmp::BoundingRadius(o);
+    // a cylinder's enclosing box is nearer than the cylinder: its (cheap) distance bounds the cylinder's below
+    math::Box box;
+    if (o.shape == rmp::ObstacleShape::kCylinder) {
+      box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
+    }
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (bounded_out(capsule_sphere[c], centre, radius)) continue;
+      if (o.shape == rmp::ObstacleShape::kCylinder &&
+          cannot_matter(math::CapsuleBoxDistance(capsule_W[c], box).distance)) {
+        continue;
+      }
       d = std::min(d, rmp::CapsuleObstacleDistance(capsule_W[c], o).distance);
       if (d <= stop_below) return d;
     }
@@ -592,7 +606,11 @@ std::vector<Eigen::VectorXd> RrtPolicy::PlanPath(const Eigen::Ref<const Eigen::V
   kinematics::CheckJointVector(impl_->robot.model, q_goal, "q_goal");
   Impl& m = *impl_;
   m.SetObstacles(scene);
-  m.margin = m.options.safety_margin;
+  // an end inside the safety margin (a goal configuration at a grasp, a start beside what the arm just dodged) is
+  // planned with half the smaller end clearance as the margin; an end in penetration has no path
+  const double ends = std::min(m.Clearance(q_start, false, -kInf), m.Clearance(q_goal, false, -kInf));
+  m.margin = ends <= m.options.safety_margin ? 0.5 * ends : m.options.safety_margin;
+  if (!(m.margin > 0.0) && m.options.safety_margin > 0.0) return {};
   std::vector<Eigen::VectorXd> path = m.Plan(q_start, q_goal);
   ++m.plans;
   return path;

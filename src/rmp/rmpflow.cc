@@ -164,9 +164,10 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
     throw InputError(fmt::format("RMPflow: scene has {} obstacles but the policy was built for at most {}",
                                  num_obstacles, max_obstacles_));
   }
+  const Eigen::VectorXd& posture = PostureTarget(scene.q_T);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, true);
   PushForward(tree_, q, qd, scene, &data_);
-  WriteLeaves(q, qd, scene, /*task_leaves=*/true);
+  WriteLeaves(q, qd, scene, posture, scene.q_T_metric, /*task_leaves=*/true);
   PullbackAndResolve(tree_, &data_, qdd);
   diagnostics_.lambda = data_.lambda;
   const double norm = qdd.norm();
@@ -177,18 +178,27 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
 }
 
 void RmpflowPolicy::EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q,
-                                      const Eigen::Ref<const Eigen::VectorXd>& qd) {
+                                      const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::VectorXd& posture,
+                                      double posture_metric) {
   const kinematics::Model& model = tree_.robot().model;
   kinematics::CheckJointVector(model, q, "q");
   kinematics::CheckJointVector(model, qd, "qd");
+  const Eigen::VectorXd& target = PostureTarget(posture);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, false);  // the target leaf is the caller's (its RMP would be zero)
   PushForward(tree_, q, qd, no_task_, &data_);
-  WriteLeaves(q, qd, no_task_, /*task_leaves=*/false);
+  WriteLeaves(q, qd, no_task_, target, posture_metric, /*task_leaves=*/false);
   Pullback(tree_, &data_);
 }
 
+const Eigen::VectorXd& RmpflowPolicy::PostureTarget(const Eigen::VectorXd& posture) const {
+  if (posture.size() == 0) return home_;
+  kinematics::CheckJointVector(tree_.robot().model, posture, "q_T (C-space target)");
+  return posture;
+}
+
 void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
-                                const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene, bool task_leaves) {
+                                const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene,
+                                const Eigen::VectorXd& posture, double posture_metric, bool task_leaves) {
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
   RmpflowDiagnostics& diag = diagnostics_;
   diag = RmpflowDiagnostics{};
@@ -209,7 +219,14 @@ void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
   // C-space target + inertia + damping, all with metrics proportional to I
   {
     auto f = data_.f(cspace_node_);
-    const double s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, home_, f);
+    double s = 0.0;
+    if (posture_metric > 0.0) {
+      CSpaceTargetRmpParams params = options_.cspace_target;
+      params.metric_scalar = posture_metric;
+      s = EvalCSpaceTargetRmp(params, q, qd, posture, f);
+    } else {
+      s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, posture, f);
+    }
     const CSpaceDampingRmpParams& damping = options_.cspace_damping;
     f.noalias() -= (damping.metric_scalar * damping.accel_d_gain) * qd;
     data_.M(cspace_node_).diagonal().setConstant(s + damping.metric_scalar);

@@ -111,6 +111,10 @@ void ValidateScene(const Scene& scene, std::string_view what) {
       case ObstacleShape::kPoints: break;
     }
   }
+  if (!scene.q_T.allFinite()) throw InputError(fmt::format("{}: q_T (the C-space target) must be finite", what));
+  if (!(scene.q_T_metric >= 0.0) || !std::isfinite(scene.q_T_metric)) {
+    throw InputError(fmt::format("{}: q_T_metric: expected a finite metric >= 0, got {}", what, scene.q_T_metric));
+  }
   if (!scene.p_WT.allFinite() || !scene.v_WT.allFinite()) {
     throw InputError(fmt::format("{}: target position and velocity must be finite", what));
   }

@@ -309,6 +309,7 @@ void Scenario::FillScene(rmp::Scene* scene) const {
   scene->has_target = spec_.has_target;
   scene->p_WT = target_.p_WT;
   scene->v_WT = target_.v_WT;
+  scene->q_T = joint_goal_;
 }
 
 Eigen::Vector3d Scenario::RandomDirection(std::mt19937_64& rng) const {
@@ -449,12 +450,14 @@ SceneSpec StaticScene(const StaticSceneOptions& o) {
 StaticScenario::StaticScenario(const kinematics::Robot& robot, const StaticSceneOptions& options)
     : Scenario("static", robot, StaticScene(options), 6.0, WorkspaceOptions{}, options.q_start), options_(options) {
   if (!options.p_WT.allFinite()) throw InputError("StaticSceneOptions.p_WT: expected a finite position");
+  if (options.q_goal.size() > 0) kinematics::CheckJointVector(robot.model, options.q_goal, "StaticSceneOptions.q_goal");
   CheckWorldInputs(robot, spec_, WorldOptions{});
 }
 
 void StaticScenario::Draw(std::mt19937_64& /*rng*/) {
   target_.p_WT = options_.p_WT;
   target_.v_WT.setZero();
+  joint_goal_ = options_.q_goal;
   for (int j = 0; j < num_obstacles(); ++j) {
     obstacles_[j].p_start = options_.obstacles[j].X_WO.translation();
     obstacles_[j].R_WO = options_.obstacles[j].X_WO.linear();

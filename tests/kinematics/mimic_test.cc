@@ -133,7 +133,10 @@ void ExpectInputError(const std::string& urdf, const std::string& fragment) {
 TEST(MimicTest, BadMimicReferencesAreRefusedNamingTheJoint) {
   ExpectInputError(UrdfWithMimic(R"(<mimic joint="nope"/>)"), "joint 'j2': <mimic joint=\"nope\">: no joint of that name");
   ExpectInputError(UrdfWithMimic(R"(<mimic joint="j2"/>)"), "follow each other in a cycle");
-  ExpectInputError(UrdfWithMimic(R"(<mimic joint="j1"/>)", "fixed"), "<mimic> on a fixed joint");
+  // a mimic on a fixed joint sets nothing: the joint stays fixed (as ROS and MoveIt read it)
+  const Model fixed = ParseUrdfModel(UrdfWithMimic(R"(<mimic joint="j1"/>)", "fixed"), "m.urdf");
+  EXPECT_EQ(fixed.nq(), 1);
+  EXPECT_EQ(fixed.links()[2].joint_type, JointType::kFixed);
   const Model ok = ParseUrdfModel(UrdfWithMimic(R"(<mimic joint="j1" multiplier="2" offset="0.5"/>)"), "m.urdf");
   EXPECT_EQ(ok.nq(), 1);
   Eigen::VectorXd q(1);

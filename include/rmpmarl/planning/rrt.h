@@ -147,7 +147,8 @@ class RrtPolicy final : public control::AccelerationPolicy {
   IkResult SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const rmp::Scene& scene);
   /// a valid path q_start → q_goal (straight when possible, else RRT-Connect + shortcutting): its waypoints with
   /// straight segments checked at validity_resolution; empty when none was found within the budget or an end is
-  /// invalid.
+  /// invalid. An end closer than safety_margin to something (but not touching it) is planned with half the smaller
+  /// end clearance as the margin.
   std::vector<Eigen::VectorXd> PlanPath(const Eigen::Ref<const Eigen::VectorXd>& q_start,
                                         const Eigen::Ref<const Eigen::VectorXd>& q_goal, const rmp::Scene& scene);
 

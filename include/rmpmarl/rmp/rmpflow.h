@@ -85,17 +85,20 @@ class RmpflowPolicy {
   /// builds the tree for `robot` with slots for up to max_obstacles obstacles; validates options (InputError).
   RmpflowPolicy(const kinematics::Robot& robot, const RmpflowOptions& options, int max_obstacles);
 
-  /// q̈ of the combined policy. Throws InputError for q/q̇ of the wrong size or non-finite, or more than
-  /// max_obstacles obstacles.  \pre ValidateScene(scene) (obstacle data is not rechecked per call).
+  /// q̈ of the combined policy; the C-space target is scene.q_T when given, else home(). Throws InputError for q/q̇
+  /// (or a given q_T) of the wrong size or non-finite, or more than max_obstacles obstacles.  \pre ValidateScene(scene) (obstacle data is not rechecked per call).
   void Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                 const Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd);
 
   /// the pulled-back C-space RMP of the leaves that are not the task's — C-space target and damping, joint limits,
   /// velocity cap, self-collision; not the end-effector target nor the obstacles — left unresolved in data().f_root
   /// and data().M_root: the rest of RMPflow under a coupled per-joint basic layer (rmp::EvaluateCoupledLayer). The
-  /// end-effector node is left out (end_effector_position() stays that of the last Evaluate). Throws InputError for
-  /// q/q̇ of the wrong size or non-finite. Allocates nothing.
-  void EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd);
+  /// end-effector node is left out (end_effector_position() stays that of the last Evaluate). The C-space target is
+  /// `posture` when non-empty (a scene's q_T), else home(), with metric scalar `posture_metric` when > 0 (a scene's
+  /// q_T_metric), else the options'. Throws InputError for q/q̇/posture of the wrong size or non-finite. Allocates
+  /// nothing.
+  void EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                         const Eigen::VectorXd& posture = Eigen::VectorXd(), double posture_metric = 0.0);
 
   /// sets the C-space target posture (nq finite values).
   void set_home(const Eigen::Ref<const Eigen::VectorXd>& home);
@@ -111,7 +114,9 @@ class RmpflowPolicy {
  private:
   /// writes the leaves' RMPs after PushForward; without task_leaves, not the target's nor the obstacles'.
   void WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
-                   const Scene& scene, bool task_leaves);
+                   const Scene& scene, const Eigen::VectorXd& posture, double posture_metric, bool task_leaves);
+  /// `posture` when given (checked), else home_.
+  const Eigen::VectorXd& PostureTarget(const Eigen::VectorXd& posture) const;
 
   struct JointLimitLeaf {
     int node;

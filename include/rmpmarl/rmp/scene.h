@@ -48,10 +48,17 @@ struct Scene {
   bool has_target = true;                          ///< false: no end-effector target RMP this step
   Eigen::Vector3d p_WT = Eigen::Vector3d::Zero();  ///< end-effector target position [m]
   Eigen::Vector3d v_WT = Eigen::Vector3d::Zero();  ///< end-effector target velocity [m/s]
+  /// C-space target posture (a joint-space goal, or the posture of a plan being followed), one value per joint, for
+  /// the controllers that pull toward a posture (RMPflow's C-space target RMP; the learned layer's RMPflow structure);
+  /// empty: their configured home.
+  Eigen::VectorXd q_T;
+  /// > 0: the metric scalar of the C-space target RMP toward q_T instead of the controller's own (a plan being
+  /// followed weighs as much as the end-effector target; RMPflow's own posture prior weighs 50); 0: the controller's.
+  double q_T_metric = 0.0;
 };
 
 /// throws InputError naming `what` unless every obstacle has finite data, radius/half sizes/half length > 0 and a
-/// rotation matrix (a point set: a non-empty index and a point radius ≥ 0), and the target is finite.
+/// rotation matrix (a point set: a non-empty index and a point radius ≥ 0), and the target and q_T are finite.
 void ValidateScene(const Scene& scene, std::string_view what);
 
 /// signed distance (with witness points and normal, capsule = shape 1) between a capsule and an obstacle.

@@ -133,6 +133,8 @@ class Scenario : public SceneSource {
   const std::vector<ObstacleState>& obstacles() const { return obstacles_; }
   /// the obstacle as an rmp::Obstacle (shape from scene_spec(), pose and velocity from obstacles()).
   rmp::Obstacle ObstacleAsRmp(int j) const;
+  /// the joint-space goal the controllers are given (FillScene's q_T), empty when the episode has none.
+  const Eigen::VectorXd& joint_goal() const { return joint_goal_; }
 
  protected:
   /// `spec` fixes the obstacle shapes; q_start defaults to ReadyConfiguration(robot) when empty.
@@ -165,6 +167,7 @@ class Scenario : public SceneSource {
   double time_ = 0.0;
   TargetState target_;
   std::vector<ObstacleState> obstacles_;
+  Eigen::VectorXd joint_goal_;  ///< the joint-space goal given to the controllers (empty: none), set by Draw
 };
 
 /// Options of `static-reach`: a static target at the end effector of a random configuration near the start posture
@@ -204,6 +207,9 @@ struct StaticSceneOptions {
   Eigen::VectorXd q_start{};                  ///< empty: ReadyConfiguration(robot)
   Eigen::Vector3d p_WT = Eigen::Vector3d(0.4, 0.0, 0.4);
   std::vector<ObstacleSpec> obstacles{};    ///< with their poses X_WO
+  /// a joint-space goal the controllers are given beside p_WT (rmp::Scene::q_T; e.g. a benchmark problem's goal
+  /// configuration, whose end effector is p_WT); empty: none
+  Eigen::VectorXd q_goal{};
 };
 
 /// `static`: the set-up of StaticSceneOptions (not in the registry: it needs explicit data).

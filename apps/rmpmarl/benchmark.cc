@@ -1,0 +1,124 @@
+// `rmpmarl benchmark mbm --problems DIR`: MotionBenchMaker problems (MoveIt planning scenes + motion-plan requests)
+// run by RRT-Connect open loop, RMPflow, the learned controller and the plan followed by either (docs/benchmarks.md).
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <chrono>
+#include <sstream>
+
+#include "commands.h"
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/mbm.h"
+#include "rmpmarl/kinematics/robot.h"
+
+namespace rmpmarl::apps {
+namespace {
+
+struct MbmArgs {
+  std::string problems, robot, urdf, collision, policy, out = "mbm-results";
+  std::vector<std::string> package_paths, methods, families;
+  int limit = 0;
+  int jobs = 2;
+  double duration = 10.0, goal_tolerance = 0.02, planning_budget = 1.0, safety_margin = 0.01;
+  int planning_iterations = 0;
+  std::uint64_t seed = 0;
+};
+
+std::string CommandLine(int argc, char** argv) {
+  std::string s = "rmpmarl";
+  for (int i = 1; i < argc; ++i) s += std::string(" ") + argv[i];
+  return s;
+}
+
+void RunMbm(const MbmArgs& args, const std::string& command) {
+  if (!args.robot.empty() && !args.urdf.empty()) throw InputError("benchmark mbm: --robot and --urdf: give one of them");
+  if (!args.collision.empty() && args.urdf.empty()) throw InputError("benchmark mbm: --collision needs --urdf");
+  const kinematics::Robot robot = args.urdf.empty()
+                                      ? kinematics::LoadShippedRobot(args.robot.empty() ? "panda" : args.robot)
+                                      : LoadUserRobot(args.urdf, args.collision, args.package_paths).robot;
+  std::vector<experiments::MbmMethod> methods;
+  for (const std::string& m : args.methods) methods.push_back(experiments::ParseMbmMethod(m));
+  if (methods.empty()) methods = experiments::AllMbmMethods();
+  const std::vector<experiments::MbmProblem> problems =
+      experiments::FindMbmProblems(args.problems, args.families, args.limit);
+
+  experiments::MbmOptions options;
+  options.duration = args.duration;
+  options.goal_tolerance = args.goal_tolerance;
+  options.policy = args.policy.empty() ? ShippedDefaultPolicyPath() : std::filesystem::path(args.policy);
+  options.plan.planner.planning_time_budget = args.planning_budget;
+  options.plan.planner.planning_iterations = args.planning_iterations;
+  options.plan.planner.retry_period = 0.5;
+  options.plan.planner.safety_margin = args.safety_margin;
+  options.seed = args.seed;
+  options.jobs = args.jobs;
+
+  std::vector<std::string> names;
+  for (experiments::MbmMethod m : methods) names.push_back(experiments::MbmMethodName(m));
+  std::ostringstream setup;
+  setup << fmt::format("Robot '{}' ({} joints, {} capsules; {}). {} problems from {}. Methods: {}. {:g} s per episode; "
+                       "success: the end effector within {:g} mm of the goal's at the end and no collision event. "
+                       "Learned controller: {}. Planner: RRT-Connect on the capsule model with shortcutting, {:g} s "
+                       "budget{}, safety margin {:g} mm, seed {} + problem number. Machine: {} threads.",
+                       robot.name, robot.model.nq(), robot.capsules.size(),
+                       robot.urdf_path.empty() ? "built in" : robot.urdf_path.filename().string(), problems.size(),
+                       args.problems, fmt::join(names, ", "), options.duration, 1e3 * options.goal_tolerance,
+                       options.policy.filename().string(), options.plan.planner.planning_time_budget,
+                       args.planning_iterations > 0 ? fmt::format(" or {} iterations", args.planning_iterations) : "",
+                       1e3 * options.plan.planner.safety_margin, options.seed, options.jobs);
+  fmt::print("rmpmarl benchmark mbm: {}\n", setup.str());
+  const auto start = std::chrono::steady_clock::now();
+  const auto results = experiments::RunMbmBenchmark(robot, problems, methods, options, [&](int done) {
+    if (done % 10 == 0 || done == static_cast<int>(problems.size())) {
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      fmt::print("  {} of {} problems ({:.0f} s)\n", done, problems.size(), s);
+      std::fflush(stdout);
+    }
+  });
+  experiments::WriteMbmResults(results, args.out, command, setup.str());
+  fmt::print("\n{}\nwrote {}/results.csv and {}/report.md\n", experiments::MbmSummaryTable(results), args.out,
+             args.out);
+}
+
+}  // namespace
+
+void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
+  CLI::App* bench = app.add_subcommand("benchmark", "Run a benchmark problem set");
+  bench->require_subcommand(1);
+  auto args = std::make_shared<MbmArgs>();
+  CLI::App* mbm = bench->add_subcommand(
+      "mbm", "MotionBenchMaker problems (MoveIt planning scenes + motion-plan requests): per family success, "
+             "collisions, time to the goal, path length and planning time of RRT-Connect open loop, RMPflow, the "
+             "learned controller, plan + RMPflow and plan + learned");
+  mbm->add_option("--problems", args->problems, "folder of family folders with sceneNNNN.yaml + requestNNNN.yaml")
+      ->required();
+  mbm->add_option("--robot", args->robot, "a shipped robot (default panda)");
+  mbm->add_option("--urdf", args->urdf, "your robot's URDF (with --collision, or set up in memory)");
+  mbm->add_option("--collision", args->collision, "the collision YAML of --urdf");
+  mbm->add_option("--package-path", args->package_paths, "folders holding the packages of package:// meshes");
+  mbm->add_option("--methods", args->methods,
+                  "some of rrt-connect, rmpflow, learned, plan+rmpflow, plan+learned (default: all)")
+      ->delimiter(',');
+  mbm->add_option("--families", args->families, "only these families (e.g. box,cage)")->delimiter(',');
+  mbm->add_option("--limit", args->limit, "the first N problems of each family (0: all)")->check(CLI::NonNegativeNumber);
+  mbm->add_option("--duration", args->duration, "simulated seconds per episode")->check(CLI::Range(0.001, 1e4));
+  mbm->add_option("--goal-tolerance", args->goal_tolerance, "success radius around the goal's end effector [m]")
+      ->check(CLI::Range(1e-4, 1.0));
+  mbm->add_option("--policy", args->policy, "the learned controller file (default: the shipped default)");
+  mbm->add_option("--planning-budget", args->planning_budget, "wall-clock budget of one RRT-Connect search [s]")
+      ->check(CLI::Range(1e-4, 600.0));
+  mbm->add_option("--planning-iterations", args->planning_iterations,
+                  "at most this many RRT-Connect iterations per search (0: the time budget alone; > 0 makes runs "
+                  "machine-independent)")
+      ->check(CLI::NonNegativeNumber);
+  mbm->add_option("--safety-margin", args->safety_margin,
+                  "the planner's clearance from everything [m] (an end closer than it is planned with half its clearance)")
+      ->check(CLI::Range(0.0, 0.5));
+  mbm->add_option("--seed", args->seed, "planner seed (problem k uses seed + k)")->check(SeedCheck());
+  mbm->add_option("--jobs", args->jobs, "worker threads")->check(CLI::Range(1, 256));
+  mbm->add_option("--out", args->out, "output folder (results.csv, report.md)");
+  const std::string command = CommandLine(argc, argv);
+  mbm->callback([args, command]() { RunMbm(*args, command); });
+}
+
+}  // namespace rmpmarl::apps

@@ -1,0 +1,313 @@
+// Plan, then react: RRT-Connect's joint path as the moving target of a reactive layer (or executed open loop).
+#include "rmpmarl/planning/plan_follow.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "rmpmarl/common/error.h"
+
+namespace rmpmarl::planning {
+namespace {
+
+constexpr double kTimeEpsilon = 1e-9;
+
+void Require(bool ok, std::string_view field, std::string_view expected, double got) {
+  if (!ok) throw InputError(fmt::format("PlanFollowOptions.{}: expected {}, got {}", field, expected, got));
+}
+
+bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
+
+}  // namespace
+
+void ValidatePlanFollowOptions(const PlanFollowOptions& o) {
+  ValidateRrtOptions(o.planner);
+  Require(PositiveFinite(o.lookahead), "lookahead", "a finite distance > 0", o.lookahead);
+  Require(PositiveFinite(o.posture_metric), "posture_metric", "a finite metric > 0", o.posture_metric);
+  Require(PositiveFinite(o.stall_time), "stall_time", "a finite time > 0 s", o.stall_time);
+  Require(PositiveFinite(o.check_period), "check_period", "a finite period > 0 s", o.check_period);
+  Require(PositiveFinite(o.goal_tolerance), "goal_tolerance", "a finite distance > 0", o.goal_tolerance);
+}
+
+PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
+                                   std::unique_ptr<control::AccelerationPolicy> reactive,
+                                   const PlanFollowOptions& options)
+    : robot_(robot), reactive_(std::move(reactive)), options_(options), planner_(robot, options.planner),
+      kin_(robot.model) {
+  ValidatePlanFollowOptions(options_);
+  const int nq = robot_.model.nq();
+  if (reactive_ != nullptr && reactive_->nq() != nq) {
+    throw InputError(fmt::format("PlanFollowPolicy: the reactive layer '{}' has {} joints, robot '{}' has {}",
+                                 reactive_->name(), reactive_->nq(), robot_.name, nq));
+  }
+  v_path_.resize(nq);
+  for (int i = 0; i < nq; ++i) {
+    v_path_[i] = options_.planner.path_speed_fraction * robot_.model.limits()[i].velocity;  // > 0: RrtPolicy checked
+  }
+  q_goal_.setZero(nq);
+  q_d_.setZero(nq);
+  qd_d_.setZero(nq);
+  J_WE_.setZero(3, nq);
+  q_check_.setZero(nq);
+  follow_.q_T.setZero(nq);
+}
+
+PlanFollowPolicy::~PlanFollowPolicy() = default;
+
+std::string PlanFollowPolicy::name() const { return reactive_ ? "plan+" + reactive_->name() : "rrt-connect"; }
+
+int PlanFollowPolicy::nq() const { return robot_.model.nq(); }
+
+void PlanFollowPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) {
+  planner_.Reset(q0);
+  if (reactive_) reactive_->Reset(q0);
+  stats_ = PlanFollowStats{};
+  path_.clear();
+  path_times_.clear();
+  q_d_ = q0;
+  qd_d_.setZero();
+  time_ = tau_ = 0.0;
+  last_progress_ = last_check_ = 0.0;
+  last_attempt_ = -1e9;
+  planned_once_ = false;
+  has_goal_ = false;
+}
+
+bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  const auto start = std::chrono::steady_clock::now();
+  ++stats_.plans_attempted;
+  last_attempt_ = time_;
+  planned_once_ = true;
+  bool ok = false;
+  // the goal: the scene's joint goal, else a valid IK configuration at its target
+  if (scene.q_T.size() > 0) {
+    q_goal_ = scene.q_T;
+    has_goal_ = true;
+  } else if (scene.has_target) {
+    const IkResult ik = planner_.SolveIk(q, scene);
+    has_goal_ = ik.found && ik.reached;
+    if (has_goal_) q_goal_ = ik.q;
+  }
+  if (!has_goal_) {
+    ++stats_.goal_failures;
+  } else {
+    // from the arm; from a start too close to something (the reactive layer holds a few cm), from the reference
+    std::vector<Eigen::VectorXd> path = planner_.PlanPath(q, q_goal_, scene);
+    if (path.empty() && !path_.empty() && !(q_d_ - q).isZero()) {
+      path = planner_.PlanPath(q_d_, q_goal_, scene);
+    }
+    if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) ++stats_.goal_failures;
+    if (!path.empty()) {
+      path_ = std::move(path);
+      path_times_.assign(path_.size(), 0.0);
+      path_s_.assign(path_.size(), 0.0);
+      for (size_t k = 1; k < path_.size(); ++k) {
+        const double duration = ((path_[k] - path_[k - 1]).cwiseAbs().cwiseQuotient(v_path_)).maxCoeff();
+        path_times_[k] = path_times_[k - 1] + std::max(duration, 1e-6);
+        path_s_[k] = path_s_[k - 1] + (path_[k] - path_[k - 1]).norm();
+      }
+      s_near_ = 0.0;
+      segment_ = 0;
+      if (stats_.plans_succeeded == 0) {
+        for (size_t k = 1; k < path_.size(); ++k) stats_.first_path_length += (path_[k] - path_[k - 1]).norm();
+      }
+      ++stats_.plans_succeeded;
+      tau_ = 0.0;
+      last_progress_ = last_check_ = time_;
+      ok = true;
+    }
+  }
+  stats_.planning_times_s.push_back(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return ok;
+}
+
+void PlanFollowPolicy::Reference(double tau) {
+  const int last = static_cast<int>(path_.size()) - 1;
+  if (last < 0) return;
+  if (tau >= path_times_[last]) {
+    q_d_ = path_[last];
+    qd_d_.setZero();
+    return;
+  }
+  const int k = static_cast<int>(std::upper_bound(path_times_.begin(), path_times_.end(), tau) - path_times_.begin()) - 1;
+  const int segment = std::clamp(k, 0, last - 1);
+  const double duration = path_times_[segment + 1] - path_times_[segment];
+  const double s = std::clamp((tau - path_times_[segment]) / duration, 0.0, 1.0);
+  q_d_ = path_[segment] + s * (path_[segment + 1] - path_[segment]);
+  qd_d_ = (path_[segment + 1] - path_[segment]) / duration;
+}
+
+void PlanFollowPolicy::PointAt(double s) {
+  const int last = static_cast<int>(path_.size()) - 1;
+  qd_d_.setZero();
+  if (last <= 0 || s >= path_s_[last]) {
+    q_d_ = path_[std::max(last, 0)];
+    return;
+  }
+  const int k = std::clamp(
+      static_cast<int>(std::upper_bound(path_s_.begin(), path_s_.end(), s) - path_s_.begin()) - 1, 0, last - 1);
+  const double length = path_s_[k + 1] - path_s_[k];
+  const double f = length > 0.0 ? std::clamp((s - path_s_[k]) / length, 0.0, 1.0) : 1.0;
+  q_d_ = path_[k] + f * (path_[k + 1] - path_[k]);
+  if (length <= 0.0) return;
+  // the carrot's velocity: along the segment as fast as the slowest joint allows at the path speed, slowing down
+  // linearly over the last `lookahead` of the path
+  const Eigen::VectorXd& a = path_[k];
+  const Eigen::VectorXd& b = path_[k + 1];
+  const double speed = 1.0 / ((b - a).cwiseAbs().cwiseQuotient(v_path_) / length).maxCoeff();
+  const double brake = (path_s_[last] - s) / options_.lookahead;
+  qd_d_ = (std::min(speed, speed * brake) / length) * (b - a);
+}
+
+void PlanFollowPolicy::Project(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  // the nearest point on the segments from the current one to the carrot's (never behind the last nearest point)
+  const int last = static_cast<int>(path_.size()) - 1;
+  if (last <= 0) return;
+  double best = std::numeric_limits<double>::infinity(), best_s = s_near_;
+  int best_k = segment_;
+  for (int k = segment_; k < last && path_s_[k] <= s_near_ + options_.lookahead; ++k) {
+    const Eigen::VectorXd& a = path_[k];
+    const Eigen::VectorXd& b = path_[k + 1];
+    const double length = path_s_[k + 1] - path_s_[k];
+    double f = length > 0.0 ? std::clamp((q - a).dot(b - a) / (length * length), 0.0, 1.0) : 0.0;
+    double s = path_s_[k] + f * length;
+    if (s < s_near_) {  // behind the last nearest point (its own segment): that point
+      s = s_near_;
+      f = (s - path_s_[k]) / length;
+    }
+    const double d = (q - (a + f * (b - a))).squaredNorm();
+    if (d < best) {
+      best = d;
+      best_s = s;
+      best_k = k;
+    }
+  }
+  if (best_s > s_near_ + 1e-6) last_progress_ = time_;
+  s_near_ = best_s;
+  segment_ = best_k;
+}
+
+bool PlanFollowPolicy::RestValid(const rmp::Scene& scene) {
+  const double resolution = options_.planner.validity_resolution;
+  // from the arm's nearest point along the rest of its segment and every later one
+  const int last = static_cast<int>(path_.size()) - 1;
+  PointAt(s_near_);
+  const int next = segment_ + 1;
+  Eigen::VectorXd from = q_d_;
+  for (int k = std::min(next, last); k <= last; ++k) {
+    const Eigen::VectorXd& to = path_[k];
+    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / resolution)));
+    for (int s = 1; s <= steps; ++s) {
+      q_check_ = from + (static_cast<double>(s) / steps) * (to - from);
+      if (!planner_.IsStateValid(q_check_, scene)) return false;
+    }
+    from = to;
+  }
+  return true;
+}
+
+void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene,
+                               bool control_step) {
+  if (!planned_once_) {
+    Plan(q, scene);
+    return;
+  }
+  if (!options_.replan) return;
+  if (path_.empty()) {
+    if (time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) Plan(q, scene);
+    return;
+  }
+  if (!control_step) return;
+  // at the goal: the configuration within the tolerance, or the end effector within it [m] of the goal's (a reactive
+  // layer that reaches the target in another posture of a redundant arm)
+  bool at_goal = (q - q_goal_).cwiseAbs().maxCoeff() <= options_.goal_tolerance;
+  if (!at_goal) {
+    const kinematics::EndEffector& ee = robot_.end_effector;
+    kinematics::CalcForwardKinematics(robot_.model, q, &kin_);
+    const Eigen::Vector3d p_WE = kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation());
+    kinematics::CalcForwardKinematics(robot_.model, q_goal_, &kin_);
+    at_goal = (p_WE - kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation())).norm() <=
+              options_.goal_tolerance;
+  }
+  if (!at_goal && time_ - last_progress_ >= options_.stall_time - kTimeEpsilon &&
+      time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) {
+    ++stats_.replans_stalled;
+    Plan(q, scene);
+    return;
+  }
+  if (time_ - last_check_ >= options_.check_period - kTimeEpsilon) {
+    last_check_ = time_;
+    if (!RestValid(scene)) {
+      ++stats_.replans_blocked;
+      Plan(q, scene);
+    }
+  }
+}
+
+void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
+  follow_.obstacles = scene.obstacles;
+  if (path_.empty()) {  // no plan (yet): the scene's own goal
+    follow_.has_target = scene.has_target;
+    follow_.p_WT = scene.p_WT;
+    follow_.v_WT = scene.v_WT;
+    follow_.q_T_metric = scene.q_T_metric;
+    if (has_goal_) {
+      follow_.q_T = q_goal_;
+    } else if (scene.q_T.size() > 0) {
+      follow_.q_T = scene.q_T;
+    } else {
+      follow_.q_T.resize(0);
+    }
+    return;
+  }
+  const kinematics::EndEffector& ee = robot_.end_effector;
+  kinematics::CalcForwardKinematics(robot_.model, q_d_, &kin_);
+  follow_.has_target = true;
+  follow_.p_WT = kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation());
+  kinematics::CalcPointJacobian(robot_.model, kin_, ee.link, ee.X_LE.translation(), J_WE_);
+  follow_.v_WT = J_WE_ * qd_d_;
+  follow_.q_T = q_d_;
+  follow_.q_T_metric = options_.posture_metric;
+}
+
+void PlanFollowPolicy::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                        const Eigen::Ref<const Eigen::VectorXd>& qd, const rmp::Scene& scene) {
+  Advance(q, scene, /*control_step=*/true);
+  if (!reactive_) return;
+  if (!path_.empty()) {
+    Project(q);
+    PointAt(s_near_ + options_.lookahead);
+  }
+  FillFollowScene(scene);
+  reactive_->BeginControlStep(q, qd, follow_);
+}
+
+void PlanFollowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                                const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) {
+  if (!planned_once_) Advance(q, scene, /*control_step=*/false);  // a caller without control steps
+  const double dt = options_.planner.evaluation_period;
+  if (reactive_ == nullptr) {
+    if (path_.empty()) {
+      qdd = -options_.planner.kd * qd;  // no plan: brake
+    } else {
+      Reference(tau_);
+      qdd = options_.planner.kp * (q_d_ - q) + options_.planner.kd * (qd_d_ - qd);
+      tau_ += dt;
+    }
+    time_ += dt;
+    return;
+  }
+  if (!path_.empty()) {
+    Project(q);
+    PointAt(s_near_ + options_.lookahead);
+  }
+  FillFollowScene(scene);
+  reactive_->Evaluate(q, qd, follow_, qdd);
+  time_ += dt;
+}
+
+}  // namespace rmpmarl::planning
