@@ -4,13 +4,16 @@
 
 #include <atomic>
 #include <csignal>
+#include <optional>
 #include <filesystem>
 #include <thread>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/control/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/viewer/live_sim.h"
 #include "rmpmarl/viewer/realtime.h"
 #include "rmpmarl/viewer/recording.h"
@@ -33,6 +36,7 @@ struct ViewArgs {
   int port = 8080;
   double fps = 30.0;
   std::string replay;
+  std::string scene, request;  // a MoveIt planning scene and motion-plan request instead of the scenario
   std::string web_root;
   double duration = 0.0;  // wall seconds to serve; 0: until interrupted
   bool paused = false;
@@ -70,8 +74,20 @@ void RunView(const ViewArgs& args) {
     options.overrides.num_obstacles = args.num_obstacles;
     options.controller = file ? "learned" : "rmpflow";
     options.side_by_side = args.side_by_side;
+    std::string scene_name = fmt::format("scenario '{}'", args.scenario);
+    if (!args.scene.empty()) {
+      const control::PlanningScene scene = control::ReadPlanningScene(args.scene);
+      std::optional<control::MotionPlanRequest> request;
+      if (!args.request.empty()) request = control::ReadMotionPlanRequest(args.request);
+      options.scene = sim::StaticSceneOf(robot, scene, request ? &*request : nullptr, args.request);
+      options.max_obstacles = static_cast<int>(options.scene->obstacles.size()) + 8;
+      scene_name = fmt::format("scene '{}' ({} objects, {} primitives){}", args.scene, scene.objects.size(),
+                               options.scene->obstacles.size(),
+                               request ? fmt::format(", start and goal of '{}'", args.request) : std::string());
+      for (const std::string& ignored : scene.ignored) fmt::print("rmpmarl view: {}: not shown\n", ignored);
+    }
     auto live = std::make_unique<viewer::LiveSim>(robot, file, policy_path, options);
-    what = fmt::format("{} ({} dof), scenario '{}', {}{}", robot.name, robot.model.nq(), args.scenario,
+    what = fmt::format("{} ({} dof), {}, {}{}", robot.name, robot.model.nq(), scene_name,
                        file ? policy_path : std::string("RMPflow"), args.side_by_side ? " beside RMPflow" : "");
     source = std::move(live);
   }
@@ -150,6 +166,10 @@ void RegisterView(CLI::App& app) {
   cmd->add_option("--port", args.port, "port (0: any free one)")->check(CLI::Range(0, 65535))->capture_default_str();
   cmd->add_option("--fps", args.fps, "frames sent per second")->check(CLI::Range(1.0, 120.0))->capture_default_str();
   cmd->add_option("--replay", args.replay, "play back a replay file (rmpmarl demo --record, or the page's record)");
+  cmd->add_option("--scene", args.scene, "a MoveIt planning scene (YAML: world.collision_objects with box, sphere and "
+                                         "cylinder primitives) instead of the scenario");
+  cmd->add_option("--request", args.request, "with --scene: a MoveIt motion-plan request whose start the arm takes "
+                                             "and whose goal's end effector is the target");
   cmd->add_option("--web-root", args.web_root, "directory of the built page (default: the build's or installed one)");
   cmd->add_option("--duration", args.duration, "stop after this many wall seconds (0: at Ctrl-C)")
       ->check(CLI::Range(0.0, 1e7));
@@ -159,6 +179,8 @@ void RegisterView(CLI::App& app) {
     if (!args.replay.empty() && (args.side_by_side || !args.policy.empty() || !args.urdf.empty())) {
       throw InputError("--replay plays a recorded episode: --policy, --urdf and --side-by-side do not apply");
     }
+    if (!args.request.empty() && args.scene.empty()) throw InputError("--request needs --scene");
+    if (!args.scene.empty() && !args.replay.empty()) throw InputError("--scene and --replay: give one of them");
     if (args.side_by_side && args.policy == "rmpflow") {
       throw InputError("--side-by-side shows the learned controller beside RMPflow: give it a controller file, not "
                        "--policy rmpflow");

@@ -101,8 +101,9 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
 /// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
 void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target, const py::handle& target_velocity,
                const py::handle& spheres, const py::handle& sphere_velocities, const py::handle& boxes,
-               const py::handle& box_velocities, const py::handle& box_rotations, const py::handle& cloud,
-               const py::handle& cloud_time) {
+               const py::handle& box_velocities, const py::handle& box_rotations, const py::handle& cylinders,
+               const py::handle& cylinder_velocities, const py::handle& cylinder_rotations,
+               const py::handle& joint_target, const py::handle& cloud, const py::handle& cloud_time) {
   rmp::Scene& s = h.scene;
   // a new cloud (base frame, [N, 3]; NaN rows are dropped and counted): its obstacles replace the last cloud's
   if (!cloud.is_none()) {
@@ -120,12 +121,16 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
   }
   const py::array sph = spheres.is_none() ? py::array() : CheckedArray(spheres, {.name = "spheres", .shape = {-1, 4}});
   const py::array box = boxes.is_none() ? py::array() : CheckedArray(boxes, {.name = "boxes", .shape = {-1, 6}});
+  const py::array cyl = cylinders.is_none() ? py::array()
+                                            : CheckedArray(cylinders, {.name = "cylinders", .shape = {-1, 5}});
   // an absent argument is an empty array (py::array() holds a 0-size array, not a null handle)
   const py::ssize_t ns = sph.ndim() == 2 ? sph.shape(0) : 0, nb = box.ndim() == 2 ? box.shape(0) : 0;
+  const py::ssize_t ny = cyl.ndim() == 2 ? cyl.shape(0) : 0;
   const py::ssize_t nc = h.cloud ? h.cloud->num_obstacles() : 0;
-  if (ns + nb + nc > h.max_obstacles) {
-    BadArgument(fmt::format("spheres, boxes, cloud: expected at most max_obstacles = {} obstacles in all, got {} + {} + "
-                            "{} (make the controller with a larger max_obstacles)", h.max_obstacles, ns, nb, nc));
+  if (ns + nb + ny + nc > h.max_obstacles) {
+    BadArgument(fmt::format("spheres, boxes, cylinders, cloud: expected at most max_obstacles = {} obstacles in all, "
+                            "got {} + {} + {} + {} (make the controller with a larger max_obstacles)", h.max_obstacles,
+                            ns, nb, ny, nc));
   }
   auto optional = [](const py::handle& obj, const char* name, std::vector<py::ssize_t> shape, const char* needs,
                      py::ssize_t count) {
@@ -136,6 +141,11 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
   const py::array sv = optional(sphere_velocities, "sphere_velocities", {ns, 3}, "spheres", ns);
   const py::array bv = optional(box_velocities, "box_velocities", {nb, 3}, "boxes", nb);
   const py::array br = optional(box_rotations, "box_rotations", {nb, 3, 3}, "boxes", nb);
+  const py::array yv = optional(cylinder_velocities, "cylinder_velocities", {ny, 3}, "cylinders", ny);
+  const py::array yr = optional(cylinder_rotations, "cylinder_rotations", {ny, 3, 3}, "cylinders", ny);
+  const py::array jt = joint_target.is_none()
+                           ? py::array()
+                           : CheckedArray(joint_target, {.name = "joint_target", .shape = {h.controller->nq()}});
   const py::array t = target.is_none() ? py::array() : CheckedArray(target, {.name = "target", .shape = {3}});
   const py::array tv = target_velocity.is_none() ? py::array()
                                                  : CheckedArray(target_velocity, {.name = "target_velocity", .shape = {3}});
@@ -162,6 +172,22 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
     }
     s.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d(pb + 6 * i + 3), vec3(bv, i)));
   }
+  const double* py_ = static_cast<const double*>(cyl.data());
+  for (py::ssize_t i = 0; i < ny; ++i) {
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.translation() = Eigen::Vector3d(py_ + 5 * i);
+    if (yr.size() > 0) {
+      X.linear() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(
+          static_cast<const double*>(yr.data()) + 9 * i);
+    }
+    s.obstacles.push_back(rmp::Obstacle::MakeCylinder(X, py_[5 * i + 3], py_[5 * i + 4], vec3(yv, i)));
+  }
+  // the joint-space goal: the C-space target of the controllers that pull toward a posture (an empty copy: none)
+  if (jt.size() > 0) {
+    s.q_T = AsVector(jt);
+  } else {
+    s.q_T.resize(0);
+  }
   s.has_target = t.size() > 0;
   s.p_WT = s.has_target ? Eigen::Vector3d(static_cast<const double*>(t.data())) : Eigen::Vector3d::Zero();
   s.v_WT = tv.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(tv.data())) : Eigen::Vector3d::Zero();
@@ -180,14 +206,18 @@ py::object PerJoint(const ControllerHandle& h, const std::vector<float>* values)
 #define RMPMARL_SCENE_ARGS                                                                                  \
   py::kw_only(), py::arg("target") = py::none(), py::arg("target_velocity") = py::none(),                 \
       py::arg("spheres") = py::none(), py::arg("sphere_velocities") = py::none(), py::arg("boxes") = py::none(), \
-      py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none(), py::arg("cloud") = py::none(), \
-      py::arg("cloud_time") = py::none()
+      py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none(), py::arg("cylinders") = py::none(), \
+      py::arg("cylinder_velocities") = py::none(), py::arg("cylinder_rotations") = py::none(),                      \
+      py::arg("joint_target") = py::none(), py::arg("cloud") = py::none(), py::arg("cloud_time") = py::none()
 
 constexpr const char* kSceneDoc = R"doc(
 The scene (keyword-only, float64): target [3] (None: no target this step, the controller holds the end effector),
 target_velocity [3]; spheres [K, 4] rows (x, y, z, radius) with sphere_velocities [K, 3]; boxes [K, 6] rows
-(centre x, y, z, half sizes x, y, z) with box_velocities [K, 3] and box_rotations [K, 3, 3] (default identity). All in
-the robot's base frame, metres and m/s; at most max_obstacles obstacles in all.
+(centre x, y, z, half sizes x, y, z) with box_velocities [K, 3] and box_rotations [K, 3, 3] (default identity);
+cylinders [K, 5] rows (centre x, y, z, radius, half length) with cylinder_velocities [K, 3] and cylinder_rotations
+[K, 3, 3] (default identity; the axis is the rotation's third column). All in the robot's base frame, metres and m/s; at
+most max_obstacles obstacles in all. joint_target [nq]: a joint-space goal, the posture RMPflow's C-space target (and
+the learned layer's) pulls toward instead of the home posture; give the end effector at it as the target too.
 cloud [N, 3]: a sensor's point cloud in the base frame (rows with NaN are dropped), taken at cloud_time [s] (default:
 the controller's own clock). It is cropped, downsampled to voxels, cleared of the robot's own points, clustered into
 point-set obstacles and tracked for their velocities (docs/perception.md); its obstacles stay until the next cloud or
@@ -227,12 +257,14 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
                                const py::handle& target_velocity, const py::handle& spheres,
                                const py::handle& sphere_velocities, const py::handle& boxes,
                                const py::handle& box_velocities, const py::handle& box_rotations,
+                               const py::handle& cylinders, const py::handle& cylinder_velocities,
+                               const py::handle& cylinder_rotations, const py::handle& joint_target,
                                const py::handle& cloud, const py::handle& cloud_time, bool decide) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
         FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
-                  cloud, cloud_time);
+                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, cloud, cloud_time);
         if (decide) ++h.steps;
         {
           py::gil_scoped_release release;
@@ -249,12 +281,14 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
       .def("update", [](ControllerHandle& h, const py::handle& q, const py::handle& qd, const py::handle& target,
                         const py::handle& target_velocity, const py::handle& spheres,
                         const py::handle& sphere_velocities, const py::handle& boxes, const py::handle& box_velocities,
-                        const py::handle& box_rotations, const py::handle& cloud, const py::handle& cloud_time) {
+                        const py::handle& box_rotations, const py::handle& cylinders,
+                        const py::handle& cylinder_velocities, const py::handle& cylinder_rotations,
+                        const py::handle& joint_target, const py::handle& cloud, const py::handle& cloud_time) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
         FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
-                  cloud, cloud_time);
+                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, cloud, cloud_time);
         ++h.steps;
         control::ControlStepResult r;
         {
@@ -301,7 +335,24 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
          "how clouds become obstacles: voxel size [m], the self filter's margin [m], the margin added to each "
          "point's radius (half a voxel) [m], the smallest cluster [voxels], "
          "obstacle slots for the cloud, workspace [[xmin, ymin, zmin], [xmax, ymax, zmax]] in the world frame (default: "
-         "3 cm above the floor to 2.5 m, ±2 m around). Forgets the last cloud.")
+         "everything within the arm's reach of its base, above and below it; cloud_stats says what was cropped). "
+         "Forgets the last cloud.")
+      .def_property_readonly("cloud_stats", [](const ControllerHandle& h) {
+        py::dict d;
+        if (!h.cloud) return d;
+        const control::CloudUpdateStats& s = h.cloud->stats();
+        d["input_points"] = s.input_points;
+        d["nonfinite_points"] = s.nonfinite_points;
+        d["outside_points"] = s.outside_points;
+        d["robot_voxels"] = s.robot_voxels;
+        d["voxels"] = s.voxels;
+        d["clusters"] = s.clusters;
+        d["merged_clusters"] = s.merged_clusters;
+        const Eigen::AlignedBox3d& w = h.cloud->workspace();
+        d["workspace"] = py::make_tuple(VectorToNumpy(w.min()), VectorToNumpy(w.max()));
+        return d;
+      }, "what the last cloud became: points in, dropped as non-finite or outside the workspace crop (the box, "
+         "world frame), voxels, the robot's own voxels, clusters; {} before the first cloud")
       .def_property_readonly("cloud_points", [](const ControllerHandle& h) {
         py::array_t<double> a({h.cloud ? static_cast<py::ssize_t>(h.cloud->points().cols()) : 0, py::ssize_t{3}});
         if (h.cloud && h.cloud->points().cols() > 0) {

@@ -41,14 +41,16 @@ void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
     throw InputError(fmt::format("CloudObstacleOptions.{}: expected {}, got {}", field, expected, got));
   };
   if (!(o.voxel_size >= 0.001 && o.voxel_size <= 0.5)) fail("voxel_size", "a size in [0.001, 0.5] m", fmt::format("{}", o.voxel_size));
-  const Eigen::Vector3d lo = o.workspace.min(), hi = o.workspace.max();
-  if (!lo.allFinite() || !hi.allFinite() || !(hi.array() > lo.array()).all()) {
-    fail("workspace", "a finite box with min < max", fmt::format("min {} max {}", Vec(lo), Vec(hi)));
-  }
-  if (((hi - lo) / o.voxel_size).maxCoeff() >= static_cast<double>(kKeyOffset) ||
-      (lo.cwiseAbs().cwiseMax(hi.cwiseAbs()) / o.voxel_size).maxCoeff() >= static_cast<double>(kKeyOffset)) {
-    fail("workspace", fmt::format("a box within ±{} voxels of the origin", kKeyOffset),
-         fmt::format("min {} max {} at voxel size {}", Vec(lo), Vec(hi), o.voxel_size));
+  if (o.workspace) {
+    const Eigen::Vector3d lo = o.workspace->min(), hi = o.workspace->max();
+    if (!lo.allFinite() || !hi.allFinite() || !(hi.array() > lo.array()).all()) {
+      fail("workspace", "a finite box with min < max", fmt::format("min {} max {}", Vec(lo), Vec(hi)));
+    }
+    if (((hi - lo) / o.voxel_size).maxCoeff() >= static_cast<double>(kKeyOffset) ||
+        (lo.cwiseAbs().cwiseMax(hi.cwiseAbs()) / o.voxel_size).maxCoeff() >= static_cast<double>(kKeyOffset)) {
+      fail("workspace", fmt::format("a box within ±{} voxels of the origin", kKeyOffset),
+           fmt::format("min {} max {} at voxel size {}", Vec(lo), Vec(hi), o.voxel_size));
+    }
   }
   if (!(o.self_filter_margin >= 0.0 && o.self_filter_margin <= 0.5)) {
     fail("self_filter_margin", "a margin in [0, 0.5] m", fmt::format("{}", o.self_filter_margin));
@@ -72,9 +74,41 @@ void ValidateCloudObstacleOptions(const CloudObstacleOptions& o) {
   }
 }
 
+Eigen::AlignedBox3d ReachCrop(const kinematics::Robot& robot, double margin) {
+  // the farthest any link frame gets from its parent's, summed along the longest chain, plus the capsules' extent
+  const kinematics::Model& m = robot.model;
+  std::vector<double> reach(m.num_links(), 0.0);
+  double most = 0.0;
+  for (int k = 0; k < m.num_links(); ++k) {  // parents come before children
+    const kinematics::Link& link = m.link(k);
+    double r = link.parent >= 0 ? reach[link.parent] + link.X_PJ.translation().norm() : 0.0;
+    if (link.joint_type == kinematics::JointType::kPrismatic && link.q_index >= 0) {
+      const kinematics::DofLimits& lim = m.limits()[link.q_index];
+      r += std::max(std::abs(lim.lower), std::abs(lim.upper));
+    }
+    reach[k] = r;
+    most = std::max(most, r);
+  }
+  for (const kinematics::LinkCapsule& c : robot.capsules) {
+    most = std::max(most, reach[c.link] + std::max(c.p_LA.norm(), c.p_LB.norm()) + c.radius);
+  }
+  const Eigen::Vector3d half = Eigen::Vector3d::Constant(most + margin);
+  return {-half, half};
+}
+
+Eigen::AlignedBox3d FloorCrop(double floor_height) {
+  return {Eigen::Vector3d(-2.0, -2.0, floor_height + 0.03), Eigen::Vector3d(2.0, 2.0, floor_height + 2.5)};
+}
+
 CloudObstacles::CloudObstacles(const kinematics::Robot& robot, CloudObstacleOptions options)
     : robot_(robot), options_(std::move(options)), kin_(robot_.model) {
   ValidateCloudObstacleOptions(options_);
+  workspace_ = options_.workspace ? *options_.workspace : ReachCrop(robot_);
+  if (!options_.workspace) {
+    CloudObstacleOptions resolved = options_;
+    resolved.workspace = workspace_;
+    ValidateCloudObstacleOptions(resolved);  // an arm of kilometres' reach: refused as any box that large
+  }
   capsules_W_.resize(robot_.capsules.size());
   indices_.resize(options_.max_obstacles);
   slot_points_.resize(options_.max_obstacles);
@@ -183,7 +217,7 @@ void CloudObstacles::Downsample(const Eigen::Ref<const Eigen::Matrix3Xd>& p_W, c
   voxel_count_.clear();
   const size_t mask = size - 1;
   const double inv = 1.0 / options_.voxel_size;
-  const Eigen::AlignedBox3d& box = options_.workspace;
+  const Eigen::AlignedBox3d& box = workspace_;
   // a point standing for `count` points of the cloud
   auto add = [&](const Eigen::Vector3d& p, int count) {
     if (!p.allFinite()) {

@@ -132,14 +132,7 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
     }
   }
 
-  kinematics::Data kin(robot.model);
-  kinematics::CalcForwardKinematics(robot.model, q_goal, &kin);
-  sim::StaticSceneOptions static_scene;
-  static_scene.q_start = q_start;
-  static_scene.q_goal = q_goal;
-  static_scene.p_WT = kinematics::CalcPointPosition(kin, robot.end_effector.link,
-                                                    robot.end_effector.X_LE.translation());
-  for (const rmp::Obstacle& o : rmp_scene.obstacles) static_scene.obstacles.push_back(sim::ObstacleSpec::Of(o));
+  const sim::StaticSceneOptions static_scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
   sim::StaticScenario scenario(robot, static_scene);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario.scene_spec(),
                                                              sim::WorldOptions{.warning_margin = 0.0});

@@ -27,8 +27,19 @@ void ValidateDepthPerceptionOptions(const DepthPerceptionOptions& o) {
   ValidateOcclusionMemoryOptions(o.memory);
 }
 
+namespace {
+
+// the cloud's crop: the options' box, else 3 cm above the scene's floor (z = 0 without one: the cameras see no lower)
+control::CloudObstacleOptions CloudOf(const sim::WorldModel& model, control::CloudObstacleOptions cloud) {
+  if (!cloud.workspace) cloud.workspace = control::FloorCrop(model.scene().has_floor ? model.scene().floor_height : 0.0);
+  return cloud;
+}
+
+}  // namespace
+
 DepthPerception::DepthPerception(const sim::WorldModel& model, const DepthPerceptionOptions& options)
-    : options_(options), cloud_(model.robot(), options.cloud), memory_(options.memory, options.cloud.voxel_size) {}
+    : options_(options), cloud_(model.robot(), CloudOf(model, options.cloud)),
+      memory_(options.memory, options.cloud.voxel_size) {}
 
 std::unique_ptr<DepthPerception> DepthPerception::Create(const sim::WorldModel& model,
                                                          const DepthPerceptionOptions& options, std::string* why_not) {

@@ -447,6 +447,23 @@ SceneSpec StaticScene(const StaticSceneOptions& o) {
 }
 }  // namespace
 
+StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const control::PlanningScene& scene,
+                                 const control::MotionPlanRequest* request, std::string_view source) {
+  StaticSceneOptions o;
+  o.q_start = ReadyConfiguration(robot);
+  Eigen::VectorXd q_target = o.q_start;
+  if (request != nullptr) {
+    o.q_start = control::JointVector(robot, request->start, fmt::format("{}: start_state", source));
+    o.q_goal = control::JointVector(robot, request->goal.joints, fmt::format("{}: goal_constraints", source));
+    q_target = o.q_goal;
+  }
+  kinematics::Data data(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q_target, &data);
+  o.p_WT = kinematics::CalcPointPosition(data, robot.end_effector.link, robot.end_effector.X_LE.translation());
+  for (const rmp::Obstacle& obstacle : scene.Obstacles()) o.obstacles.push_back(ObstacleSpec::Of(obstacle));
+  return o;
+}
+
 StaticScenario::StaticScenario(const kinematics::Robot& robot, const StaticSceneOptions& options)
     : Scenario("static", robot, StaticScene(options), 6.0, WorkspaceOptions{}, options.q_start), options_(options) {
   if (!options.p_WT.allFinite()) throw InputError("StaticSceneOptions.p_WT: expected a finite position");

@@ -98,7 +98,8 @@ LiveSim::LiveSim(kinematics::Robot robot, std::shared_ptr<const control::PolicyF
                                  options_.max_obstacles, options_.arena));
   }
   policy_label_ = policy_ != nullptr ? std::filesystem::path(policy_path_).stem().string() : "";
-  scenario_ = sim::MakeScenario(options_.scenario, robot_, options_.overrides);
+  scenario_ = options_.scene ? std::make_unique<sim::StaticScenario>(robot_, *options_.scene)
+                             : sim::MakeScenario(options_.scenario, robot_, options_.overrides);
   sim::SceneSpec spec = scenario_->scene_spec();
   shadow_model_ = std::make_shared<const sim::WorldModel>(robot_, spec);
   shadow_ = std::make_unique<sim::World>(shadow_model_);

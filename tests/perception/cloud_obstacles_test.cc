@@ -180,6 +180,47 @@ TEST(CloudObstaclesTest, ClustersBeyondTheSlotsAreMergedIntoTheLastAndNoPointIsL
   EXPECT_EQ(cloud.clusters()[2].v_WO, Eigen::Vector3d::Zero());
 }
 
+// the default crop keeps everything the arm can reach, below its base too (a table it is mounted above, as in
+// MotionBenchMaker's box and table cells): a bound of the reach, checked against sampled configurations
+TEST(CloudObstaclesTest, TheDefaultCropIsTheArmsReachAboveAndBelowItsBase) {
+  for (const std::string& name : kinematics::ShippedRobotNames()) {
+    SCOPED_TRACE(name);
+    const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
+    const Eigen::AlignedBox3d box = control::ReachCrop(robot, 0.0);
+    kinematics::Data data(robot.model);
+    std::mt19937_64 rng(1);
+    double reach = 0.0;
+    for (int k = 0; k < 2000; ++k) {
+      Eigen::VectorXd q(robot.model.nq());
+      for (int i = 0; i < q.size(); ++i) {
+        const kinematics::DofLimits& l = robot.model.limits()[i];
+        const double lo = std::isfinite(l.lower) ? l.lower : -M_PI, hi = std::isfinite(l.upper) ? l.upper : M_PI;
+        q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
+      }
+      kinematics::CalcForwardKinematics(robot.model, q, &data);
+      for (const kinematics::LinkCapsule& c : robot.capsules) {
+        for (const Eigen::Vector3d& p : {c.p_LA, c.p_LB}) {
+          reach = std::max(reach, (data.X_WL[c.link] * p).norm() + c.radius);
+        }
+      }
+    }
+    EXPECT_GE(box.max().x(), reach);          // a bound
+    EXPECT_LE(box.max().x(), 1.6 * reach);    // not a loose one
+    EXPECT_DOUBLE_EQ(box.min().z(), -box.max().z());
+  }
+  const kinematics::Robot panda = kinematics::LoadShippedRobot("panda");
+  control::CloudObstacles cloud(panda);
+  EXPECT_TRUE(cloud.workspace().isApprox(control::ReachCrop(panda)));
+  // a table top half a metre below the base stays; the far wall of the room goes
+  Eigen::Matrix3Xd p = BoxSurface(Eigen::Vector3d(0.5, 0.0, -0.5), 0.05, 10);
+  p.col(0) = Eigen::Vector3d(6.0, 0.0, 0.0);
+  const control::CloudUpdateStats& s = cloud.Update(p, 0.0, Eigen::VectorXd::Zero(panda.model.nq()));
+  EXPECT_EQ(s.outside_points, 1);
+  EXPECT_EQ(cloud.num_obstacles(), 1);
+  const Eigen::AlignedBox3d floor = control::FloorCrop(0.1);
+  EXPECT_DOUBLE_EQ(floor.min().z(), 0.13);
+}
+
 TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   const Eigen::VectorXd q = Eigen::VectorXd::Zero(robot.model.nq());
@@ -191,7 +232,7 @@ TEST(CloudObstaclesTest, BadCloudsAreDroppedOrRefusedWithAMessage) {
   Eigen::Matrix3Xd p = BoxSurface(Eigen::Vector3d(0.5, 0.5, 0.4), 0.05, 10);
   p(0, 3) = std::numeric_limits<double>::quiet_NaN();
   p(2, 7) = std::numeric_limits<double>::infinity();
-  p(2, 9) = -0.5;  // under the floor
+  p(0, 9) = 4.0;  // beyond the arm's reach
   const control::CloudUpdateStats& s = cloud.Update(p, 0.1, q);
   EXPECT_EQ(s.nonfinite_points, 2);
   EXPECT_EQ(s.outside_points, 1);

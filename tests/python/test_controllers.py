@@ -103,6 +103,10 @@ def test_scene_bad_input_raises_and_leaves_the_controller_usable():
         (dict(target_velocity=np.zeros(3)), "target_velocity: given without target"),
         (dict(sphere_velocities=np.zeros((1, 3))), "sphere_velocities: given without spheres"),
         (dict(boxes=np.array([[0.4, 0, 0.5, .1, .1, .1]]), box_rotations=np.zeros((1, 3, 3))), "scene: obstacles[0]"),
+        (dict(cylinders=np.array([[0.4, 0, 0.5, 0.05]])), "cylinders: expected shape float64[any, 5]"),
+        (dict(cylinders=np.array([[0.4, 0, 0.5, 0.05, 0.0]])), "obstacles[0] (cylinder)"),
+        (dict(cylinder_rotations=np.eye(3)[None]), "cylinder_rotations: given without cylinders"),
+        (dict(joint_target=np.zeros(6)), "joint_target: expected shape float64[7]"),
     ]
     for kwargs, message in cases:
         with pytest.raises(ValueError) as e:
@@ -117,6 +121,35 @@ def test_scene_bad_input_raises_and_leaves_the_controller_usable():
         rmpmarl.rmpflow("panda", max_obstacles=-1)
     with pytest.raises(ValueError, match="robot: expected an rmpmarl.Robot"):
         rmpmarl.rmpflow(3)
+
+
+@pytest.mark.parametrize("which", ["rmpflow", "marl-rmp-residual"])
+def test_cylinders_and_joint_targets(which):
+    """a cylinder near the arm changes q̈, the same cylinder turned about its own axis does not, one out of reach
+    changes nothing; a joint target at the home posture is the home's own pull, another one is not."""
+    robot = rmpmarl.Robot("panda")
+    make = (lambda: rmpmarl.rmpflow(robot, max_obstacles=2)) if which == "rmpflow" else \
+        (lambda: rmpmarl.load_controller(rmpmarl.shipped_policy(which), robot=robot, max_obstacles=2))
+    qd = 0.2 * np.ones(7)
+    target = robot.end_effector_position(Q0) + [0.1, 0.1, 0.0]
+
+    def qdd(**scene):
+        controller = make()
+        controller.reset(Q0, qd)
+        return controller.accelerations(Q0, qd, target=target, **scene)
+
+    p = robot.end_effector_position(Q0) + [0.0, 0.0, 0.12]
+    lying = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # axis along −x
+    turned = lying @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # the same, turned about it
+    free = qdd()
+    near = qdd(cylinders=np.array([[*p, 0.05, 0.2]]), cylinder_rotations=lying[None])
+    assert np.abs(near - free).max() > 1e-3
+    np.testing.assert_allclose(qdd(cylinders=np.array([[*p, 0.05, 0.2]]), cylinder_rotations=turned[None]), near,
+                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(qdd(cylinders=np.array([[5.0, 5.0, 5.0, 0.05, 0.2]])), free)
+    home = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])  # configs/rmpflow/panda.yaml
+    np.testing.assert_allclose(qdd(joint_target=home), free, rtol=0, atol=1e-9)
+    assert np.abs(qdd(joint_target=home + 0.5) - free).max() > 1e-3
 
 
 def test_without_a_target_the_learned_controller_holds_the_end_effector():

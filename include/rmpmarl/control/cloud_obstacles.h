@@ -5,7 +5,8 @@
 ///
 /// One update, in order:
 ///  1. points with a NaN or infinite coordinate are dropped (counted); a cloud in millimetres is refused;
-///  2. points outside the workspace box are dropped (the floor below its top, the room beyond the reach);
+///  2. points outside the workspace box are dropped (the room beyond the reach; by default nothing the arm can reach,
+///     so a table below its base or a shelf above it stays — a scene with a floor plane crops above it, FloorCrop);
 ///  3. voxel-grid downsampling: one point per occupied voxel of `voxel_size`, the centroid of its points;
 ///  4. the self filter: voxels within a robot capsule's radius + `self_filter_margin` (at the robot's configuration
 ///     q) are the robot itself, dropped;
@@ -20,6 +21,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
@@ -32,8 +34,9 @@ namespace rmpmarl::control {
 /// Options of CloudObstacles.
 struct CloudObstacleOptions {
   double voxel_size = 0.02;  ///< [m], in [0.001, 0.5]
-  /// world-frame crop box [m]: the default starts 3 cm above a floor at z = 0 and spans a 2 m radius
-  Eigen::AlignedBox3d workspace{Eigen::Vector3d(-2.0, -2.0, 0.03), Eigen::Vector3d(2.0, 2.0, 2.5)};
+  /// world-frame crop box [m]; unset: ReachCrop(robot), everything within the arm's reach of its base (above and
+  /// below it). Points outside are counted (CloudUpdateStats::outside_points); CloudObstacles::workspace() is the box.
+  std::optional<Eigen::AlignedBox3d> workspace;
   double self_filter_margin = 0.01;  ///< [m] ≥ 0: a voxel within a capsule's radius + this is the robot's
   /// [m] in [0, 0.2]: each kept point is a sphere of half a voxel plus this margin for the controllers — room for
   /// what the cloud misses of an object (the sides the camera cannot see, points the self filter took near the arm).
@@ -59,6 +62,13 @@ struct CloudObstacleOptions {
 
 /// throws InputError naming the field unless the options are valid.
 void ValidateCloudObstacleOptions(const CloudObstacleOptions& options);
+
+/// the default crop: a cube centred on the robot's base origin whose half side is an upper bound of its reach (the
+/// joint offsets along the chain, prismatic travel and the capsules' extent) plus `margin` [m].
+Eigen::AlignedBox3d ReachCrop(const kinematics::Robot& robot, double margin = 0.3);
+/// the crop of a scene with a floor plane z = floor_height (the simulated cameras' scenes): from 3 cm above the floor
+/// to 2.5 m, ±2 m around the origin — the floor's own points go.
+Eigen::AlignedBox3d FloorCrop(double floor_height = 0.0);
 
 /// the key of the voxel (cube of side 1 / inv_voxel_size, corners on multiples of it) that holds p_W: its three
 /// integer indices packed in 21 bits each. ValidateCloudObstacleOptions keeps the workspace within that range.
@@ -130,6 +140,8 @@ class CloudObstacles {
   const std::vector<int>& cluster_point_counts(int k) const { return slot_counts_[k]; }
   const CloudUpdateStats& stats() const { return stats_; }
   const CloudObstacleOptions& options() const { return options_; }
+  /// the crop box in use (options().workspace, or ReachCrop of the robot).
+  const Eigen::AlignedBox3d& workspace() const { return workspace_; }
   const kinematics::Robot& robot() const { return robot_; }
 
  private:
@@ -153,6 +165,7 @@ class CloudObstacles {
 
   kinematics::Robot robot_;
   CloudObstacleOptions options_;
+  Eigen::AlignedBox3d workspace_;
   kinematics::Data kin_;
   std::vector<math::Capsule> capsules_W_;
   // voxel hash: open addressing over packed integer voxel keys

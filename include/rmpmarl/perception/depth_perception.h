@@ -21,6 +21,7 @@ struct DepthPerceptionOptions {
   /// the cameras (all at the first one's rate); default: one 320 × 240 camera at DepthCameraOptions' default pose
   std::vector<DepthCameraOptions> cameras{DepthCameraOptions{}};
   int stride = 1;  ///< back-project every stride-th pixel in u and v, ≥ 1
+  /// the cloud's obstacles; an unset workspace crops 3 cm above the scene's floor (control::FloorCrop)
   control::CloudObstacleOptions cloud{};
   /// static obstacles remembered while the arm hides them from the cameras (OcclusionMemory)
   OcclusionMemoryOptions memory{};

@@ -16,6 +16,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rmpmarl/control/planning_scene.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/mjcf.h"
@@ -211,6 +212,13 @@ struct StaticSceneOptions {
   /// configuration, whose end effector is p_WT); empty: none
   Eigen::VectorXd q_goal{};
 };
+
+/// a planning scene (control::ReadPlanningScene: its primitives as static obstacles) with, when given, a motion-plan
+/// request's start (q_start) and joint goal (q_goal, and p_WT the end effector there); without a request the start is
+/// ReadyConfiguration(robot) and the target the end effector there. Throws InputError (a joint of the robot missing
+/// from the request, a point-set obstacle).
+StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const control::PlanningScene& scene,
+                                 const control::MotionPlanRequest* request = nullptr, std::string_view source = "");
 
 /// `static`: the set-up of StaticSceneOptions (not in the registry: it needs explicit data).
 class StaticScenario final : public Scenario {

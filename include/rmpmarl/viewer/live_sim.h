@@ -59,6 +59,8 @@ class FrameSource {
 struct LiveSimOptions {
   std::string scenario = std::string(sim::kDefaultScenario);
   sim::ScenarioOverrides overrides{};
+  /// a fixed scene instead of the scenario (rmpmarl view --scene: a MoveIt planning scene and request)
+  std::optional<sim::StaticSceneOptions> scene{};
   std::uint64_t seed = 0;
   /// the first arm's controller: "learned" (needs a controller file) or "rmpflow"
   std::string controller = "learned";
