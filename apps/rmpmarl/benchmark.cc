@@ -22,6 +22,9 @@ struct MbmArgs {
   double duration = 10.0, goal_tolerance = 0.02, planning_budget = 1.0, safety_margin = 0.01;
   int planning_iterations = 0;
   std::uint64_t seed = 0;
+  int moving = 0;
+  std::vector<double> speed{0.5, 1.5};
+  std::uint64_t crossing_seed = 1;
 };
 
 std::string CommandLine(int argc, char** argv) {
@@ -52,6 +55,13 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
   options.plan.planner.safety_margin = args.safety_margin;
   options.seed = args.seed;
   options.jobs = args.jobs;
+  options.moving = args.moving;
+  if (args.speed.empty() || args.speed.size() > 2) {
+    throw InputError(fmt::format("--speed: expected one speed or a range MIN MAX [m/s], got {} values", args.speed.size()));
+  }
+  options.speed_min = args.speed.front();
+  options.speed_max = args.speed.back();
+  options.crossing_seed = args.crossing_seed;
 
   std::vector<std::string> names;
   for (experiments::MbmMethod m : methods) names.push_back(experiments::MbmMethodName(m));
@@ -66,6 +76,11 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        options.policy.filename().string(), options.plan.planner.planning_time_budget,
                        args.planning_iterations > 0 ? fmt::format(" or {} iterations", args.planning_iterations) : "",
                        1e3 * options.plan.planner.safety_margin, options.seed, options.jobs);
+  if (options.moving > 0) {
+    setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "
+                         "{:g}–{:g} m/s (crossing seed {}).", options.moving, options.moving == 1 ? "" : "s",
+                         options.moving_radius, options.speed_min, options.speed_max, options.crossing_seed);
+  }
   fmt::print("rmpmarl benchmark mbm: {}\n", setup.str());
   const auto start = std::chrono::steady_clock::now();
   const auto results = experiments::RunMbmBenchmark(robot, problems, methods, options, [&](int done) {
@@ -116,6 +131,14 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
       ->check(CLI::Range(0.0, 0.5));
   mbm->add_option("--seed", args->seed, "planner seed (problem k uses seed + k)")->check(SeedCheck());
   mbm->add_option("--jobs", args->jobs, "worker threads")->check(CLI::Range(1, 256));
+  mbm->add_option("--moving", args->moving, "the dynamic variant: this many spheres cross each problem's way, timed to "
+                                            "meet the plan executed open loop")
+      ->check(CLI::Range(0, 64));
+  mbm->add_option("--speed", args->speed, "the crossing spheres' speed, or a range MIN MAX drawn from [m/s]")
+      ->expected(1, 2)
+      ->check(CLI::Range(1e-3, 20.0));
+  mbm->add_option("--crossing-seed", args->crossing_seed, "seed of the crossings (problem k: its own draw)")
+      ->check(SeedCheck());
   mbm->add_option("--out", args->out, "output folder (results.csv, report.md)");
   const std::string command = CommandLine(argc, argv);
   mbm->callback([args, command]() { RunMbm(*args, command); });

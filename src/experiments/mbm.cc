@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <random>
 #include <regex>
 #include <set>
 #include <thread>
@@ -102,6 +103,60 @@ std::vector<MbmProblem> FindMbmProblems(const fs::path& dir, const std::vector<s
   return problems;
 }
 
+namespace {
+
+// the planner options of problem `problem_number` (the open-loop method's and the crossings')
+planning::RrtOptions PlannerOf(const MbmOptions& options, int problem_number) {
+  planning::RrtOptions planner = options.plan.planner;
+  planner.check_floor = false;
+  planner.seed = options.seed + static_cast<std::uint64_t>(problem_number);
+  return planner;
+}
+
+// the dynamic variant's spheres (MbmOptions::moving): each passes through the end effector of the open-loop plan's
+// execution at a drawn time
+std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot, const Eigen::VectorXd& q_start,
+                                                 const Eigen::VectorXd& q_goal, const rmp::Scene& scene,
+                                                 const MbmOptions& options, int problem_number) {
+  planning::RrtPolicy planner(robot, PlannerOf(options, problem_number));
+  std::vector<Eigen::VectorXd> path = planner.PlanPath(q_start, q_goal, scene);
+  if (path.empty()) path = {q_start, q_goal};  // no plan: the straight way, timed the same
+  // timed as PlanFollowPolicy executes a plan open loop: each segment at path_speed_fraction × the velocity limits
+  std::vector<double> times(path.size(), 0.0);
+  for (size_t k = 1; k < path.size(); ++k) {
+    double duration = 0.0;
+    for (int i = 0; i < robot.model.nq(); ++i) {
+      const double v = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
+      duration = std::max(duration, std::abs(path[k][i] - path[k - 1][i]) / v);
+    }
+    times[k] = times[k - 1] + std::max(duration, 1e-6);
+  }
+  std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(problem_number));
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  kinematics::Data data(robot.model);
+  std::vector<sim::LinearMotion> moving;
+  for (int k = 0; k < options.moving; ++k) {
+    const double t = (0.25 + 0.5 * unit(rng)) * times.back();
+    const size_t seg = std::min<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin(),
+                                        path.size() - 1);
+    const double f = seg == 0 ? 0.0 : (t - times[seg - 1]) / (times[seg] - times[seg - 1]);
+    const Eigen::VectorXd q = seg == 0 ? path[0] : Eigen::VectorXd(path[seg - 1] + f * (path[seg] - path[seg - 1]));
+    kinematics::CalcForwardKinematics(robot.model, q, &data);
+    const Eigen::Vector3d p = kinematics::CalcPointPosition(data, robot.end_effector.link,
+                                                            robot.end_effector.X_LE.translation());
+    const double heading = 2.0 * M_PI * unit(rng);
+    const double speed = options.speed_min + (options.speed_max - options.speed_min) * unit(rng);
+    sim::LinearMotion m;
+    m.spec = sim::ObstacleSpec::Sphere(options.moving_radius);
+    m.v_W = speed * Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.0);
+    m.p_W0 = p - t * m.v_W;
+    moving.push_back(m);
+  }
+  return moving;
+}
+
+}  // namespace
+
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
                         const MbmOptions& options, int problem_number) {
   MbmResult r;
@@ -116,7 +171,6 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   rmp::Scene rmp_scene;
   rmp_scene.obstacles = scene.Obstacles();
   rmp::ValidateScene(rmp_scene, problem.scene.string());
-  const int num_obstacles = static_cast<int>(rmp_scene.obstacles.size());
 
   // valid: the capsule model is collision-free at the start and the goal (no floor: the cell's own surfaces count)
   planning::RrtOptions check = options.plan.planner;
@@ -132,7 +186,11 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
     }
   }
 
-  const sim::StaticSceneOptions static_scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
+  sim::StaticSceneOptions static_scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
+  if (options.moving > 0) {
+    static_scene.moving = CrossingObstacles(robot, q_start, q_goal, rmp_scene, options, problem_number);
+  }
+  const int num_obstacles = static_cast<int>(static_scene.obstacles.size() + static_scene.moving.size());
   sim::StaticScenario scenario(robot, static_scene);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario.scene_spec(),
                                                              sim::WorldOptions{.warning_margin = 0.0});
@@ -156,10 +214,9 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
     policy = std::move(reactive);
   } else {
     planning::PlanFollowOptions plan = options.plan;
-    plan.planner.check_floor = false;
+    plan.planner = PlannerOf(options, problem_number);
     const double period = 1.0 / controller_options.control_rate;
     plan.planner.evaluation_period = period / control::ControlSubsteps(period, controller_options);
-    plan.planner.seed = options.seed + static_cast<std::uint64_t>(problem_number);
     if (method == MbmMethod::kRrtConnect) plan.replan = false;
     auto f = std::make_unique<planning::PlanFollowPolicy>(robot, std::move(reactive), plan);
     follower = f.get();
@@ -205,6 +262,16 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
     throw InputError(fmt::format("--goal-tolerance: expected a distance > 0 m, got {}", options.goal_tolerance));
   }
   planning::ValidatePlanFollowOptions(options.plan);
+  if (options.moving < 0 || options.moving > 64) {
+    throw InputError(fmt::format("--moving: expected 0 to 64 crossing obstacles, got {}", options.moving));
+  }
+  if (!(options.speed_min > 0.0) || !(options.speed_max >= options.speed_min) || !std::isfinite(options.speed_max)) {
+    throw InputError(fmt::format("--speed: expected 0 < min <= max, got {} … {} m/s", options.speed_min,
+                                 options.speed_max));
+  }
+  if (!(options.moving_radius > 0.0) || !std::isfinite(options.moving_radius)) {
+    throw InputError(fmt::format("moving_radius: expected a radius > 0 m, got {}", options.moving_radius));
+  }
   const size_t n = problems.size() * methods.size();
   std::vector<MbmResult> results(n);
   std::atomic<size_t> next{0};

@@ -443,6 +443,7 @@ namespace {
 SceneSpec StaticScene(const StaticSceneOptions& o) {
   SceneSpec spec;
   spec.obstacles = o.obstacles;
+  for (const LinearMotion& m : o.moving) spec.obstacles.push_back(m.spec);
   return spec;
 }
 }  // namespace
@@ -468,6 +469,11 @@ StaticScenario::StaticScenario(const kinematics::Robot& robot, const StaticScene
     : Scenario("static", robot, StaticScene(options), 6.0, WorkspaceOptions{}, options.q_start), options_(options) {
   if (!options.p_WT.allFinite()) throw InputError("StaticSceneOptions.p_WT: expected a finite position");
   if (options.q_goal.size() > 0) kinematics::CheckJointVector(robot.model, options.q_goal, "StaticSceneOptions.q_goal");
+  for (size_t k = 0; k < options.moving.size(); ++k) {
+    if (!options.moving[k].p_W0.allFinite() || !options.moving[k].v_W.allFinite()) {
+      throw InputError(fmt::format("StaticSceneOptions.moving[{}]: expected a finite start and velocity", k));
+    }
+  }
   CheckWorldInputs(robot, spec_, WorldOptions{});
 }
 
@@ -475,9 +481,20 @@ void StaticScenario::Draw(std::mt19937_64& /*rng*/) {
   target_.p_WT = options_.p_WT;
   target_.v_WT.setZero();
   joint_goal_ = options_.q_goal;
-  for (int j = 0; j < num_obstacles(); ++j) {
+  const int fixed = static_cast<int>(options_.obstacles.size());
+  for (int j = 0; j < fixed; ++j) {
     obstacles_[j].p_start = options_.obstacles[j].X_WO.translation();
     obstacles_[j].R_WO = options_.obstacles[j].X_WO.linear();
+  }
+  for (int j = fixed; j < num_obstacles(); ++j) {
+    const LinearMotion& m = options_.moving[j - fixed];
+    ObstacleState& o = obstacles_[j];
+    o = ObstacleState{};
+    o.p_start = m.p_W0;
+    o.R_WO = m.spec.X_WO.linear();
+    o.speed = m.v_W.norm();
+    o.direction = o.speed > 0.0 ? Eigen::Vector3d(m.v_W / o.speed) : Eigen::Vector3d::UnitX();
+    o.path_length = std::numeric_limits<double>::infinity();  // on its line for the whole episode
   }
 }
 

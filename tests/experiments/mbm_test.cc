@@ -153,6 +153,18 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   const std::vector<MbmResult> again = RunMbmBenchmark(panda, problems, {MbmMethod::kPlanRmpflow}, options);
   EXPECT_DOUBLE_EQ(again[0].final_error, results[3].final_error);
 
+  // the dynamic variant: spheres timed to meet the open-loop plan's end effector — the plan executed open loop hits
+  // one; the draw is the problem's, the same for every method and run
+  MbmOptions dynamic = options;
+  dynamic.moving = 2;
+  const std::vector<MbmProblem> first = {problems[0]};
+  const std::vector<MbmResult> crossed = RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic);
+  EXPECT_GE(crossed[0].collisions, 1);
+  EXPECT_FALSE(crossed[0].success);
+  EXPECT_EQ(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic)[0].final_error, crossed[0].final_error);
+  dynamic.speed_min = 0.0;
+  EXPECT_THROW(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic), InputError);
+
   const fs::path out = dir / "out";
   WriteMbmResults(results, out, "rmpmarl benchmark mbm --problems X", "setup");
   std::ifstream csv(out / "results.csv");

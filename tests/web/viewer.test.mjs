@@ -2,7 +2,8 @@
 // (software WebGL) and checks that the arm is drawn, that dragging the target steers the arm, that the controller
 // and side-by-side switches work, that bad messages are refused (and a flood of them does not stop the simulation),
 // that a reset starts a new episode; it measures the page's frame rate and the server's real-time factor, plays the
-// page's recording back with `--replay`, and restarts the server under the page. Exit code 0: every step passed.
+// page's recording back with `--replay`, restarts the server under the page, and draws a MoveIt planning scene
+// (`--scene`: a cylinder and a box, their sizes and poses checked on the page's meshes). Exit code 0: every step passed.
 // Screenshots, the server's and the page's logs and the recording are left in the --out directory.
 //
 // usage: node tests/web/viewer.test.mjs --rmpmarl build/rmpmarl --out build/test-artifacts/web [--web-root DIR]
@@ -33,6 +34,28 @@ const MIN_ARM_PIXELS = 300;
 const TRACK_TOL = 0.02;             // [m]
 const TRACK_TIME_MS = 3000;
 const DRAG_DISTANCE = 0.15;         // [m]
+const POSE_TOL = 1e-3;              // [m], and for unit axes
+const SIZE_TOL = 1e-4;              // [m]: the frames carry sizes to 4 decimals
+
+// the MoveIt planning scene of step 8. MoveIt's cylinder is [height, radius] along the primitive's z axis; this
+// orientation (x, y, z, w) turns it 90° about x, so its axis lies along world −y.
+const SCENE_YAML = `world:
+  collision_objects:
+    - id: can
+      primitive_poses:
+        - position: [0.5, 0.2, 0.3]
+          orientation: [0.7071067811865476, 0, 0, 0.7071067811865476]
+      primitives:
+        - type: cylinder
+          dimensions: [0.3, 0.05]
+    - id: board
+      primitive_poses:
+        - position: [0.5, -0.3, 0.2]
+          orientation: [0, 0, 0, 1]
+      primitives:
+        - type: box
+          dimensions: [0.2, 0.1, 0.02]
+`;
 
 // ---------------------------------------------------------------- arguments, reporting
 
@@ -397,12 +420,12 @@ async function main() {
 
   const webRoot = opts['web-root'] ? ['--web-root', path.resolve(opts['web-root'])] : [];
   const server = startServer(path.resolve(opts.rmpmarl), webRoot, path.join(opts.out, 'server.log'));
-  let replayServer = null, restarted = null, context = null;
+  let replayServer = null, restarted = null, sceneServer = null, sceneDir = null, context = null;
   const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'rmpmarl-viewer-test-'));
   const watchdog = setTimeout(async () => {
     console.log(`FAIL the test did not finish within ${TOTAL_TIMEOUT_MS / 1000} s (in step '${currentStep}')`);
     server.proc.kill('SIGKILL');
-    for (const x of [replayServer, restarted]) if (x) x.proc.kill('SIGKILL');
+    for (const x of [replayServer, restarted, sceneServer]) if (x) x.proc.kill('SIGKILL');
     process.exit(1);
   }, TOTAL_TIMEOUT_MS);
   watchdog.unref();
@@ -839,6 +862,71 @@ async function main() {
       return `"disconnected" after ${gone.ms} ms; frames again ${Date.now() - t0} ms after the restart `
         + `(${back.ms} ms after its URL was printed)`;
     });
+
+    // ---- 8
+    await step('8 a MoveIt planning scene (`--scene`): its cylinder and box drawn with their sizes and poses', async () => {
+      sceneDir = fs.mkdtempSync(path.join(os.tmpdir(), 'rmpmarl-viewer-scene-'));
+      const sceneFile = path.join(sceneDir, 'scene.yaml');
+      fs.writeFileSync(sceneFile, SCENE_YAML);
+      sceneServer = startServer(path.resolve(opts.rmpmarl), [...webRoot, '--robot', 'panda', '--policy', 'rmpflow',
+        '--scene', sceneFile, '--duration', '60'], path.join(opts.out, 'server-scene.log'));
+      const sceneUrl = await sceneServer.url;
+      const p3 = await context.newPage();
+      p3.on('pageerror', (e) => pageErrors.push(e.message));
+      await p3.goto(sceneUrl);
+      const got = await waitInPage(p3, () => {
+        const v = window.__rmpmarlViewer;
+        if (!v || !v.hello || v.frames < 5) return null;
+        const meshes = v.obstacleMeshes();
+        return meshes.length === v.frame.obstacles.length && meshes.length > 0
+          && { obstacles: v.frame.obstacles, meshes };
+      }, null, 10_000, 'frames from the scene server and a mesh for each of their obstacles');
+      await p3.screenshot({ path: path.join(opts.out, 'viewer-scene.png') });
+      await p3.close();
+      const { obstacles, meshes } = got.value;
+      const near = (a, b, tol) => a.length === b.length && a.every((x, i) => Math.abs(x - b[i]) <= tol);
+      // v rotated by the quaternion [x, y, z, w]
+      const rotate = ([x, y, z, w], v) => {
+        const t = [2 * (y * v[2] - z * v[1]), 2 * (z * v[0] - x * v[2]), 2 * (x * v[1] - y * v[0])];
+        return [v[0] + w * t[0] + y * t[2] - z * t[1], v[1] + w * t[1] + z * t[0] - x * t[2],
+          v[2] + w * t[2] + x * t[1] - y * t[0]];
+      };
+      const shapes = `frame obstacles ${JSON.stringify(obstacles.map((o) => ({ shape: o.shape, size: o.size, p: o.p, q: o.q })))}`
+        + `; meshes ${JSON.stringify(meshes.map((m) => ({ type: m.type, extent: m.extent.map((x) => +fmt(x, 4)),
+          p: m.p.map((x) => +fmt(x, 4)), q: m.q.map((x) => +fmt(x, 4)) })))}`;
+      check(obstacles.length === 2, `${obstacles.length} obstacles, expected the scene's 2 (a cylinder and a box); ${shapes}`);
+      // the protocol: a cylinder's size is [radius, half length], its q [w, x, y, z] turns its z axis
+      const can = obstacles.find((o) => o.shape === 'cylinder');
+      check(can, `no obstacle with shape cylinder; ${shapes}`);
+      check(near(can.size, [0.05, 0.15], SIZE_TOL), `the cylinder's size ${JSON.stringify(can.size)}, expected `
+        + `[0.05, 0.15] (radius, half length); ${shapes}`);
+      check(Array.isArray(can.q) && can.q.length === 4, `the cylinder has no quaternion: ${JSON.stringify(can.q)}`);
+      // the page: a CylinderGeometry r 0.05, h 0.3 whose axis (the mesh's z: obstacleGeometry turns three.js's y
+      // axis onto z) lies along world −y, centred where the scene put it
+      const cyl = meshes.find((m) => m.type === 'CylinderGeometry');
+      check(cyl, `no mesh with a CylinderGeometry; ${shapes}`);
+      const c = cyl.parameters;
+      check(Math.abs(c.radiusTop - 0.05) <= SIZE_TOL && Math.abs(c.radiusBottom - 0.05) <= SIZE_TOL
+        && Math.abs(c.height - 0.3) <= SIZE_TOL, `the CylinderGeometry has radii ${c.radiusTop}, ${c.radiusBottom} and `
+        + `height ${c.height}, expected 0.05 and 0.3`);
+      check(near(cyl.extent, [0.1, 0.1, 0.3], SIZE_TOL), `the cylinder's mesh spans ${vec(cyl.extent)} in its own `
+        + 'frame, expected [0.1, 0.1, 0.3]: its axis is not the mesh\'s z');
+      const axis = rotate(cyl.q, [0, 0, 1]);
+      check(near(axis, [0, -1, 0], POSE_TOL), `the cylinder's axis in the world is ${vec(axis)}, expected [0, -1, 0]`
+        + ` (mesh quaternion [x, y, z, w] ${vec(cyl.q)}; frame q [w, x, y, z] ${vec(can.q)})`);
+      check(near(cyl.p, [0.5, 0.2, 0.3], POSE_TOL), `the cylinder's mesh is at ${vec(cyl.p)}, expected [0.5, 0.2, 0.3]`);
+      // the box: BoxGeometry of the full sides (the frame's size: half sides), where the scene put it
+      const box = meshes.find((m) => m.type === 'BoxGeometry');
+      check(box, `no mesh with a BoxGeometry; ${shapes}`);
+      const b = box.parameters;
+      check(near([b.width, b.height, b.depth], [0.2, 0.1, 0.02], SIZE_TOL), `the BoxGeometry is ${b.width} × `
+        + `${b.height} × ${b.depth}, expected 0.2 × 0.1 × 0.02`);
+      check(near(box.p, [0.5, -0.3, 0.2], POSE_TOL), `the box's mesh is at ${vec(box.p)}, expected [0.5, -0.3, 0.2]`);
+      check(near(rotate(box.q, [1, 0, 0]), [1, 0, 0], POSE_TOL) && near(rotate(box.q, [0, 0, 1]), [0, 0, 1], POSE_TOL),
+        `the box's mesh is turned (quaternion [x, y, z, w] ${vec(box.q)}), expected unturned`);
+      return `after ${got.ms} ms: cylinder r ${fmt(c.radiusTop)} h ${fmt(c.height)} at ${vec(cyl.p)}, axis ${vec(axis)};`
+        + ` box ${b.width} × ${b.height} × ${b.depth} at ${vec(box.p)}`;
+    });
   } catch (e) {
     if (!(e instanceof Failure)) report(false, 'unexpected error', (e && e.stack) || String(e));
     else if (!results.some((r) => !r.ok)) report(false, 'setup', e.message);
@@ -847,7 +935,9 @@ async function main() {
     await stopServer(server);
     await stopServer(replayServer);
     await stopServer(restarted);
+    await stopServer(sceneServer);
     fs.rmSync(userDataDir, { recursive: true, force: true });
+    if (sceneDir) fs.rmSync(sceneDir, { recursive: true, force: true });
     consoleLog.end();
     clearTimeout(watchdog);
   }

@@ -201,5 +201,6 @@ window.__rmpmarlViewer = {
   armColor: ARM_COLOR.slice(),
   project: (p) => (view ? view.project(p) : null),
   countPixels: (rgb, tol = 0) => (view ? view.countPixels(rgb, tol) : 0),
+  obstacleMeshes: () => (view ? view.obstacleMeshes() : []),
   send: (obj) => connection.send(obj),
 };

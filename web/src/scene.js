@@ -341,6 +341,20 @@ export class SceneView {
     return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
   }
 
+  // the obstacles' meshes as drawn, in plain numbers: id, the three.js geometry's type and parameters, its bounding
+  // box's size in the mesh's frame, and the mesh's world position and quaternion [x, y, z, w].
+  obstacleMeshes() {
+    this.scene.updateMatrixWorld();
+    return [...this.obstacles].map(([id, { mesh }]) => {
+      const g = mesh.geometry;
+      if (!g.boundingBox) g.computeBoundingBox();
+      return { id, type: g.type, parameters: { ...g.parameters },
+        extent: g.boundingBox.getSize(new THREE.Vector3()).toArray(),
+        p: mesh.getWorldPosition(new THREE.Vector3()).toArray(),
+        q: mesh.getWorldQuaternion(new THREE.Quaternion()).toArray() };
+    });
+  }
+
   // canvas pixels whose colour is within tol (per channel) of rgb.
   countPixels(rgb, tol) {
     const gl = this.renderer.getContext();

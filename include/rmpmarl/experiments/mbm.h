@@ -50,6 +50,15 @@ struct MbmOptions {
   planning::PlanFollowOptions plan{};
   std::uint64_t seed = 0;        ///< planner seed of problem k: seed + k (the same for every method)
   int jobs = 1;                  ///< worker threads; results do not depend on it
+  /// the dynamic variant: this many spheres cross the way of each problem (0: the static problems). Each crosses the
+  /// path RRT-Connect plans for the problem (the open-loop method's, same seed), timed as it is executed: at a time
+  /// drawn in [0.25, 0.75] of the path's duration its centre passes through the end effector's position then, on a
+  /// horizontal line in a drawn direction, at a speed drawn in [speed_min, speed_max] — so the plan executed open
+  /// loop meets it. Drawn from crossing_seed + problem number (the same for every method).
+  int moving = 0;
+  double speed_min = 0.5, speed_max = 1.5;  ///< [m/s]
+  double moving_radius = 0.05;              ///< [m]
+  std::uint64_t crossing_seed = 1;
 };
 
 /// What one method did on one problem.

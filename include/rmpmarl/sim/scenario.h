@@ -203,7 +203,15 @@ class StaticReachScenario final : public Scenario {
   Eigen::VectorXd q_goal_;
 };
 
-/// Options of a fully specified static set-up (tests): fixed start, target and obstacles; no randomness.
+/// An obstacle crossing a fixed scene in a straight line at constant velocity (a benchmark's dynamic variant).
+struct LinearMotion {
+  ObstacleSpec spec;                                  ///< shape and size (its pose is the motion's)
+  Eigen::Vector3d p_W0 = Eigen::Vector3d::Zero();     ///< centre at t = 0 [m]
+  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();      ///< velocity [m/s]
+};
+
+/// Options of a fully specified static set-up (tests, benchmark problems): fixed start, target and obstacles, and
+/// obstacles in uniform linear motion; no randomness.
 struct StaticSceneOptions {
   Eigen::VectorXd q_start{};                  ///< empty: ReadyConfiguration(robot)
   Eigen::Vector3d p_WT = Eigen::Vector3d(0.4, 0.0, 0.4);
@@ -211,6 +219,8 @@ struct StaticSceneOptions {
   /// a joint-space goal the controllers are given beside p_WT (rmp::Scene::q_T; e.g. a benchmark problem's goal
   /// configuration, whose end effector is p_WT); empty: none
   Eigen::VectorXd q_goal{};
+  /// obstacles moving through the scene (after `obstacles` in the world's and the scene's order)
+  std::vector<LinearMotion> moving{};
 };
 
 /// a planning scene (control::ReadPlanningScene: its primitives as static obstacles) with, when given, a motion-plan
