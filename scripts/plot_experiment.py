@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots of an `rmpmarl experiment` from its CSVs (results.csv, summary.csv, curves.csv, frames).
 
-usage: plot_experiment.py NAME OUT_DIR      (NAME: table3 | table4 | fig3 | fig5 | cluttered)
+usage: plot_experiment.py NAME OUT_DIR      (NAME: table3 | table4 | fig3 | fig5 | cluttered | mbm)
 Reads only what the experiment wrote; writes PNGs into OUT_DIR. Needs Debian's python3-matplotlib.
 """
 import csv
@@ -142,6 +142,49 @@ def frames(out):
     plt.close(fig)
 
 
+def wilson(k, n):
+    """Wilson's 95 % interval of k successes in n, in percent."""
+    if n == 0:
+        return float("nan"), float("nan")
+    z, p = 1.959963984540054, k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * (p * (1 - p) / n + z * z / (4 * n * n)) ** 0.5 / d
+    return 100 * max(0.0, c - h), 100 * min(1.0, c + h)
+
+
+def mbm(out):
+    """`rmpmarl benchmark mbm`: success per family and method (valid problems, Wilson 95 % intervals)."""
+    rows = [r for r in read(os.path.join(out, "results.csv")) if r["valid"] == "1"]
+    families = ordered(r["family"] for r in rows) + ["all"]
+    methods = ordered(r["method"] for r in rows)
+    fig, ax = plt.subplots(figsize=(max(8, 1.3 * len(families) * len(methods) / 3), 4.5))
+    width = 0.8 / max(1, len(methods))
+    for m, method in enumerate(methods):
+        xs, ys, lo, hi = [], [], [], []
+        for f, family in enumerate(families):
+            sel = [r for r in rows if r["method"] == method and (family == "all" or r["family"] == family)]
+            if not sel:
+                continue
+            k = sum(r["success"] == "1" for r in sel)
+            a, b = wilson(k, len(sel))
+            y = 100 * k / len(sel)
+            xs.append(f + (m - (len(methods) - 1) / 2) * width)
+            ys.append(y)
+            lo.append(max(0.0, y - a))
+            hi.append(max(0.0, b - y))
+        ax.bar(xs, ys, width, yerr=[lo, hi], capsize=2, label=method)
+    ax.set_xticks(range(len(families)))
+    ax.set_xticklabels(families, rotation=20)
+    ax.set_ylabel("success [%] (valid problems, 95 % CI)")
+    ax.set_ylim(0, 105)
+    ax.set_title("MotionBenchMaker: success per family")
+    ax.legend(fontsize=8, ncol=min(5, len(methods)))
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "mbm_success.png"), dpi=100)
+    plt.close(fig)
+
+
 def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
@@ -158,6 +201,8 @@ def main():
         frames(out)
     elif name == "cluttered":
         bars(out, "Cluttered: static obstacles 20-50 cm", "cluttered_bars.png")
+    elif name == "mbm":
+        mbm(out)
     else:
         sys.exit(f"unknown experiment {name}")
 

@@ -382,9 +382,12 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
                        CsvField(r.invalid_reason));
   }
   if (!csv) throw InputError(fmt::format("could not write '{}'", (out / "results.csv").string()));
+  csv.close();
+  const std::vector<std::string> plots = MakePlots("mbm", out);
   std::ofstream md(out / "report.md");
   md << "# MotionBenchMaker benchmark\n\n" << "Command: `" << command << "`\n\n" << setup << "\n\n"
      << MbmSummaryTable(results) << "\n";
+  for (const std::string& png : plots) md << "![" << png << "](" << png << ")\n\n";
   std::vector<std::string> invalid;
   for (const MbmResult& r : results) {
     if (!r.valid && r.method == results.front().method) {

@@ -185,13 +185,20 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
   for (const rmp::Obstacle& o : obstacles) {
     const Eigen::Vector3d centre = rmp::Centre(o);
     const double radius = rmp::BoundingRadius(o);
-    // a cylinder's enclosing box is nearer than the cylinder: its (cheap) distance bounds the cylinder's below
-    math::Box box;
+    // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
+    // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
+    const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
+    math::Box box = o.box;
     if (o.shape == rmp::ObstacleShape::kCylinder) {
       box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
     }
+    const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (bounded_out(capsule_sphere[c], centre, radius)) continue;
+      if (boxed) {
+        const Eigen::Vector3d q = (X_BW * Eigen::Vector3d(capsule_sphere[c].head<3>())).cwiseAbs() - box.half_size;
+        if (cannot_matter(q.cwiseMax(0.0).norm() - capsule_sphere[c][3])) continue;
+      }
       if (o.shape == rmp::ObstacleShape::kCylinder &&
           cannot_matter(math::CapsuleBoxDistance(capsule_W[c], box).distance)) {
         continue;
