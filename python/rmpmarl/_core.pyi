@@ -83,16 +83,21 @@ class Controller:
                       target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
                       sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
                       box_velocities: Optional[ArrayLike] = None, box_rotations: Optional[ArrayLike] = None,
+                      cylinders: Optional[ArrayLike] = None, cylinder_velocities: Optional[ArrayLike] = None,
+                      cylinder_rotations: Optional[ArrayLike] = None, joint_target: Optional[ArrayLike] = None,
                       cloud: Optional[ArrayLike] = None, cloud_time: Optional[float] = None,
                       decide: bool = True) -> FloatArray:
-        """q̈ [nq] at (q, q̇); spheres [K, 4] (x, y, z, r), boxes [K, 6] (centre, half sizes), velocities [K, 3],
-        box_rotations [K, 3, 3]; cloud [N, 3] a sensor's new frame (base frame) taken at cloud_time [s]; target None
+        """q̈ [nq] at (q, q̇); spheres [K, 4] (x, y, z, r), boxes [K, 6] (centre, half sizes), cylinders [K, 5]
+        (centre, radius, half length), velocities [K, 3], box_rotations and cylinder_rotations [K, 3, 3]; joint_target
+        [nq] a joint-space goal; cloud [N, 3] a sensor's new frame (base frame) taken at cloud_time [s]; target None
         holds the end effector"""
     def update(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
                target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
                sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
                box_velocities: Optional[ArrayLike] = None,
-               box_rotations: Optional[ArrayLike] = None, cloud: Optional[ArrayLike] = None,
+               box_rotations: Optional[ArrayLike] = None, cylinders: Optional[ArrayLike] = None,
+               cylinder_velocities: Optional[ArrayLike] = None, cylinder_rotations: Optional[ArrayLike] = None,
+               joint_target: Optional[ArrayLike] = None, cloud: Optional[ArrayLike] = None,
                cloud_time: Optional[float] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
         """one control step: (q_cmd [nq], qd_cmd [nq], info)"""
     def clear_cloud(self) -> None:
@@ -101,6 +106,10 @@ class Controller:
                           point_margin: float = 0.02, min_cluster_voxels: int = 2, max_obstacles: int = 8,
                           workspace: Optional[ArrayLike] = None) -> None:
         """how clouds become obstacles (docs/perception.md); forgets the last cloud"""
+    @property
+    def cloud_stats(self) -> dict[str, Any]:
+        """what the last cloud became: points in, dropped (non-finite, outside the workspace crop: the box), voxels,
+        the robot's voxels, clusters; {} before the first cloud"""
     @property
     def cloud_points(self) -> FloatArray:
         """the last cloud's kept points [M, 3], world frame"""
@@ -115,6 +124,12 @@ def read_point_cloud(path: str) -> FloatArray:
     """the points [N, 3] of a .ply or .pcd file, in the file's frame and units"""
 def rmpflow(robot: Union[Robot, str], max_obstacles: int = 16, config: Optional[str] = None) -> Controller:
     """RMPflow on `robot` with its configs/rmpflow settings (or an RMPflow YAML)"""
+
+def plan_and_react(robot: Union[Robot, str], layer: str = "rmpflow", max_obstacles: int = 16,
+                   planning_budget: float = 1.0, planning_iterations: int = 0, safety_margin: float = 0.01,
+                   seed: int = 0) -> Controller:
+    """a global joint path (RRT-Connect) to the scene's joint_target followed by the reactive layer ('rmpflow' or a
+    controller file), replanning when stalled or blocked"""
 
 class VecEnv:
     """The batched C++ engine (use rmpmarl.make_vec_env). Arrays are read-only views, overwritten by step/reset."""

@@ -18,6 +18,7 @@
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/control/controller.h"
+#include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/sim/world.h"
 
 namespace rmpmarl::python {
@@ -387,6 +388,41 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
   BindControllerMakers(m);
 }
 
+// plan, then react: RRT-Connect's joint path followed by RMPflow ("rmpflow") or a controller file's learned agents
+std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, const std::string& layer,
+                                                   int max_obstacles, double planning_budget, int planning_iterations,
+                                                   double safety_margin, std::uint64_t seed) {
+  CheckMaxObstacles(max_obstacles);
+  if (layer != "rmpflow" && !fs::is_regular_file(layer)) {
+    FileNotFound(layer, "layer", "'rmpflow' or a controller file (.rmpp)");
+  }
+  std::shared_ptr<ControllerHandle> h = layer == "rmpflow" ? MakeRmpflow(robot, max_obstacles, std::nullopt)
+                                                           : LoadController(layer, robot, max_obstacles, std::nullopt);
+  // the layer's own controller hands over its options; the plan follower takes the layer's policy's place
+  const control::ControllerOptions options = h->controller->options();
+  std::unique_ptr<control::AccelerationPolicy> reactive =
+      layer == "rmpflow" ? std::unique_ptr<control::AccelerationPolicy>(
+                               std::make_unique<control::RmpflowAccelerationPolicy>(h->world->robot(), max_obstacles))
+                         : nullptr;
+  if (!reactive) {
+    const control::PolicyFile file = control::LoadPolicyFile(layer);
+    auto learned = control::MakeLearnedController(h->world->robot(), file, layer, max_obstacles);
+    h->learned = learned.get();
+    reactive = std::move(learned);
+  }
+  planning::PlanFollowOptions plan;
+  plan.planner.planning_time_budget = planning_budget;
+  plan.planner.planning_iterations = planning_iterations;
+  plan.planner.safety_margin = safety_margin;
+  plan.planner.seed = seed;
+  const double period = 1.0 / options.control_rate;
+  plan.planner.evaluation_period = period / control::ControlSubsteps(period, options);
+  auto follower = std::make_unique<planning::PlanFollowPolicy>(h->world->robot(), std::move(reactive), plan);
+  h->controller.reset();
+  h->file = layer;
+  return Finish(h, std::move(follower), options);
+}
+
 // the functions that make controllers (and read the clouds they take)
 void BindControllerMakers(py::module_& m) {
   m.def("load_controller", &LoadController, py::arg("policy_file"), py::arg("robot") = py::none(),
@@ -403,6 +439,14 @@ void BindControllerMakers(py::module_& m) {
                       "file's frame and units; points with NaN are dropped");
   m.def("rmpflow", &MakeRmpflow, py::arg("robot"), py::arg("max_obstacles") = 16, py::arg("config") = py::none(),
         "RMPflow on `robot` with its configs/rmpflow settings (or `config`, an RMPflow YAML)");
+  m.def("plan_and_react", &MakePlanAndReact, py::arg("robot"), py::arg("layer") = "rmpflow",
+        py::arg("max_obstacles") = 16, py::arg("planning_budget") = 1.0, py::arg("planning_iterations") = 0,
+        py::arg("safety_margin") = 0.01, py::arg("seed") = 0,
+        "plan, then react (docs/benchmarks.md): a global joint path (RRT-Connect on the capsule model, shortcut) to "
+        "the scene's joint_target (or an IK solution of its target), followed by the reactive layer — 'rmpflow' or a "
+        "controller file's learned agents — which dodges what moves; replans when progress stalls or the path is "
+        "blocked. planning_budget [s] and planning_iterations (0: no cap) end a search; safety_margin [m] is the "
+        "planner's clearance. The same Controller interface as rmpflow() and load_controller().");
 }
 
 }  // namespace rmpmarl::python
