@@ -20,6 +20,7 @@
 #include "rmpmarl/tasks/task_episode.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/rl/policy_task.h"
+#include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
@@ -44,8 +45,17 @@ struct DemoArgs {
   std::optional<int> num_obstacles;
   std::string policy;  // a controller file (.rmpp) beside RMPflow, or "rmpflow" alone
   std::string record;  // a replay file for `rmpmarl view --replay` ("" none)
+  bool plan = false;   // both controllers follow an RRT-Connect plan (planning::PlanFollowPolicy)
   PerceptionArgs perception;
 };
+
+// the controller's policy, behind a plan follower with --plan
+std::unique_ptr<control::AccelerationPolicy> MaybePlanned(const DemoArgs& args, const kinematics::Robot& robot,
+                                                          std::unique_ptr<control::AccelerationPolicy> policy,
+                                                          const control::ControllerOptions& controller) {
+  if (!args.plan) return policy;
+  return planning::MakePlanFollower(robot, std::move(policy), controller);
+}
 
 // obstacle slots of the controllers: the scene's, or the sensor's clusters with --perception depth
 int ObstacleSlots(const DemoArgs& args, int scene_obstacles) {
@@ -292,6 +302,10 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
                    : "");
   }
   fmt::print("  {}\n", DescribePerception(args.perception));
+  if (args.plan) {
+    fmt::print("  plan, then react: each controller follows RRT-Connect joint paths to the target (replanned when "
+               "stalled, blocked or the target moved)\n");
+  }
 
   // one video per controller: the path given for one, <stem>-<controller><ext> beside it for two
   const bool two = policy_path.has_value();
@@ -309,10 +323,12 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
     tasks::ControllerMaker agents;
     agents.options = config.controller;
     agents.make_sensor = MakeSensorFactory(args.perception, args.seed);
-    agents.make_policy = [&](const kinematics::Robot& r) {
+    agents.make_policy = [&](const kinematics::Robot& r) -> std::unique_ptr<control::AccelerationPolicy> {
       auto policy = control::MakeLearnedController(r, *task.file, *policy_path, slots);
       learned_policy = policy.get();
-      return policy;
+      control::ControllerOptions options = config.controller;
+      options.control_rate = config.episode.control_rate;
+      return MaybePlanned(args, r, std::move(policy), options);
     };
     tasks::ControllerEpisodes runner(context, agents);
     runs.push_back(RunDemoEpisode(runner, label, video_for(label), args, record, &learned_policy));
@@ -320,8 +336,12 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
   }
   tasks::ControllerMaker rmpflow;
   rmpflow.make_sensor = MakeSensorFactory(args.perception, args.seed);
-  rmpflow.make_policy = [&](const kinematics::Robot& r) {
-    return std::make_unique<control::RmpflowAccelerationPolicy>(r, rmp::LoadRmpflowOptions(r), slots);
+  rmpflow.make_policy = [&](const kinematics::Robot& r) -> std::unique_ptr<control::AccelerationPolicy> {
+    control::ControllerOptions options = rmpflow.options;
+    options.control_rate = config.episode.control_rate;
+    return MaybePlanned(args, r,
+                        std::make_unique<control::RmpflowAccelerationPolicy>(r, rmp::LoadRmpflowOptions(r), slots),
+                        options);
   };
   tasks::ControllerEpisodes rmpflow_runner(context, rmpflow);
   runs.push_back(RunDemoEpisode(rmpflow_runner, "RMPflow", video_for("rmpflow"), args, record));
@@ -373,6 +393,8 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
+  cmd->add_flag("--plan", args.plan, "plan, then react: both controllers follow an RRT-Connect joint path to the "
+                                     "target, replanned when stalled, blocked or the target moved (docs/benchmarks.md)");
   cmd->add_option("--policy", args.policy,
                   "a controller file (.rmpp): its learned agents and RMPflow on the same episode (default: the shipped "
                   "models/policies/marl-rmp-residual.rmpp); rmpflow: RMPflow alone (also the static-reach and "

@@ -30,6 +30,7 @@ struct ViewArgs {
   std::string scenario = std::string(sim::kDefaultScenario);
   std::uint64_t seed = 0;
   bool side_by_side = false;
+  bool plan = false;
   std::optional<double> obstacle_speed, target_speed;
   std::optional<int> num_obstacles;
   std::string host = "127.0.0.1";
@@ -74,6 +75,7 @@ void RunView(const ViewArgs& args) {
     options.overrides.num_obstacles = args.num_obstacles;
     options.controller = file ? "learned" : "rmpflow";
     options.side_by_side = args.side_by_side;
+    options.plan = args.plan;
     std::string scene_name = fmt::format("scenario '{}'", args.scenario);
     if (!args.scene.empty()) {
       const control::PlanningScene scene = control::ReadPlanningScene(args.scene);
@@ -159,6 +161,8 @@ void RegisterView(CLI::App& app) {
                   "a controller file (.rmpp) (default: the shipped models/policies/marl-rmp-residual.rmpp); rmpflow: "
                   "RMPflow alone");
   cmd->add_flag("--side-by-side", args.side_by_side, "the learned controller and RMPflow on two arms, same scene");
+  cmd->add_flag("--plan", args.plan, "plan, then react: the controllers follow RRT-Connect joint paths to the target "
+                                     "(docs/benchmarks.md)");
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
   cmd->add_option("--obstacles", args.num_obstacles, "number of scenario obstacles")->check(CLI::Range(0, 16));

@@ -415,9 +415,7 @@ std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, cons
   plan.planner.planning_iterations = planning_iterations;
   plan.planner.safety_margin = safety_margin;
   plan.planner.seed = seed;
-  const double period = 1.0 / options.control_rate;
-  plan.planner.evaluation_period = period / control::ControlSubsteps(period, options);
-  auto follower = std::make_unique<planning::PlanFollowPolicy>(h->world->robot(), std::move(reactive), plan);
+  auto follower = planning::MakePlanFollower(h->world->robot(), std::move(reactive), options, plan);
   h->controller.reset();
   h->file = layer;
   return Finish(h, std::move(follower), options);

@@ -215,10 +215,8 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   } else {
     planning::PlanFollowOptions plan = options.plan;
     plan.planner = PlannerOf(options, problem_number);
-    const double period = 1.0 / controller_options.control_rate;
-    plan.planner.evaluation_period = period / control::ControlSubsteps(period, controller_options);
     if (method == MbmMethod::kRrtConnect) plan.replan = false;
-    auto f = std::make_unique<planning::PlanFollowPolicy>(robot, std::move(reactive), plan);
+    auto f = planning::MakePlanFollower(robot, std::move(reactive), controller_options, plan);
     follower = f.get();
     policy = std::move(f);
   }

@@ -30,6 +30,7 @@ void ValidatePlanFollowOptions(const PlanFollowOptions& o) {
   Require(PositiveFinite(o.stall_time), "stall_time", "a finite time > 0 s", o.stall_time);
   Require(PositiveFinite(o.check_period), "check_period", "a finite period > 0 s", o.check_period);
   Require(PositiveFinite(o.goal_tolerance), "goal_tolerance", "a finite distance > 0", o.goal_tolerance);
+  Require(PositiveFinite(o.goal_shift), "goal_shift", "a finite distance > 0", o.goal_shift);
 }
 
 PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
@@ -81,6 +82,8 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
   ++stats_.plans_attempted;
   last_attempt_ = time_;
   planned_once_ = true;
+  planned_q_T_ = scene.q_T;
+  planned_p_WT_ = scene.p_WT;
   bool ok = false;
   // the goal: the scene's joint goal, else a valid IK configuration at its target
   if (scene.q_T.size() > 0) {
@@ -120,6 +123,9 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
       ok = true;
     }
   }
+  // no new path: the old one is stale (stalled, blocked or for another goal); the reactive layer goes for the scene's
+  // goal until a plan succeeds
+  if (!ok) path_.clear();
   stats_.planning_times_s.push_back(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   return ok;
@@ -210,6 +216,12 @@ bool PlanFollowPolicy::RestValid(const rmp::Scene& scene) {
   return true;
 }
 
+bool PlanFollowPolicy::GoalMoved(const rmp::Scene& scene) const {
+  if (scene.q_T.size() != planned_q_T_.size()) return true;
+  if (scene.q_T.size() > 0) return (scene.q_T - planned_q_T_).cwiseAbs().maxCoeff() > options_.goal_tolerance;
+  return scene.has_target && (scene.p_WT - planned_p_WT_).norm() > options_.goal_shift;
+}
+
 void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene,
                                bool control_step) {
   if (!planned_once_) {
@@ -222,6 +234,11 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
     return;
   }
   if (!control_step) return;
+  if (GoalMoved(scene) && time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) {
+    ++stats_.replans_moved;
+    Plan(q, scene);
+    return;
+  }
   // at the goal: the configuration within the tolerance, or the end effector within it [m] of the goal's (a reactive
   // layer that reaches the target in another posture of a redundant arm)
   bool at_goal = (q - q_goal_).cwiseAbs().maxCoeff() <= options_.goal_tolerance;
@@ -308,6 +325,15 @@ void PlanFollowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, cons
   FillFollowScene(scene);
   reactive_->Evaluate(q, qd, follow_, qdd);
   time_ += dt;
+}
+
+std::unique_ptr<PlanFollowPolicy> MakePlanFollower(const kinematics::Robot& robot,
+                                                   std::unique_ptr<control::AccelerationPolicy> reactive,
+                                                   const control::ControllerOptions& controller,
+                                                   PlanFollowOptions options) {
+  const double period = 1.0 / controller.control_rate;
+  options.planner.evaluation_period = period / control::ControlSubsteps(period, controller);
+  return std::make_unique<PlanFollowPolicy>(robot, std::move(reactive), options);
 }
 
 }  // namespace rmpmarl::planning

@@ -1,4 +1,6 @@
 #include "rmpmarl/viewer/live_sim.h"
+
+#include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/sim/controlled_world.h"
 
 #include <fmt/format.h>
@@ -144,12 +146,17 @@ std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, co
     const control::ControllerOptions options = learned->controller_options();
     arm->learned = learned.get();
     arm->label = policy_label_;
-    arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(learned), options);
+    std::unique_ptr<control::AccelerationPolicy> policy = std::move(learned);
+    if (options_.plan) policy = planning::MakePlanFollower(robot_, std::move(policy), options);
+    arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(policy), options);
   } else {
     arm->label = "RMPflow";
-    arm->control = std::make_unique<control::ReactiveController>(
-        model_->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot_, max_obstacles));
+    std::unique_ptr<control::AccelerationPolicy> policy =
+        std::make_unique<control::RmpflowAccelerationPolicy>(robot_, max_obstacles);
+    if (options_.plan) policy = planning::MakePlanFollower(robot_, std::move(policy), control::ControllerOptions{});
+    arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(policy));
   }
+  if (options_.plan) arm->label = "plan + " + arm->label;
   sim::ResetController(*arm->control, *arm->world);
   return arm;
 }

@@ -127,6 +127,48 @@ TEST(PlanFollowTest, TheLearnedControllerFollowsThePlanAroundTheWall) {
   EXPECT_LT(o.metrics.final_tracking_error, 0.5 * start_error);
 }
 
+// the goal moving: a joint goal moved by more than the tolerance, or a target by more than goal_shift, is planned for
+// anew; smaller moves keep the plan
+TEST(PlanFollowTest, AMovedGoalIsPlannedForAnew) {
+  const Problem p = WallProblem();
+  PlanFollowOptions options;
+  options.planner.planning_time_budget = 3600.0;
+  options.planner.planning_iterations = 20000;
+  PlanFollowPolicy follower(p.robot, std::make_unique<control::RmpflowAccelerationPolicy>(p.robot, 1), options);
+  rmp::Scene scene;
+  scene.obstacles.push_back(p.wall.AsRmp(p.wall.X_WO));
+  scene.p_WT = p.p_WT;
+  scene.q_T = p.q_goal;
+  const VectorXd qd = VectorXd::Zero(7);
+  VectorXd qdd(7);
+  follower.Reset(p.q_start);
+  auto step = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      follower.BeginControlStep(p.q_start, qd, scene);
+      follower.Evaluate(p.q_start, qd, scene, qdd);
+    }
+  };
+  step(10);
+  EXPECT_EQ(follower.stats().plans_attempted, 1);
+  scene.q_T[0] += 0.5 * options.goal_tolerance;  // within the tolerance: the same plan
+  step(10);
+  EXPECT_EQ(follower.stats().replans_moved, 0);
+  scene.q_T[0] += 2.0 * options.goal_tolerance;
+  step(10);
+  EXPECT_EQ(follower.stats().replans_moved, 1);
+  EXPECT_EQ(follower.path().back(), scene.q_T);
+  // an end-effector target alone (the goal by IK)
+  scene.q_T.resize(0);
+  step(10);
+  EXPECT_EQ(follower.stats().replans_moved, 2);
+  scene.p_WT.z() += 0.5 * options.goal_shift;
+  step(10);
+  EXPECT_EQ(follower.stats().replans_moved, 2);
+  scene.p_WT.z() += 2.0 * options.goal_shift;
+  step(10);
+  EXPECT_EQ(follower.stats().replans_moved, 3);
+}
+
 TEST(PlanFollowTest, BadOptionsAndLayersAreRefusedByName) {
   const kinematics::Robot panda = kinematics::LoadShippedRobot("panda");
   for (auto [field, set] : std::initializer_list<std::pair<const char*, void (*)(PlanFollowOptions&)>>{
@@ -135,6 +177,7 @@ TEST(PlanFollowTest, BadOptionsAndLayersAreRefusedByName) {
            {"check_period", [](PlanFollowOptions& o) { o.check_period = NAN; }},
            {"goal_tolerance", [](PlanFollowOptions& o) { o.goal_tolerance = 0.0; }},
            {"posture_metric", [](PlanFollowOptions& o) { o.posture_metric = INFINITY; }},
+           {"goal_shift", [](PlanFollowOptions& o) { o.goal_shift = -0.1; }},
            {"planning_time_budget", [](PlanFollowOptions& o) { o.planner.planning_time_budget = 0.0; }}}) {
     PlanFollowOptions options;
     set(options);

@@ -9,12 +9,15 @@
 /// its target replaced by the plan's point q_c a joint-space arc length `lookahead` beyond the arm's nearest point on
 /// the path (searched forward from the last one, so progress never goes back) — the end effector at q_c, moving with
 /// J(q_c) q̇_c where q̇_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity
-/// limit (slowing down over the path's last `lookahead`), and q_c as its C-space target (scene.q_T). The reactive layer moves as fast as it moves, and a dodge does not leave the
-/// plan behind; the obstacles are the scene's, so whatever moves is dodged by the reactive layer. Replans, from the
-/// measured configuration: when the nearest point has not advanced for stall_time while the arm is not at the goal,
-/// and when the rest of the path is no longer valid against the obstacles' current poses (checked every
-/// check_period). A failed plan is retried after the planner's retry_period; meanwhile the reactive layer is given the
-/// scene's own goal.
+/// limit (slowing down over the path's last `lookahead`), and q_c as its C-space target (scene.q_T) weighted by
+/// posture_metric. The reactive layer moves as fast as it moves, and a dodge does not leave the plan behind; the
+/// obstacles are the scene's, so whatever moves is dodged by the reactive layer.
+///
+/// Replans, from the measured configuration: when the nearest point has not advanced for stall_time while the arm is
+/// not at the goal; when the rest of the path is no longer valid against the obstacles' current poses (checked every
+/// check_period); and when the goal moved (a joint goal by more than goal_tolerance, an end-effector target by more
+/// than goal_shift since it was planned for). A failed plan drops the path and is retried after the planner's
+/// retry_period; meanwhile the reactive layer is given the scene's own goal.
 ///
 /// Without a reactive layer the plan is executed open loop, timed as RrtPolicy times it (constant joint velocity per
 /// segment at path_speed_fraction × the velocity limits), by the planner's joint PD law (q̈ = kp (q_d(t) − q) + kd
@@ -49,6 +52,8 @@ struct PlanFollowOptions {
   /// the goal counts as reached (no stall replans) within this of q_goal (max over joints) [rad or m], or with the end
   /// effector within this of the goal's [m], > 0
   double goal_tolerance = 0.02;
+  /// an end-effector target that moved this far [m] since the plan was made for it is planned for anew, > 0
+  double goal_shift = 0.05;
 };
 
 /// throws InputError (field, expected vs got) unless the options are valid.
@@ -60,6 +65,7 @@ struct PlanFollowStats {
   int plans_succeeded = 0;
   int replans_stalled = 0;   ///< replans started because progress stalled
   int replans_blocked = 0;   ///< replans started because the path ahead became invalid
+  int replans_moved = 0;     ///< replans started because the goal moved
   int goal_failures = 0;     ///< attempts without a valid goal configuration (IK failed, or q_T in collision)
   std::vector<double> planning_times_s;  ///< wall time of every attempt (goal + RRT-Connect + shortcut) [s]
   double first_path_length = 0.0;        ///< joint-space length of the first plan [rad or m] (0: none)
@@ -90,6 +96,7 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
 
  private:
   // plans from q toward the scene's goal when due; keeps the reference time
+  bool GoalMoved(const rmp::Scene& scene) const;
   void Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, bool control_step);
   bool Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   void Reference(double tau);                   // q_d_, qd_d_ at path time tau (open loop)
@@ -110,6 +117,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   std::vector<double> path_times_;   // arrival time at each waypoint (open loop) [s]
   std::vector<double> path_s_;       // arc length at each waypoint [rad or m]
   Eigen::VectorXd q_goal_, q_d_, qd_d_, q_check_;
+  Eigen::VectorXd planned_q_T_;                       // the scene's joint goal when planned (empty: none)
+  Eigen::Vector3d planned_p_WT_ = Eigen::Vector3d::Zero();  // its end-effector target then
   Eigen::Matrix3Xd J_WE_;
   rmp::Scene follow_;         // the reactive layer's scene
   double time_ = 0.0;         // policy clock [s]
@@ -120,5 +129,12 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   bool planned_once_ = false;
   bool has_goal_ = false;
 };
+
+/// a plan follower whose clock is the substep of a ReactiveController with `controller` options (the planner's
+/// evaluation_period set from them): the way to put one behind a controller.
+std::unique_ptr<PlanFollowPolicy> MakePlanFollower(const kinematics::Robot& robot,
+                                                   std::unique_ptr<control::AccelerationPolicy> reactive,
+                                                   const control::ControllerOptions& controller,
+                                                   PlanFollowOptions options = {});
 
 }  // namespace rmpmarl::planning

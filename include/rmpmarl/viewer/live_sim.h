@@ -61,6 +61,8 @@ struct LiveSimOptions {
   sim::ScenarioOverrides overrides{};
   /// a fixed scene instead of the scenario (rmpmarl view --scene: a MoveIt planning scene and request)
   std::optional<sim::StaticSceneOptions> scene{};
+  /// every arm's controller follows RRT-Connect plans (planning::PlanFollowPolicy) instead of the target directly
+  bool plan = false;
   std::uint64_t seed = 0;
   /// the first arm's controller: "learned" (needs a controller file) or "rmpflow"
   std::string controller = "learned";
