@@ -1,5 +1,7 @@
 // `rmpmarl benchmark mbm --problems DIR`: MotionBenchMaker problems (MoveIt planning scenes + motion-plan requests)
 // run by RRT-Connect open loop, RMPflow, the learned controller and the plan followed by either (docs/benchmarks.md).
+// The benchmark lives in the experiments library, built with the training library.
+#ifdef RMPMARL_HAS_TORCH
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -145,3 +147,4 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
 }
 
 }  // namespace rmpmarl::apps
+#endif  // RMPMARL_HAS_TORCH
