@@ -163,6 +163,7 @@ JointGoal Goal(const YamlReader& r, const YAML::Node& constraints, const std::st
     r.Fail(constraints, key, "expected a non-empty list of goal constraints");
   }
   const YAML::Node c = constraints[0];
+  if (!IsMap(c)) r.Fail(c, key + "[0]", "expected a constraints mapping (joint_constraints, ...)");
   const YAML::Node jc = c["joint_constraints"];
   if (!IsSeq(jc) || jc.size() == 0) {
     const bool pose = (c["position_constraints"] && c["position_constraints"].size() > 0) ||
@@ -179,6 +180,7 @@ JointGoal Goal(const YamlReader& r, const YAML::Node& constraints, const std::st
   for (Eigen::Index i = 0; i < n; ++i) {
     const YAML::Node j = jc[static_cast<size_t>(i)];
     const std::string k = fmt::format("{}[0].joint_constraints[{}]", key, i);
+    if (!IsMap(j)) r.Fail(j, k, "expected a joint constraint {joint_name, position}");
     goal.joints.names.push_back(r.String(j["joint_name"], k + ".joint_name"));
     goal.joints.positions[i] = r.Number(j["position"], k + ".position");
     // MoveIt's default tolerance when a request leaves it out (kinematic_constraints: 1e-3 rad or m)
@@ -218,11 +220,12 @@ PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view sourc
     }
   }
   const YAML::Node octomap = world["octomap"];
-  if (octomap && IsMap(octomap) && octomap["octomap"] && octomap["octomap"]["data"] &&
+  if (IsMap(octomap) && IsMap(octomap["octomap"]) && IsSeq(octomap["octomap"]["data"]) &&
       octomap["octomap"]["data"].size() > 0) {
     scene.ignored.push_back("world.octomap");
   }
-  const YAML::Node attached = root["robot_state"] ? root["robot_state"]["attached_collision_objects"] : YAML::Node();
+  const YAML::Node attached =
+      IsMap(root["robot_state"]) ? root["robot_state"]["attached_collision_objects"] : YAML::Node();
   if (attached && IsSeq(attached) && attached.size() > 0) {
     scene.ignored.push_back("robot_state.attached_collision_objects");
   }

@@ -39,6 +39,7 @@ PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
     : robot_(robot), reactive_(std::move(reactive)), options_(options), planner_(robot, options.planner),
       kin_(robot.model) {
   ValidatePlanFollowOptions(options_);
+  if (reactive_ == nullptr) options_.replan = false;  // open loop: planned once
   const int nq = robot_.model.nq();
   if (reactive_ != nullptr && reactive_->nq() != nq) {
     throw InputError(fmt::format("PlanFollowPolicy: the reactive layer '{}' has {} joints, robot '{}' has {}",
@@ -102,6 +103,7 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
     if (path.empty() && !path_.empty() && !(q_d_ - q).isZero()) {
       path = planner_.PlanPath(q_d_, q_goal_, scene);
     }
+    plan_margin_ = planner_.last_plan_margin();  // the path is checked against what it was planned with
     if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) ++stats_.goal_failures;
     if (!path.empty()) {
       path_ = std::move(path);
@@ -183,7 +185,7 @@ void PlanFollowPolicy::Project(const Eigen::Ref<const Eigen::VectorXd>& q) {
     double s = path_s_[k] + f * length;
     if (s < s_near_) {  // behind the last nearest point (its own segment): that point
       s = s_near_;
-      f = (s - path_s_[k]) / length;
+      f = length > 0.0 ? (s - path_s_[k]) / length : 0.0;
     }
     const double d = (q - (a + f * (b - a))).squaredNorm();
     if (d < best) {
@@ -209,7 +211,7 @@ bool PlanFollowPolicy::RestValid(const rmp::Scene& scene) {
     const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / resolution)));
     for (int s = 1; s <= steps; ++s) {
       q_check_ = from + (static_cast<double>(s) / steps) * (to - from);
-      if (!planner_.IsStateValid(q_check_, scene)) return false;
+      if (!planner_.IsStateValid(q_check_, scene, plan_margin_)) return false;
     }
     from = to;
   }
@@ -256,7 +258,7 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
     Plan(q, scene);
     return;
   }
-  if (time_ - last_check_ >= options_.check_period - kTimeEpsilon) {
+  if (!at_goal && time_ - last_check_ >= options_.check_period - kTimeEpsilon) {
     last_check_ = time_;
     if (!RestValid(scene)) {
       ++stats_.replans_blocked;

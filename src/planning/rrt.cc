@@ -94,8 +94,8 @@ struct RrtPolicy::Impl {
   Impl(const kinematics::Robot& r, const RrtOptions& o) : robot(r), options(o), kin(robot.model) {}
 
   // smallest signed distance at q over the obstacles (and, unless obstacles_only, the floor and checked capsule
-  // pairs); returns early, with a value <= stop_below, once one distance is that small. Exact when it is <= stop_below
-  // (always for stop_below = −inf); otherwise some value > stop_below (pairs that cannot come within stop_below are
+  // pairs); returns early, with a value <= stop_below, once one distance is that small. Exact for stop_below = −inf;
+  // otherwise a value <= stop_below exactly when the clearance is (pairs that cannot come within stop_below are
   // skipped: a validity check needs no more).
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
   // q within the bounds of the current plan and every checked distance > margin.
@@ -196,8 +196,9 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (bounded_out(capsule_sphere[c], centre, radius)) continue;
       if (boxed) {
+        // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
         const Eigen::Vector3d q = (X_BW * Eigen::Vector3d(capsule_sphere[c].head<3>())).cwiseAbs() - box.half_size;
-        if (cannot_matter(q.cwiseMax(0.0).norm() - capsule_sphere[c][3])) continue;
+        if (cannot_matter(q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0) - capsule_sphere[c][3])) continue;
       }
       if (o.shape == rmp::ObstacleShape::kCylinder &&
           cannot_matter(math::CapsuleBoxDistance(capsule_W[c], box).distance)) {
@@ -590,13 +591,19 @@ double RrtPolicy::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
 }
 
 bool RrtPolicy::IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  return IsStateValid(q, scene, impl_->options.safety_margin);
+}
+
+bool RrtPolicy::IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, double margin) {
   kinematics::CheckJointVector(impl_->robot.model, q, "q");
   Impl& m = *impl_;
   m.SetObstacles(scene);
-  m.margin = m.options.safety_margin;
+  m.margin = margin;
   m.SetBounds(q);
   return m.Valid(q);
 }
+
+double RrtPolicy::last_plan_margin() const { return impl_->margin; }
 
 IkResult RrtPolicy::SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const rmp::Scene& scene) {
   kinematics::CheckJointVector(impl_->robot.model, q_start, "q_start");
@@ -616,8 +623,8 @@ std::vector<Eigen::VectorXd> RrtPolicy::PlanPath(const Eigen::Ref<const Eigen::V
   // an end inside the safety margin (a goal configuration at a grasp, a start beside what the arm just dodged) is
   // planned with half the smaller end clearance as the margin; an end in penetration has no path
   const double ends = std::min(m.Clearance(q_start, false, -kInf), m.Clearance(q_goal, false, -kInf));
+  if (!(ends > 0.0)) return {};
   m.margin = ends <= m.options.safety_margin ? 0.5 * ends : m.options.safety_margin;
-  if (!(m.margin > 0.0) && m.options.safety_margin > 0.0) return {};
   std::vector<Eigen::VectorXd> path = m.Plan(q_start, q_goal);
   ++m.plans;
   return path;

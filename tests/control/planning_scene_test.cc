@@ -133,6 +133,20 @@ TEST(MotionPlanRequestTest, ReadsStartAndJointGoalInTheRobotsOrder) {
   }
 }
 
+TEST(MotionPlanRequestTest, RefusesMalformedConstraintsByName) {
+  const std::string start = "start_state: {joint_state: {name: [a], position: [0]}}\n";
+  for (const auto& [goal, needle] : {std::pair<std::string, std::string>{"goal_constraints: [foo]\n", "goal_constraints[0]"},
+                                     {"goal_constraints: [{joint_constraints: [foo]}]\n", "joint_constraints[0]"}}) {
+    try {
+      ParseMotionPlanRequest(start + goal, "bad.yaml");
+      ADD_FAILURE() << "accepted " << goal;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(ParsePlanningScene("robot_state: foo\nworld: {octomap: {octomap: foo}}\n", "odd.yaml"));
+}
+
 TEST(MotionPlanRequestTest, RefusesAPoseGoalByName) {
   const std::string pose_goal = "start_state: {joint_state: {name: [a], position: [0]}}\n"
                                 "goal_constraints: [{position_constraints: [{link_name: hand}]}]\n";

@@ -40,7 +40,8 @@ struct PlanFollowOptions {
   /// the planner: RRT-Connect budget, validity margin and resolution, path timing, the open-loop PD gains, the retry
   /// period and the clock (evaluation_period: the controller's substep, as for RrtPolicy).
   RrtOptions planner;
-  /// replan when progress stalls or the path ahead is blocked (false: plan once and never again).
+  /// replan when progress stalls or the path ahead is blocked (false: plan once and never again; always false without
+  /// a reactive layer).
   bool replan = true;
   double lookahead = 0.3;     ///< the carrot's arc length beyond the arm's nearest path point [rad or m], > 0
   /// the metric scalar of the reactive layer's C-space target toward the carrot (rmp::Scene::q_T_metric), > 0: as
@@ -126,6 +127,7 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   double s_near_ = 0.0;       // arc length of the arm's nearest path point (reactive)
   int segment_ = 0;           // the segment holding it
   double last_progress_ = 0.0, last_check_ = 0.0, last_attempt_ = -1e9;
+  double plan_margin_ = 0.0;  // the margin the current path was planned with
   bool planned_once_ = false;
   bool has_goal_ = false;
 };

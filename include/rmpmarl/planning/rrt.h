@@ -143,6 +143,10 @@ class RrtPolicy final : public control::AccelerationPolicy {
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   /// Clearance(q, scene) > safety_margin, and q within the joint limits.
   bool IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
+  /// the same with another margin (e.g. last_plan_margin(), to check a path against what it was planned with).
+  bool IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, double margin);
+  /// the margin the last PlanPath planned with (safety_margin, or half the smaller end clearance).
+  double last_plan_margin() const;
   /// a valid configuration whose end effector is at scene.p_WT, IK seeded from q_start (then random seeds).
   IkResult SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const rmp::Scene& scene);
   /// a valid path q_start → q_goal (straight when possible, else RRT-Connect + shortcutting): its waypoints with
