@@ -64,8 +64,15 @@ std::shared_ptr<ControllerHandle> Finish(std::shared_ptr<ControllerHandle> h,
   return h;
 }
 
-std::shared_ptr<ControllerHandle> LoadController(const std::string& path, const py::handle& robot, int max_obstacles,
-                                                 std::optional<double> floor_height) {
+// a controller handle not yet finished, with the policy and controller options to finish it with
+struct Unfinished {
+  std::shared_ptr<ControllerHandle> handle;
+  std::unique_ptr<control::AccelerationPolicy> policy;
+  control::ControllerOptions options;
+};
+
+Unfinished LearnedParts(const std::string& path, const py::handle& robot, int max_obstacles,
+                        std::optional<double> floor_height) {
   if (!fs::is_regular_file(path)) FileNotFound(path, "policy_file", "a controller file (.rmpp)");
   CheckMaxObstacles(max_obstacles);
   const control::PolicyFile file = control::LoadPolicyFile(path);
@@ -81,11 +88,10 @@ std::shared_ptr<ControllerHandle> LoadController(const std::string& path, const 
   std::unique_ptr<control::LearnedController> learned = control::MakeLearnedController(h->world->robot(), file, path, options);
   h->learned = learned.get();
   const control::ControllerOptions controller_options = learned->controller_options();
-  return Finish(h, std::move(learned), controller_options);
+  return {h, std::move(learned), controller_options};
 }
 
-std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_obstacles,
-                                              const std::optional<std::string>& config) {
+Unfinished RmpflowParts(const py::handle& robot, int max_obstacles, const std::optional<std::string>& config) {
   CheckMaxObstacles(max_obstacles);
   if (robot.is_none()) BadArgument("robot: expected an rmpmarl.Robot, a robot name or a .urdf path, got None");
   if (config && !fs::is_regular_file(*config)) FileNotFound(*config, "config", "an RMPflow YAML file");
@@ -96,7 +102,19 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
   const kinematics::Robot& r = h->world->robot();
   const rmp::RmpflowOptions options = config ? rmp::LoadRmpflowOptions(*config) : rmp::LoadRmpflowOptions(r);
   h->file = config ? *config : rmp::RmpflowConfigPath(r).string();
-  return Finish(h, std::make_unique<control::RmpflowAccelerationPolicy>(r, options, max_obstacles), {});
+  return {h, std::make_unique<control::RmpflowAccelerationPolicy>(r, options, max_obstacles), {}};
+}
+
+std::shared_ptr<ControllerHandle> LoadController(const std::string& path, const py::handle& robot, int max_obstacles,
+                                                 std::optional<double> floor_height) {
+  Unfinished u = LearnedParts(path, robot, max_obstacles, floor_height);
+  return Finish(u.handle, std::move(u.policy), u.options);
+}
+
+std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_obstacles,
+                                              const std::optional<std::string>& config) {
+  Unfinished u = RmpflowParts(robot, max_obstacles, config);
+  return Finish(u.handle, std::move(u.policy), u.options);
 }
 
 /// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
@@ -396,29 +414,17 @@ std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, cons
   if (layer != "rmpflow" && !fs::is_regular_file(layer)) {
     FileNotFound(layer, "layer", "'rmpflow' or a controller file (.rmpp)");
   }
-  std::shared_ptr<ControllerHandle> h = layer == "rmpflow" ? MakeRmpflow(robot, max_obstacles, std::nullopt)
-                                                           : LoadController(layer, robot, max_obstacles, std::nullopt);
-  // the layer's own controller hands over its options; the plan follower takes the layer's policy's place
-  const control::ControllerOptions options = h->controller->options();
-  std::unique_ptr<control::AccelerationPolicy> reactive =
-      layer == "rmpflow" ? std::unique_ptr<control::AccelerationPolicy>(
-                               std::make_unique<control::RmpflowAccelerationPolicy>(h->world->robot(), max_obstacles))
-                         : nullptr;
-  if (!reactive) {
-    const control::PolicyFile file = control::LoadPolicyFile(layer);
-    auto learned = control::MakeLearnedController(h->world->robot(), file, layer, max_obstacles);
-    h->learned = learned.get();
-    reactive = std::move(learned);
-  }
+  // the layer, put behind the plan follower before its controller is made
+  Unfinished u = layer == "rmpflow" ? RmpflowParts(robot, max_obstacles, std::nullopt)
+                                    : LearnedParts(layer, robot, max_obstacles, std::nullopt);
   planning::PlanFollowOptions plan;
   plan.planner.planning_time_budget = planning_budget;
   plan.planner.planning_iterations = planning_iterations;
   plan.planner.safety_margin = safety_margin;
   plan.planner.seed = seed;
-  auto follower = planning::MakePlanFollower(h->world->robot(), std::move(reactive), options, plan);
-  h->controller.reset();
-  h->file = layer;
-  return Finish(h, std::move(follower), options);
+  auto follower = planning::MakePlanFollower(u.handle->world->robot(), std::move(u.policy), u.options, plan);
+  u.handle->file = layer;
+  return Finish(u.handle, std::move(follower), u.options);
 }
 
 // the functions that make controllers (and read the clouds they take)

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <regex>
 #include <set>
@@ -122,25 +123,19 @@ std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot,
   std::vector<Eigen::VectorXd> path = planner.PlanPath(q_start, q_goal, scene);
   if (path.empty()) path = {q_start, q_goal};  // no plan: the straight way, timed the same
   // timed as PlanFollowPolicy executes a plan open loop: each segment at path_speed_fraction × the velocity limits
-  std::vector<double> times(path.size(), 0.0);
-  for (size_t k = 1; k < path.size(); ++k) {
-    double duration = 0.0;
-    for (int i = 0; i < robot.model.nq(); ++i) {
-      const double v = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
-      duration = std::max(duration, std::abs(path[k][i] - path[k - 1][i]) / v);
-    }
-    times[k] = times[k - 1] + std::max(duration, 1e-6);
+  Eigen::VectorXd speeds(robot.model.nq());
+  for (int i = 0; i < robot.model.nq(); ++i) {
+    speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
   }
+  const std::vector<double> times = planning::PathArrivalTimes(path, speeds);
   std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(problem_number));
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   kinematics::Data data(robot.model);
+  Eigen::VectorXd q, qd;
   std::vector<sim::LinearMotion> moving;
   for (int k = 0; k < options.moving; ++k) {
     const double t = (0.25 + 0.5 * unit(rng)) * times.back();
-    const size_t seg = std::min<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin(),
-                                        path.size() - 1);
-    const double f = seg == 0 ? 0.0 : (t - times[seg - 1]) / (times[seg] - times[seg - 1]);
-    const Eigen::VectorXd q = seg == 0 ? path[0] : Eigen::VectorXd(path[seg - 1] + f * (path[seg] - path[seg - 1]));
+    planning::SamplePath(path, times, t, &q, &qd);
     kinematics::CalcForwardKinematics(robot.model, q, &data);
     const Eigen::Vector3d p = kinematics::CalcPointPosition(data, robot.end_effector.link,
                                                             robot.end_effector.X_LE.translation());
@@ -155,19 +150,21 @@ std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot,
   return moving;
 }
 
-}  // namespace
+bool Learned(MbmMethod m) { return m == MbmMethod::kLearned || m == MbmMethod::kPlanLearned; }
 
-MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
-                        const MbmOptions& options, int problem_number) {
-  MbmResult r;
-  r.family = problem.family;
-  r.index = problem.index;
-  r.method = MbmMethodName(method);
+// what every method of a problem runs on: its start, joint goal, obstacles and crossings, or why it is not run
+struct PreparedProblem {
+  bool valid = true;
+  std::string invalid_reason;
+  sim::StaticSceneOptions scene;
+};
+
+PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& problem, const MbmOptions& options,
+                        int problem_number) {
+  PreparedProblem p;
   const control::PlanningScene scene = control::ReadPlanningScene(problem.scene);
   const control::MotionPlanRequest request = control::ReadMotionPlanRequest(problem.request);
-  const Eigen::VectorXd q_start = control::JointVector(robot, request.start, problem.request.string() + ": start_state");
-  const Eigen::VectorXd q_goal = control::JointVector(robot, request.goal.joints,
-                                                      problem.request.string() + ": goal_constraints");
+  p.scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
   rmp::Scene rmp_scene;
   rmp_scene.obstacles = scene.Obstacles();
   rmp::ValidateScene(rmp_scene, problem.scene.string());
@@ -177,19 +174,33 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   check.check_floor = false;
   check.safety_margin = 0.0;
   planning::RrtPolicy checker(robot, check);
-  for (const auto& [what, q] : {std::pair{"start", &q_start}, std::pair{"goal", &q_goal}}) {
+  for (const auto& [what, q] : {std::pair{"start", &p.scene.q_start}, std::pair{"goal", &p.scene.q_goal}}) {
     const double clearance = checker.Clearance(*q, rmp_scene);
     if (!(clearance > 0.0)) {
-      r.valid = false;
-      r.invalid_reason = fmt::format("{} in collision in the capsule model ({:.1f} mm)", what, 1e3 * clearance);
-      return r;
+      p.valid = false;
+      p.invalid_reason = fmt::format("{} in collision in the capsule model ({:.1f} mm)", what, 1e3 * clearance);
+      return p;
     }
   }
-
-  sim::StaticSceneOptions static_scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
   if (options.moving > 0) {
-    static_scene.moving = CrossingObstacles(robot, q_start, q_goal, rmp_scene, options, problem_number);
+    p.scene.moving =
+        CrossingObstacles(robot, p.scene.q_start, p.scene.q_goal, rmp_scene, options, problem_number);
   }
+  return p;
+}
+
+// one method on a prepared problem; `policy` is the learned controller's file (learned methods only)
+MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, const PreparedProblem& prepared,
+                    MbmMethod method, const MbmOptions& options, int problem_number,
+                    const control::PolicyFile* policy_file) {
+  MbmResult r;
+  r.family = problem.family;
+  r.index = problem.index;
+  r.method = MbmMethodName(method);
+  r.valid = prepared.valid;
+  r.invalid_reason = prepared.invalid_reason;
+  if (!r.valid) return r;
+  const sim::StaticSceneOptions& static_scene = prepared.scene;
   const int num_obstacles = static_cast<int>(static_scene.obstacles.size() + static_scene.moving.size());
   sim::StaticScenario scenario(robot, static_scene);
   auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario.scene_spec(),
@@ -197,12 +208,11 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   sim::World world(world_model);
 
   // the controller: its acceleration policy and options
-  const bool learned = method == MbmMethod::kLearned || method == MbmMethod::kPlanLearned;
   control::ControllerOptions controller_options;
   std::unique_ptr<control::AccelerationPolicy> reactive;
-  if (learned) {
-    const control::PolicyFile file = control::LoadPolicyFile(options.policy);
-    auto policy = control::MakeLearnedController(robot, file, options.policy.string(), num_obstacles);
+  if (Learned(method)) {
+    RMPMARL_ASSERT(policy_file != nullptr, "RunMethod: a learned method without its controller file");
+    auto policy = control::MakeLearnedController(robot, *policy_file, options.policy.string(), num_obstacles);
     controller_options = policy->controller_options();
     reactive = std::move(policy);
   } else if (method != MbmMethod::kRrtConnect) {
@@ -212,10 +222,9 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   planning::PlanFollowPolicy* follower = nullptr;
   if (method == MbmMethod::kRmpflow || method == MbmMethod::kLearned) {
     policy = std::move(reactive);
-  } else {
+  } else {  // without a reactive layer (rrt-connect) the follower executes its one plan open loop
     planning::PlanFollowOptions plan = options.plan;
     plan.planner = PlannerOf(options, problem_number);
-    if (method == MbmMethod::kRrtConnect) plan.replan = false;
     auto f = planning::MakePlanFollower(robot, std::move(reactive), controller_options, plan);
     follower = f.get();
     policy = std::move(f);
@@ -227,7 +236,7 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   episode.loop.reach_tolerance = options.goal_tolerance;
   episode.loop.success_max_final_error = options.goal_tolerance;
   episode.video_fps = controller_options.control_rate;  // a frame per control step: the executed path
-  Eigen::VectorXd q_last = q_start;
+  Eigen::VectorXd q_last = static_scene.q_start;
   double length = 0.0;
   const sim::EpisodeMetrics m =
       sim::RunEpisode(episode, world, controller, scenario, [&](const sim::FrameInfo& frame) {
@@ -239,7 +248,7 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
   r.collisions = m.collisions;
   r.time_to_goal = m.time_to_reach;
   r.final_error = m.final_tracking_error;
-  r.joint_error = (world.q() - q_goal).cwiseAbs().maxCoeff();
+  r.joint_error = (world.q() - static_scene.q_goal).cwiseAbs().maxCoeff();
   r.path_length = length;
   r.control_us = m.mean_control_us;
   if (follower != nullptr) {
@@ -248,6 +257,16 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
     if (!s.planning_times_s.empty()) r.planning_time = s.planning_times_s.front();
   }
   return r;
+}
+
+}  // namespace
+
+MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
+                        const MbmOptions& options, int problem_number) {
+  std::optional<control::PolicyFile> file;
+  if (Learned(method)) file = control::LoadPolicyFile(options.policy);
+  return RunMethod(robot, problem, Prepare(robot, problem, options, problem_number), method, options, problem_number,
+                   file ? &*file : nullptr);
 }
 
 std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std::vector<MbmProblem>& problems,
@@ -270,6 +289,9 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
   if (!(options.moving_radius > 0.0) || !std::isfinite(options.moving_radius)) {
     throw InputError(fmt::format("moving_radius: expected a radius > 0 m, got {}", options.moving_radius));
   }
+  // the learned controller's file read once for every problem
+  std::optional<control::PolicyFile> policy_file;
+  if (std::any_of(methods.begin(), methods.end(), Learned)) policy_file = control::LoadPolicyFile(options.policy);
   const size_t n = problems.size() * methods.size();
   std::vector<MbmResult> results(n);
   std::atomic<size_t> next{0};
@@ -280,8 +302,12 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
   auto work = [&]() {
     for (size_t p; (p = next.fetch_add(1)) < problems.size();) {
       try {
+        // the problem read, checked and its crossings drawn once; every method runs on it
+        const int number = static_cast<int>(p);
+        const PreparedProblem prepared = Prepare(robot, problems[p], options, number);
         for (size_t k = 0; k < methods.size(); ++k) {
-          results[p * methods.size() + k] = RunMbmProblem(robot, problems[p], methods[k], options, static_cast<int>(p));
+          results[p * methods.size() + k] = RunMethod(robot, problems[p], prepared, methods[k], options, number,
+                                                      policy_file ? &*policy_file : nullptr);
         }
       } catch (...) {
         std::lock_guard lock(error_mutex);

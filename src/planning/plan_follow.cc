@@ -98,6 +98,7 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
   if (!has_goal_) {
     ++stats_.goal_failures;
   } else {
+    p_WG_ = EndEffectorAt(q_goal_);
     // from the arm; from a start too close to something (the reactive layer holds a few cm), from the reference
     std::vector<Eigen::VectorXd> path = planner_.PlanPath(q, q_goal_, scene);
     if (path.empty() && !path_.empty() && !(q_d_ - q).isZero()) {
@@ -107,18 +108,12 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
     if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) ++stats_.goal_failures;
     if (!path.empty()) {
       path_ = std::move(path);
-      path_times_.assign(path_.size(), 0.0);
+      path_times_ = PathArrivalTimes(path_, v_path_);
       path_s_.assign(path_.size(), 0.0);
-      for (size_t k = 1; k < path_.size(); ++k) {
-        const double duration = ((path_[k] - path_[k - 1]).cwiseAbs().cwiseQuotient(v_path_)).maxCoeff();
-        path_times_[k] = path_times_[k - 1] + std::max(duration, 1e-6);
-        path_s_[k] = path_s_[k - 1] + (path_[k] - path_[k - 1]).norm();
-      }
+      for (size_t k = 1; k < path_.size(); ++k) path_s_[k] = path_s_[k - 1] + (path_[k] - path_[k - 1]).norm();
       s_near_ = 0.0;
       segment_ = 0;
-      if (stats_.plans_succeeded == 0) {
-        for (size_t k = 1; k < path_.size(); ++k) stats_.first_path_length += (path_[k] - path_[k - 1]).norm();
-      }
+      if (stats_.plans_succeeded == 0) stats_.first_path_length = path_s_.back();
       ++stats_.plans_succeeded;
       tau_ = 0.0;
       last_progress_ = last_check_ = time_;
@@ -133,20 +128,10 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
   return ok;
 }
 
-void PlanFollowPolicy::Reference(double tau) {
-  const int last = static_cast<int>(path_.size()) - 1;
-  if (last < 0) return;
-  if (tau >= path_times_[last]) {
-    q_d_ = path_[last];
-    qd_d_.setZero();
-    return;
-  }
-  const int k = static_cast<int>(std::upper_bound(path_times_.begin(), path_times_.end(), tau) - path_times_.begin()) - 1;
-  const int segment = std::clamp(k, 0, last - 1);
-  const double duration = path_times_[segment + 1] - path_times_[segment];
-  const double s = std::clamp((tau - path_times_[segment]) / duration, 0.0, 1.0);
-  q_d_ = path_[segment] + s * (path_[segment + 1] - path_[segment]);
-  qd_d_ = (path_[segment + 1] - path_[segment]) / duration;
+Eigen::Vector3d PlanFollowPolicy::EndEffectorAt(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  const kinematics::EndEffector& ee = robot_.end_effector;
+  kinematics::CalcForwardKinematics(robot_.model, q, &kin_);
+  return kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation());
 }
 
 void PlanFollowPolicy::PointAt(double s) {
@@ -244,14 +229,7 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
   // at the goal: the configuration within the tolerance, or the end effector within it [m] of the goal's (a reactive
   // layer that reaches the target in another posture of a redundant arm)
   bool at_goal = (q - q_goal_).cwiseAbs().maxCoeff() <= options_.goal_tolerance;
-  if (!at_goal) {
-    const kinematics::EndEffector& ee = robot_.end_effector;
-    kinematics::CalcForwardKinematics(robot_.model, q, &kin_);
-    const Eigen::Vector3d p_WE = kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation());
-    kinematics::CalcForwardKinematics(robot_.model, q_goal_, &kin_);
-    at_goal = (p_WE - kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation())).norm() <=
-              options_.goal_tolerance;
-  }
+  if (!at_goal) at_goal = (EndEffectorAt(q) - p_WG_).norm() <= options_.goal_tolerance;
   if (!at_goal && time_ - last_progress_ >= options_.stall_time - kTimeEpsilon &&
       time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) {
     ++stats_.replans_stalled;
@@ -313,7 +291,7 @@ void PlanFollowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, cons
     if (path_.empty()) {
       qdd = -options_.planner.kd * qd;  // no plan: brake
     } else {
-      Reference(tau_);
+      SamplePath(path_, path_times_, tau_, &q_d_, &qd_d_);
       qdd = options_.planner.kp * (q_d_ - q) + options_.planner.kd * (qd_d_ - qd);
       tau_ += dt;
     }

@@ -380,13 +380,35 @@ void RrtPolicy::Impl::Shortcut(std::vector<Eigen::VectorXd>* path) {
   *path = std::move(out);
 }
 
+std::vector<double> PathArrivalTimes(const std::vector<Eigen::VectorXd>& path, const Eigen::VectorXd& speeds) {
+  std::vector<double> times(path.size(), 0.0);
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double duration = ((path[k] - path[k - 1]).cwiseAbs().cwiseQuotient(speeds)).maxCoeff();
+    times[k] = times[k - 1] + std::max(duration, 1e-6);
+  }
+  return times;
+}
+
+void SamplePath(const std::vector<Eigen::VectorXd>& path, const std::vector<double>& times, double t,
+                Eigen::VectorXd* q_d, Eigen::VectorXd* qd_d) {
+  RMPMARL_ASSERT(!path.empty() && times.size() == path.size(), "SamplePath: a path and its times");
+  const int last = static_cast<int>(path.size()) - 1;
+  if (t >= times[last]) {
+    *q_d = path[last];
+    qd_d->setZero(path[last].size());
+    return;
+  }
+  const int k = static_cast<int>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+  const int segment = std::clamp(k, 0, last - 1);
+  const double duration = times[segment + 1] - times[segment];
+  const double s = std::clamp((t - times[segment]) / duration, 0.0, 1.0);
+  *q_d = path[segment] + s * (path[segment + 1] - path[segment]);
+  *qd_d = (path[segment + 1] - path[segment]) / duration;
+}
+
 void RrtPolicy::Impl::Adopt(std::vector<Eigen::VectorXd> waypoints, const Eigen::Vector3d& p_WE_goal) {
   path = std::move(waypoints);
-  path_times.assign(path.size(), 0.0);
-  for (size_t k = 1; k < path.size(); ++k) {
-    const double duration = ((path[k] - path[k - 1]).cwiseAbs().cwiseQuotient(v_path)).maxCoeff();
-    path_times[k] = path_times[k - 1] + std::max(duration, 1e-6);
-  }
+  path_times = PathArrivalTimes(path, v_path);
   path_p_WE = p_WE_goal;
   path_margin = margin;
   path_start_time = time;

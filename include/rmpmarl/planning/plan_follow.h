@@ -100,8 +100,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   bool GoalMoved(const rmp::Scene& scene) const;
   void Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, bool control_step);
   bool Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
-  void Reference(double tau);                   // q_d_, qd_d_ at path time tau (open loop)
   void PointAt(double s);                       // q_d_ at arc length s (carrot)
+  Eigen::Vector3d EndEffectorAt(const Eigen::Ref<const Eigen::VectorXd>& q);  // uses kin_
   void Project(const Eigen::Ref<const Eigen::VectorXd>& q);  // s_near_: the arm's nearest path point, forward only
   bool RestValid(const rmp::Scene& scene);      // the path from the arm's nearest point on, at the resolution
   void FillFollowScene(const rmp::Scene& scene);
@@ -120,6 +120,7 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   Eigen::VectorXd q_goal_, q_d_, qd_d_, q_check_;
   Eigen::VectorXd planned_q_T_;                       // the scene's joint goal when planned (empty: none)
   Eigen::Vector3d planned_p_WT_ = Eigen::Vector3d::Zero();  // its end-effector target then
+  Eigen::Vector3d p_WG_ = Eigen::Vector3d::Zero();          // the end effector at q_goal_
   Eigen::Matrix3Xd J_WE_;
   rmp::Scene follow_;         // the reactive layer's scene
   double time_ = 0.0;         // policy clock [s]

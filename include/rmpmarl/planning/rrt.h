@@ -109,6 +109,16 @@ struct IkResult {
   double error = 0.0;        ///< its end-effector distance to the target [m]
 };
 
+/// The timing of a joint path as the RRT baseline executes it: each straight segment at constant joint velocity, as
+/// fast as the slowest joint allows at `speeds` (per dof, > 0; path_speed_fraction × the velocity limits): the arrival
+/// time at each waypoint from the path's start [s] (each segment at least 1 µs).
+std::vector<double> PathArrivalTimes(const std::vector<Eigen::VectorXd>& path, const Eigen::VectorXd& speeds);
+
+/// the position q_d and velocity q̇_d at time t of `path` timed by `times` (PathArrivalTimes): the last waypoint at
+/// rest from its arrival on. \pre path non-empty, times of its size.
+void SamplePath(const std::vector<Eigen::VectorXd>& path, const std::vector<double>& times, double t,
+                Eigen::VectorXd* q_d, Eigen::VectorXd* qd_d);
+
 /// The RRT baseline as an acceleration policy (see the file comment).
 class RrtPolicy final : public control::AccelerationPolicy {
  public:
