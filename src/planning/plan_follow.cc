@@ -185,20 +185,13 @@ void PlanFollowPolicy::Project(const Eigen::Ref<const Eigen::VectorXd>& q) {
 }
 
 bool PlanFollowPolicy::RestValid(const rmp::Scene& scene) {
-  const double resolution = options_.planner.validity_resolution;
-  // from the arm's nearest point along the rest of its segment and every later one
+  // from the arm's nearest point along the rest of its segment and every later one, with the margin planned with
   const int last = static_cast<int>(path_.size()) - 1;
   PointAt(s_near_);
-  const int next = segment_ + 1;
-  Eigen::VectorXd from = q_d_;
-  for (int k = std::min(next, last); k <= last; ++k) {
-    const Eigen::VectorXd& to = path_[k];
-    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / resolution)));
-    for (int s = 1; s <= steps; ++s) {
-      q_check_ = from + (static_cast<double>(s) / steps) * (to - from);
-      if (!planner_.IsStateValid(q_check_, scene, plan_margin_)) return false;
-    }
-    from = to;
+  q_check_ = q_d_;
+  for (int k = std::min(segment_ + 1, last); k <= last; ++k) {
+    if (!planner_.IsSegmentValid(q_check_, path_[k], scene, plan_margin_)) return false;
+    q_check_ = path_[k];
   }
   return true;
 }

@@ -105,7 +105,8 @@ struct RrtPolicy::Impl {
   }
   // the states of segment a → b at most validity_resolution apart (excluding a, including b) are valid; with
   // obstacles_only, only the obstacle distances are checked (margin `margin`).
-  bool SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only);
+  bool SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only,
+                    bool within_limits = false);
   // joint bounds of a plan starting at q: the limits, continuous joints within ±π of q.
   void SetBounds(const Eigen::Ref<const Eigen::VectorXd>& q);
   void SetObstacles(const rmp::Scene& scene) { obstacles = scene.obstacles; }
@@ -225,10 +226,15 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
   return d;
 }
 
-bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only) {
+bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only,
+                                   bool within_limits) {
   const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / options.validity_resolution)));
   for (int k = 1; k <= n; ++k) {
     scratch = a + (static_cast<double>(k) / n) * (b - a);
+    if (within_limits && !(((scratch - limit_lower).array() >= -1e-12).all() &&
+                           ((limit_upper - scratch).array() >= -1e-12).all())) {
+      return false;
+    }
     if (Clearance(scratch, obstacles_only, margin) <= margin) return false;
   }
   return true;
@@ -623,6 +629,16 @@ bool RrtPolicy::IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const r
   m.margin = margin;
   m.SetBounds(q);
   return m.Valid(q);
+}
+
+bool RrtPolicy::IsSegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, const rmp::Scene& scene,
+                               double margin) {
+  kinematics::CheckJointVector(impl_->robot.model, a, "a");
+  kinematics::CheckJointVector(impl_->robot.model, b, "b");
+  Impl& m = *impl_;
+  m.SetObstacles(scene);
+  m.margin = margin;
+  return m.SegmentValid(a, b, /*obstacles_only=*/false, /*within_limits=*/true);
 }
 
 double RrtPolicy::last_plan_margin() const { return impl_->margin; }

@@ -155,6 +155,9 @@ class RrtPolicy final : public control::AccelerationPolicy {
   bool IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   /// the same with another margin (e.g. last_plan_margin(), to check a path against what it was planned with).
   bool IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, double margin);
+  /// every state of the straight segment a → b at most validity_resolution apart (a excluded, b included) lies within
+  /// the joint limits and has a clearance above `margin`: IsStateValid(state, scene, margin) for each.
+  bool IsSegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, const rmp::Scene& scene, double margin);
   /// the margin the last PlanPath planned with (safety_margin, or half the smaller end clearance).
   double last_plan_margin() const;
   /// a valid configuration whose end effector is at scene.p_WT, IK seeded from q_start (then random seeds).
