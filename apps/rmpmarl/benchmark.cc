@@ -12,12 +12,13 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/mbm.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/planning/plan_follow.h"
 
 namespace rmpmarl::apps {
 namespace {
 
 struct MbmArgs {
-  std::string problems, robot, urdf, collision, policy, out = "mbm-results";
+  std::string problems, robot, urdf, collision, policy, follow, out = "mbm-results";
   std::vector<std::string> package_paths, methods, families;
   int limit = 0;
   int jobs = 2;
@@ -51,9 +52,10 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
   options.duration = args.duration;
   options.goal_tolerance = args.goal_tolerance;
   options.policy = args.policy.empty() ? ShippedDefaultPolicyPath() : std::filesystem::path(args.policy);
+  options.plan.planner.retry_period = 0.5;
+  if (!args.follow.empty()) options.plan = planning::LoadPlanFollowOptions(args.follow, options.plan);
   options.plan.planner.planning_time_budget = args.planning_budget;
   options.plan.planner.planning_iterations = args.planning_iterations;
-  options.plan.planner.retry_period = 0.5;
   options.plan.planner.safety_margin = args.safety_margin;
   options.seed = args.seed;
   options.jobs = args.jobs;
@@ -71,13 +73,16 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
   setup << fmt::format("Robot '{}' ({} joints, {} capsules; {}). {} problems from {}. Methods: {}. {:g} s per episode; "
                        "success: the end effector within {:g} mm of the goal's at the end and no collision event. "
                        "Learned controller: {}. Planner: RRT-Connect on the capsule model with shortcutting, {:g} s "
-                       "budget{}, safety margin {:g} mm, seed {} + problem number. Machine: {} threads.",
+                       "budget{}, safety margin {:g} mm, seed {} + a key of the problem (its family and index). Plan follower: "
+                       "{}. Machine: {} threads.",
                        robot.name, robot.model.nq(), robot.capsules.size(),
                        robot.urdf_path.empty() ? "built in" : robot.urdf_path.filename().string(), problems.size(),
                        args.problems, fmt::join(names, ", "), options.duration, 1e3 * options.goal_tolerance,
                        options.policy.filename().string(), options.plan.planner.planning_time_budget,
                        args.planning_iterations > 0 ? fmt::format(" or {} iterations", args.planning_iterations) : "",
-                       1e3 * options.plan.planner.safety_margin, options.seed, options.jobs);
+                       1e3 * options.plan.planner.safety_margin, options.seed,
+                       args.follow.empty() ? "built in" : std::filesystem::path(args.follow).filename().string(),
+                       options.jobs);
   if (options.moving > 0) {
     setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "
                          "{:g}–{:g} m/s (crossing seed {}).", options.moving, options.moving == 1 ? "" : "s",
@@ -122,6 +127,8 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_option("--goal-tolerance", args->goal_tolerance, "success radius around the goal's end effector [m]")
       ->check(CLI::Range(1e-4, 1.0));
   mbm->add_option("--policy", args->policy, "the learned controller file (default: the shipped default)");
+  mbm->add_option("--follow", args->follow,
+                  "the plan follower's options (YAML, as configs/planning/follow.yaml; default: those values)");
   mbm->add_option("--planning-budget", args->planning_budget, "wall-clock budget of one RRT-Connect search [s]")
       ->check(CLI::Range(1e-4, 600.0));
   mbm->add_option("--planning-iterations", args->planning_iterations,
@@ -131,7 +138,7 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_option("--safety-margin", args->safety_margin,
                   "the planner's clearance from everything [m] (an end closer than it is planned with half its clearance)")
       ->check(CLI::Range(0.0, 0.5));
-  mbm->add_option("--seed", args->seed, "planner seed (problem k uses seed + k)")->check(SeedCheck());
+  mbm->add_option("--seed", args->seed, "planner seed (a problem uses seed + a key of its family and index)")->check(SeedCheck());
   mbm->add_option("--jobs", args->jobs, "worker threads")->check(CLI::Range(1, 256));
   mbm->add_option("--moving", args->moving, "the dynamic variant: this many spheres cross each problem's way, timed to "
                                             "meet the plan executed open loop")
@@ -139,7 +146,7 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_option("--speed", args->speed, "the crossing spheres' speed, or a range MIN MAX drawn from [m/s]")
       ->expected(1, 2)
       ->check(CLI::Range(1e-3, 20.0));
-  mbm->add_option("--crossing-seed", args->crossing_seed, "seed of the crossings (problem k: its own draw)")
+  mbm->add_option("--crossing-seed", args->crossing_seed, "seed of the crossings (each problem its own draw)")
       ->check(SeedCheck());
   mbm->add_option("--out", args->out, "output folder (results.csv, report.md)");
   const std::string command = CommandLine(argc, argv);

@@ -18,6 +18,7 @@
 
 #include "report.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/common/random.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
@@ -104,13 +105,19 @@ std::vector<MbmProblem> FindMbmProblems(const fs::path& dir, const std::vector<s
   return problems;
 }
 
+std::uint64_t MbmProblemKey(const MbmProblem& problem) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;  // FNV-1a of the family's name
+  for (const unsigned char c : problem.family) h = (h ^ c) * 0x100000001b3ULL;
+  return SplitMix64(h ^ static_cast<std::uint64_t>(problem.index));
+}
+
 namespace {
 
-// the planner options of problem `problem_number` (the open-loop method's and the crossings')
-planning::RrtOptions PlannerOf(const MbmOptions& options, int problem_number) {
+// the planner options of a problem of key `key` (MbmProblemKey; the open-loop method's and the crossings')
+planning::RrtOptions PlannerOf(const MbmOptions& options, std::uint64_t key) {
   planning::RrtOptions planner = options.plan.planner;
   planner.check_floor = false;
-  planner.seed = options.seed + static_cast<std::uint64_t>(problem_number);
+  planner.seed = options.seed + key;
   return planner;
 }
 
@@ -118,8 +125,8 @@ planning::RrtOptions PlannerOf(const MbmOptions& options, int problem_number) {
 // execution at a drawn time
 std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot, const Eigen::VectorXd& q_start,
                                                  const Eigen::VectorXd& q_goal, const rmp::Scene& scene,
-                                                 const MbmOptions& options, int problem_number) {
-  planning::RrtPolicy planner(robot, PlannerOf(options, problem_number));
+                                                 const MbmOptions& options, std::uint64_t key) {
+  planning::RrtPolicy planner(robot, PlannerOf(options, key));
   std::vector<Eigen::VectorXd> path = planner.PlanPath(q_start, q_goal, scene);
   if (path.empty()) path = {q_start, q_goal};  // no plan: the straight way, timed the same
   // timed as PlanFollowPolicy executes a plan open loop: each segment at path_speed_fraction × the velocity limits
@@ -128,7 +135,7 @@ std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot,
     speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
   }
   const std::vector<double> times = planning::PathArrivalTimes(path, speeds);
-  std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + static_cast<std::uint64_t>(problem_number));
+  std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + key);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   kinematics::Data data(robot.model);
   Eigen::VectorXd q, qd;
@@ -160,7 +167,7 @@ struct PreparedProblem {
 };
 
 PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& problem, const MbmOptions& options,
-                        int problem_number) {
+                        std::uint64_t key) {
   PreparedProblem p;
   const control::PlanningScene scene = control::ReadPlanningScene(problem.scene);
   const control::MotionPlanRequest request = control::ReadMotionPlanRequest(problem.request);
@@ -184,14 +191,14 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   }
   if (options.moving > 0) {
     p.scene.moving =
-        CrossingObstacles(robot, p.scene.q_start, p.scene.q_goal, rmp_scene, options, problem_number);
+        CrossingObstacles(robot, p.scene.q_start, p.scene.q_goal, rmp_scene, options, key);
   }
   return p;
 }
 
 // one method on a prepared problem; `policy` is the learned controller's file (learned methods only)
 MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, const PreparedProblem& prepared,
-                    MbmMethod method, const MbmOptions& options, int problem_number,
+                    MbmMethod method, const MbmOptions& options, std::uint64_t key,
                     const control::PolicyFile* policy_file) {
   MbmResult r;
   r.family = problem.family;
@@ -224,7 +231,7 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
     policy = std::move(reactive);
   } else {  // without a reactive layer (rrt-connect) the follower executes its one plan open loop
     planning::PlanFollowOptions plan = options.plan;
-    plan.planner = PlannerOf(options, problem_number);
+    plan.planner = PlannerOf(options, key);
     auto f = planning::MakePlanFollower(robot, std::move(reactive), controller_options, plan);
     follower = f.get();
     policy = std::move(f);
@@ -262,10 +269,11 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
 }  // namespace
 
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
-                        const MbmOptions& options, int problem_number) {
+                        const MbmOptions& options) {
   std::optional<control::PolicyFile> file;
   if (Learned(method)) file = control::LoadPolicyFile(options.policy);
-  return RunMethod(robot, problem, Prepare(robot, problem, options, problem_number), method, options, problem_number,
+  const std::uint64_t key = MbmProblemKey(problem);
+  return RunMethod(robot, problem, Prepare(robot, problem, options, key), method, options, key,
                    file ? &*file : nullptr);
 }
 
@@ -303,10 +311,10 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
     for (size_t p; (p = next.fetch_add(1)) < problems.size();) {
       try {
         // the problem read, checked and its crossings drawn once; every method runs on it
-        const int number = static_cast<int>(p);
-        const PreparedProblem prepared = Prepare(robot, problems[p], options, number);
+        const std::uint64_t key = MbmProblemKey(problems[p]);
+        const PreparedProblem prepared = Prepare(robot, problems[p], options, key);
         for (size_t k = 0; k < methods.size(); ++k) {
-          results[p * methods.size() + k] = RunMethod(robot, problems[p], prepared, methods[k], options, number,
+          results[p * methods.size() + k] = RunMethod(robot, problems[p], prepared, methods[k], options, key,
                                                       policy_file ? &*policy_file : nullptr);
         }
       } catch (...) {

@@ -26,7 +26,14 @@ bool PositiveFinite(double v) { return std::isfinite(v) && v > 0.0; }
 void ValidatePlanFollowOptions(const PlanFollowOptions& o) {
   ValidateRrtOptions(o.planner);
   Require(PositiveFinite(o.lookahead), "lookahead", "a finite distance > 0", o.lookahead);
+  Require(PositiveFinite(o.corner_velocity_jump), "corner_velocity_jump", "a finite velocity > 0",
+          o.corner_velocity_jump);
   Require(PositiveFinite(o.posture_metric), "posture_metric", "a finite metric > 0", o.posture_metric);
+  Require(o.yield_metric > 0.0 && o.yield_metric <= o.posture_metric, "yield_metric",
+          fmt::format("a metric in (0, posture_metric = {}]", o.posture_metric), o.yield_metric);
+  Require(o.yield_near >= 0.0 && std::isfinite(o.yield_near), "yield_near", "a finite distance >= 0 m", o.yield_near);
+  Require(o.yield_far > o.yield_near && std::isfinite(o.yield_far), "yield_far",
+          fmt::format("a finite distance > yield_near = {} m", o.yield_near), o.yield_far);
   Require(PositiveFinite(o.stall_time), "stall_time", "a finite time > 0 s", o.stall_time);
   Require(PositiveFinite(o.check_period), "check_period", "a finite period > 0 s", o.check_period);
   Require(PositiveFinite(o.goal_tolerance), "goal_tolerance", "a finite distance > 0", o.goal_tolerance);
@@ -72,6 +79,7 @@ void PlanFollowPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) {
   q_d_ = q0;
   qd_d_.setZero();
   time_ = tau_ = 0.0;
+  yield_ = 1.0;
   last_progress_ = last_check_ = 0.0;
   last_attempt_ = -1e9;
   planned_once_ = false;
@@ -111,7 +119,16 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
       path_times_ = PathArrivalTimes(path_, v_path_);
       path_s_.assign(path_.size(), 0.0);
       for (size_t k = 1; k < path_.size(); ++k) path_s_[k] = path_s_[k - 1] + (path_[k] - path_[k - 1]).norm();
-      s_near_ = 0.0;
+      // the arc-length speed at each interior waypoint at which the reference's velocity turns by at most
+      // corner_velocity_jump: |q̇_out − q̇_in| = ṡ · 2 sin(θ/2) for a turn by θ (∞: no limit)
+      path_corner_speed_.assign(path_.size(), std::numeric_limits<double>::infinity());
+      for (size_t k = 1; k + 1 < path_.size(); ++k) {
+        const double l_in = path_s_[k] - path_s_[k - 1], l_out = path_s_[k + 1] - path_s_[k];
+        if (!(l_in > 0.0) || !(l_out > 0.0)) continue;
+        const double turn = ((path_[k + 1] - path_[k]) / l_out - (path_[k] - path_[k - 1]) / l_in).norm();
+        if (turn > 1e-12) path_corner_speed_[k] = options_.corner_velocity_jump / turn;
+      }
+      s_near_ = s_ref_ = 0.0;
       segment_ = 0;
       if (stats_.plans_succeeded == 0) stats_.first_path_length = path_s_.back();
       ++stats_.plans_succeeded;
@@ -147,17 +164,32 @@ void PlanFollowPolicy::PointAt(double s) {
   const double f = length > 0.0 ? std::clamp((s - path_s_[k]) / length, 0.0, 1.0) : 1.0;
   q_d_ = path_[k] + f * (path_[k + 1] - path_[k]);
   if (length <= 0.0) return;
-  // the carrot's velocity: along the segment as fast as the slowest joint allows at the path speed, slowing down
-  // linearly over the last `lookahead` of the path
+  // the reference's velocity: along the segment as fast as the slowest joint allows at the path speed, down to the
+  // corner speeds linearly over `lookahead` before and after a waypoint, and to rest over the last `lookahead` of the
+  // path
   const Eigen::VectorXd& a = path_[k];
   const Eigen::VectorXd& b = path_[k + 1];
   const double speed = 1.0 / ((b - a).cwiseAbs().cwiseQuotient(v_path_) / length).maxCoeff();
-  const double brake = (path_s_[last] - s) / options_.lookahead;
-  qd_d_ = (std::min(speed, speed * brake) / length) * (b - a);
+  const double L = options_.lookahead;
+  double rate = speed * std::min(1.0, (path_s_[last] - s) / L);
+  for (const auto& [corner, distance] : {std::pair{path_corner_speed_[k + 1], path_s_[k + 1] - s},
+                                         std::pair{path_corner_speed_[k], s - path_s_[k]}}) {
+    if (corner < speed) rate = std::min(rate, corner + (speed - corner) * std::min(1.0, distance / L));
+  }
+  qd_d_ = (rate / length) * (b - a);
+}
+
+void PlanFollowPolicy::Reference() {
+  // never behind the arm's nearest point, at most lookahead ahead of it; full path speed up to half of that lead
+  s_ref_ = std::clamp(s_ref_, s_near_, s_near_ + options_.lookahead);
+  PointAt(s_ref_);
+  const double lead = s_ref_ - s_near_;
+  qd_d_ *= std::clamp(2.0 * (options_.lookahead - lead) / options_.lookahead, 0.0, 1.0);
+  if (options_.yield_slows) qd_d_ *= yield_;
 }
 
 void PlanFollowPolicy::Project(const Eigen::Ref<const Eigen::VectorXd>& q) {
-  // the nearest point on the segments from the current one to the carrot's (never behind the last nearest point)
+  // the nearest point on the segments from the current one to lookahead beyond the last (never behind the last)
   const int last = static_cast<int>(path_.size()) - 1;
   if (last <= 0) return;
   double best = std::numeric_limits<double>::infinity(), best_s = s_near_;
@@ -238,6 +270,30 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
   }
 }
 
+double PlanFollowPolicy::MovingClearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  double d = std::numeric_limits<double>::infinity();
+  bool kinematics_done = false;
+  for (const rmp::Obstacle& obstacle : scene.obstacles) {
+    if (obstacle.v_WO.isZero()) continue;
+    if (!kinematics_done) {
+      kinematics::CalcForwardKinematics(robot_.model, q, &kin_);
+      kinematics_done = true;
+    }
+    for (const kinematics::LinkCapsule& lc : robot_.capsules) {
+      const Eigen::Isometry3d& X_WL = kin_.X_WL[lc.link];
+      const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+      d = std::min(d, rmp::CapsuleObstacleDistance(capsule, obstacle).distance);
+    }
+  }
+  return d;
+}
+
+double PlanFollowPolicy::Yield(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  const PlanFollowOptions& o = options_;
+  if (o.yield_metric == o.posture_metric && !o.yield_slows) return 1.0;
+  return std::clamp((MovingClearance(q, scene) - o.yield_near) / (o.yield_far - o.yield_near), 0.0, 1.0);
+}
+
 void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
   follow_.obstacles = scene.obstacles;
   if (path_.empty()) {  // no plan (yet): the scene's own goal
@@ -252,6 +308,7 @@ void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
     } else {
       follow_.q_T.resize(0);
     }
+    follow_.qd_T.resize(0);
     return;
   }
   const kinematics::EndEffector& ee = robot_.end_effector;
@@ -261,7 +318,11 @@ void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
   kinematics::CalcPointJacobian(robot_.model, kin_, ee.link, ee.X_LE.translation(), J_WE_);
   follow_.v_WT = J_WE_ * qd_d_;
   follow_.q_T = q_d_;
-  follow_.q_T_metric = options_.posture_metric;
+  follow_.qd_T = qd_d_;
+  // geometrically from yield_metric (near what moves) to posture_metric (nothing moving near)
+  follow_.q_T_metric = yield_ >= 1.0 ? options_.posture_metric
+                                     : options_.yield_metric *
+                                           std::pow(options_.posture_metric / options_.yield_metric, yield_);
 }
 
 void PlanFollowPolicy::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -269,8 +330,9 @@ void PlanFollowPolicy::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>&
   Advance(q, scene, /*control_step=*/true);
   if (!reactive_) return;
   if (!path_.empty()) {
+    yield_ = Yield(q, scene);
     Project(q);
-    PointAt(s_near_ + options_.lookahead);
+    Reference();
   }
   FillFollowScene(scene);
   reactive_->BeginControlStep(q, qd, follow_);
@@ -292,11 +354,13 @@ void PlanFollowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, cons
     return;
   }
   if (!path_.empty()) {
+    yield_ = Yield(q, scene);
     Project(q);
-    PointAt(s_near_ + options_.lookahead);
+    Reference();
   }
   FillFollowScene(scene);
   reactive_->Evaluate(q, qd, follow_, qdd);
+  if (!path_.empty()) s_ref_ += dt * qd_d_.norm();  // q̇_d_ runs along the path: its norm is the arc-length rate
   time_ += dt;
 }
 

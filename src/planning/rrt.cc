@@ -84,6 +84,8 @@ void ValidateRrtOptions(const RrtOptions& o) {
   Require(std::isfinite(o.safety_margin) && o.safety_margin >= 0.0, "safety_margin", "a finite margin >= 0 m",
           o.safety_margin);
   Require(positive(o.validity_resolution), "validity_resolution", "a finite step > 0", o.validity_resolution);
+  Require(o.shortcut_iterations >= 0 && o.shortcut_iterations <= 1000000, "shortcut_iterations",
+          "an integer in [0, 1e6]", o.shortcut_iterations);
   Require(positive(o.path_speed_fraction) && o.path_speed_fraction <= 1.0, "path_speed_fraction",
           "a fraction in (0, 1]", o.path_speed_fraction);
   Require(positive(o.kp), "kp", "a finite gain > 0", o.kp);
@@ -117,6 +119,8 @@ struct RrtPolicy::Impl {
   double RunDls(Eigen::VectorXd* q, const Eigen::Vector3d& p_WT);
   std::vector<Eigen::VectorXd> Plan(const Eigen::VectorXd& q_start, const Eigen::VectorXd& q_goal);
   void Shortcut(std::vector<Eigen::VectorXd>* path);
+  // options.shortcut_iterations random shortcuts, drawn from `seed`
+  void RandomShortcut(std::vector<Eigen::VectorXd>* path, std::uint64_t seed);
   // replans from q: IK goal, plan, adopt the new path unless the current one is as good (stats updated).
   void Replan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   // adopts `waypoints` as the executed path from the current time, timed at the speed limits.
@@ -368,7 +372,45 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
   }
   path.back() = q_goal;  // exact goal (the goal threshold lets RRT-Connect stop a hair away)
   Shortcut(&path);
+  if (options.shortcut_iterations > 0) RandomShortcut(&path, SplitMix64(sampler_seed ^ 0x5348525443555453ULL));
   return path;
+}
+
+void RrtPolicy::Impl::RandomShortcut(std::vector<Eigen::VectorXd>* path, std::uint64_t seed) {
+  std::mt19937_64 draw(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<double> s;  // arc length at each waypoint
+  auto lengths = [&]() {
+    s.assign(path->size(), 0.0);
+    for (size_t k = 1; k < path->size(); ++k) s[k] = s[k - 1] + ((*path)[k] - (*path)[k - 1]).norm();
+  };
+  // the point at arc length t and the index of the segment holding it
+  auto at = [&](double t, Eigen::VectorXd* q) {
+    const size_t k = std::min<size_t>(
+        static_cast<size_t>(std::upper_bound(s.begin(), s.end(), t) - s.begin()) - 1, path->size() - 2);
+    const double length = s[k + 1] - s[k];
+    const double f = length > 0.0 ? std::clamp((t - s[k]) / length, 0.0, 1.0) : 0.0;
+    *q = (*path)[k] + f * ((*path)[k + 1] - (*path)[k]);
+    return k;
+  };
+  lengths();
+  Eigen::VectorXd a, b;
+  for (int it = 0; it < options.shortcut_iterations && path->size() >= 3; ++it) {
+    double ta = unit(draw) * s.back(), tb = unit(draw) * s.back();
+    if (ta > tb) std::swap(ta, tb);
+    const size_t ka = at(ta, &a), kb = at(tb, &b);
+    if (kb <= ka) continue;  // on one segment: straight already
+    // a → b replaces the waypoints ka+1 … kb when it is valid and shorter
+    if ((b - a).norm() >= tb - ta - 1e-9 || !SegmentValid(a, b, false)) continue;
+    std::vector<Eigen::VectorXd> out;
+    out.reserve(path->size() + 2);
+    out.insert(out.end(), path->begin(), path->begin() + static_cast<std::ptrdiff_t>(ka) + 1);
+    if ((a - out.back()).norm() > 1e-12) out.push_back(a);
+    if ((b - (*path)[kb + 1]).norm() > 1e-12) out.push_back(b);
+    out.insert(out.end(), path->begin() + static_cast<std::ptrdiff_t>(kb) + 1, path->end());
+    *path = std::move(out);
+    lengths();
+  }
 }
 
 void RrtPolicy::Impl::Shortcut(std::vector<Eigen::VectorXd>* path) {

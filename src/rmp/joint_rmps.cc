@@ -77,6 +77,14 @@ double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& p, const Eigen::Ref<cons
   return p.metric_scalar + p.inertia;
 }
 
+double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& p, const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd0, Eigen::Ref<Eigen::VectorXd> f) {
+  const double s = EvalCSpaceTargetRmp(p, q, qd, q0, f);
+  f.noalias() += (p.metric_scalar * p.damping_gain) * qd0;
+  return s;
+}
+
 Rmp1 EvalJointLimitRmp(const JointLimitRmpParams& p, double x, double xd) {
   const double xc = std::max(x, 0.0);
   const double lp = p.accel_potential_exploder_length_scale;

@@ -10,6 +10,18 @@
 #include "rmpmarl/kinematics/forward_kinematics.h"
 
 namespace rmpmarl::rmp {
+namespace {
+
+// a C-space target's velocity: only beside a target posture, one finite value per joint
+void CheckPostureVelocity(const kinematics::Model& model, const Eigen::VectorXd& posture,
+                          const Eigen::VectorXd& posture_velocity) {
+  if (posture.size() == 0) {
+    throw InputError("RMPflow: qd_T (the C-space target's velocity) is given without q_T (the C-space target)");
+  }
+  kinematics::CheckJointVector(model, posture_velocity, "qd_T (the C-space target's velocity)");
+}
+
+}  // namespace
 
 RmpflowOptions::RmpflowOptions() {
   // RMPflow (Lula) target RMP: linear damping −k_d ẋ with k_d = 85 1/s (Lula's Franka value)
@@ -167,7 +179,8 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
   const Eigen::VectorXd& posture = PostureTarget(scene.q_T);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, true);
   PushForward(tree_, q, qd, scene, &data_);
-  WriteLeaves(q, qd, scene, posture, scene.q_T_metric, /*task_leaves=*/true);
+  if (scene.qd_T.size() > 0) CheckPostureVelocity(model, scene.q_T, scene.qd_T);
+  WriteLeaves(q, qd, scene, posture, scene.q_T_metric, scene.qd_T, /*task_leaves=*/true);
   PullbackAndResolve(tree_, &data_, qdd);
   diagnostics_.lambda = data_.lambda;
   const double norm = qdd.norm();
@@ -179,14 +192,15 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
 
 void RmpflowPolicy::EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q,
                                       const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::VectorXd& posture,
-                                      double posture_metric) {
+                                      double posture_metric, const Eigen::VectorXd& posture_velocity) {
   const kinematics::Model& model = tree_.robot().model;
   kinematics::CheckJointVector(model, q, "q");
   kinematics::CheckJointVector(model, qd, "qd");
   const Eigen::VectorXd& target = PostureTarget(posture);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, false);  // the target leaf is the caller's (its RMP would be zero)
   PushForward(tree_, q, qd, no_task_, &data_);
-  WriteLeaves(q, qd, no_task_, target, posture_metric, /*task_leaves=*/false);
+  if (posture_velocity.size() > 0) CheckPostureVelocity(model, posture, posture_velocity);
+  WriteLeaves(q, qd, no_task_, target, posture_metric, posture_velocity, /*task_leaves=*/false);
   Pullback(tree_, &data_);
 }
 
@@ -198,7 +212,8 @@ const Eigen::VectorXd& RmpflowPolicy::PostureTarget(const Eigen::VectorXd& postu
 
 void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
                                 const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene,
-                                const Eigen::VectorXd& posture, double posture_metric, bool task_leaves) {
+                                const Eigen::VectorXd& posture, double posture_metric,
+                                const Eigen::VectorXd& posture_velocity, bool task_leaves) {
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
   RmpflowDiagnostics& diag = diagnostics_;
   diag = RmpflowDiagnostics{};
@@ -223,7 +238,10 @@ void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
     if (posture_metric > 0.0) {
       CSpaceTargetRmpParams params = options_.cspace_target;
       params.metric_scalar = posture_metric;
-      s = EvalCSpaceTargetRmp(params, q, qd, posture, f);
+      s = posture_velocity.size() > 0 ? EvalCSpaceTargetRmp(params, q, qd, posture, posture_velocity, f)
+                                      : EvalCSpaceTargetRmp(params, q, qd, posture, f);
+    } else if (posture_velocity.size() > 0) {
+      s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, posture, posture_velocity, f);
     } else {
       s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, posture, f);
     }

@@ -112,6 +112,11 @@ void ValidateScene(const Scene& scene, std::string_view what) {
     }
   }
   if (!scene.q_T.allFinite()) throw InputError(fmt::format("{}: q_T (the C-space target) must be finite", what));
+  if (scene.qd_T.size() > 0 && (scene.qd_T.size() != scene.q_T.size() || !scene.qd_T.allFinite())) {
+    throw InputError(fmt::format("{}: qd_T (the C-space target's velocity): expected {} finite values (one per entry "
+                                 "of q_T), got {}{}", what, scene.q_T.size(), scene.qd_T.size(),
+                                 scene.qd_T.allFinite() ? "" : " with a non-finite one"));
+  }
   if (!(scene.q_T_metric >= 0.0) || !std::isfinite(scene.q_T_metric)) {
     throw InputError(fmt::format("{}: q_T_metric: expected a finite metric >= 0, got {}", what, scene.q_T_metric));
   }

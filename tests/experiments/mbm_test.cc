@@ -191,7 +191,7 @@ TEST(MbmBenchmarkTest, MotionBenchMakerPandaBookshelf) {
                               "mbm-panda.collision.yaml");
   const std::vector<MbmProblem> problems = FindMbmProblems(problems_dir, {"bookshelf_small"}, 1);
   for (MbmMethod method : {MbmMethod::kRrtConnect, MbmMethod::kPlanRmpflow}) {
-    const MbmResult r = RunMbmProblem(panda, problems[0], method, IterationBudget(), 0);
+    const MbmResult r = RunMbmProblem(panda, problems[0], method, IterationBudget());
     SCOPED_TRACE(r.method);
     EXPECT_TRUE(r.valid) << r.invalid_reason;
     EXPECT_TRUE(r.success) << "final error " << r.final_error << " m";

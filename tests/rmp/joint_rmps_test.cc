@@ -35,6 +35,21 @@ TEST(JointRmpsTest, CSpaceTargetIsCappedDampedAttractor) {
   EXPECT_NEAR(f[1], 50.0 * 40.0, 1e-10);
 }
 
+TEST(JointRmpsTest, AMovingCSpaceTargetDampsTheRelativeVelocity) {
+  const CSpaceTargetRmpParams p;  // μ 50, k_p 100, k_d 50
+  Eigen::VectorXd f(2);
+  // q₀ − q = (0.1, −0.2), q̇ − q̇₀ = (1, 0) − (0.4, −0.5): f = 50 (100 (0.1, −0.2) − 50 (0.6, 0.5))
+  const double s = EvalCSpaceTargetRmp(p, Eigen::Vector2d(0.0, 0.2), Eigen::Vector2d(1.0, 0.0),
+                                       Eigen::Vector2d(0.1, 0.0), Eigen::Vector2d(0.4, -0.5), f);
+  EXPECT_DOUBLE_EQ(s, 51.0);
+  EXPECT_NEAR(f[0], 50.0 * (10.0 - 30.0), 1e-10);
+  EXPECT_NEAR(f[1], 50.0 * (-20.0 - 25.0), 1e-10);
+  // tracking: at the target and moving with it, no force
+  EvalCSpaceTargetRmp(p, Eigen::Vector2d(0.3, 0.2), Eigen::Vector2d(0.4, -0.5), Eigen::Vector2d(0.3, 0.2),
+                      Eigen::Vector2d(0.4, -0.5), f);
+  EXPECT_NEAR(f.norm(), 0.0, 1e-12);
+}
+
 TEST(JointRmpsTest, JointLimitBarrierMatchesLulaForm) {
   const JointLimitRmpParams p;
   // x = 0.05, ẋ = −0.01: a = 1/(0.25 + 0.01) + 200·0.01, m = 1000/(1 + e⁻¹)/(5 + 0.001)

@@ -141,6 +141,45 @@ TEST(RmpflowPolicyTest, RejectsBadConstructionAndInputs) {
   EXPECT_THROW(policy.set_home(Eigen::Vector3d::Zero()), InputError);
 }
 
+// a moving C-space target (Scene::qd_T) adds μ k_d q̇_T to the C-space target's force and nothing to the metric;
+// it is refused without q_T, of the wrong size or not finite
+TEST(RmpflowPolicyTest, AMovingCSpaceTargetAddsItsVelocityTermOnly) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();
+  const RmpflowOptions options;
+  RmpflowPolicy policy(robot, options, 1);
+  const Eigen::Vector2d q(0.3, -0.4), qd(0.5, 0.2), q_T(0.6, 0.1), qd_T(-0.7, 0.9);
+  const double metric = 2500.0;
+  policy.EvaluateStructure(q, qd, q_T, metric);
+  const Eigen::VectorXd f0 = policy.data().f_root;
+  const Eigen::MatrixXd M0 = policy.data().M_root;
+  policy.EvaluateStructure(q, qd, q_T, metric, qd_T);
+  const Eigen::VectorXd expected = f0 + metric * options.cspace_target.damping_gain * qd_T;
+  EXPECT_LT((policy.data().f_root - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_EQ(policy.data().M_root, M0);
+  // without a metric of its own the options' C-space target moves the same way
+  policy.EvaluateStructure(q, qd, q_T);
+  const Eigen::VectorXd g0 = policy.data().f_root;
+  policy.EvaluateStructure(q, qd, q_T, 0.0, qd_T);
+  const Eigen::VectorXd g = g0 + options.cspace_target.metric_scalar * options.cspace_target.damping_gain * qd_T;
+  EXPECT_LT((policy.data().f_root - g).norm(), 1e-9 * g.norm());
+
+  Scene scene;
+  scene.has_target = false;
+  Eigen::VectorXd qdd(2);
+  scene.qd_T = qd_T;  // without q_T
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+  EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
+  scene.q_T = q_T;
+  policy.Evaluate(q, qd, scene, qdd);
+  EXPECT_TRUE(qdd.allFinite());
+  scene.qd_T = Eigen::Vector3d::Zero();
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+  EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
+  scene.qd_T = Eigen::Vector2d(NAN, 0.0);
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+  EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
+}
+
 TEST(RmpflowPolicyTest, BuildsTheUsualLeafSet) {
   const kinematics::Robot robot = testing::LoadTreeRobot();
   const RmpflowPolicy policy(robot, RmpflowOptions{}, 3);

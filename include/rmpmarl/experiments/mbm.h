@@ -48,13 +48,13 @@ struct MbmOptions {
   std::filesystem::path policy;  ///< the learned controller's file (.rmpp)
   /// the plan follower and its planner (budget, margin, timing); evaluation_period is set from the controller
   planning::PlanFollowOptions plan{};
-  std::uint64_t seed = 0;        ///< planner seed of problem k: seed + k (the same for every method)
+  std::uint64_t seed = 0;        ///< planner seed of a problem: seed + MbmProblemKey (the same for every method)
   int jobs = 1;                  ///< worker threads; results do not depend on it
   /// the dynamic variant: this many spheres cross the way of each problem (0: the static problems). Each crosses the
   /// path RRT-Connect plans for the problem (the open-loop method's, same seed), timed as it is executed: at a time
   /// drawn in [0.25, 0.75] of the path's duration its centre passes through the end effector's position then, on a
   /// horizontal line in a drawn direction, at a speed drawn in [speed_min, speed_max] — so the plan executed open
-  /// loop meets it. Drawn from crossing_seed + problem number (the same for every method).
+  /// loop meets it. Drawn from crossing_seed and MbmProblemKey (the same for every method and selection).
   int moving = 0;
   double speed_min = 0.5, speed_max = 1.5;  ///< [m/s]
   double moving_radius = 0.05;              ///< [m]
@@ -80,9 +80,13 @@ struct MbmResult {
   double control_us = 0.0;        ///< mean controller time per control step [µs]
 };
 
-/// runs one method on one problem (`problem_number`: its position in the run, for the planner seed).
+/// a number of the problem's family and index (the same whichever problems a run selects): the planner's and the
+/// crossings' seeds of the problem are drawn from it.
+std::uint64_t MbmProblemKey(const MbmProblem& problem);
+
+/// runs one method on one problem.
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
-                        const MbmOptions& options, int problem_number);
+                        const MbmOptions& options);
 
 /// every method on every problem, on options.jobs threads; `progress` (optional) is called after each problem
 /// with the number done. Results are in problem then method order.

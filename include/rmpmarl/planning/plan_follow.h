@@ -5,12 +5,15 @@
 /// a global planner with a local one.
 ///
 /// The goal is the scene's joint-space goal (rmp::Scene::q_T) when it has one, else an IK solution of its end-effector
-/// target (RrtPolicy::SolveIk). The reactive layer follows the plan as a carrot: at every call it sees the scene with
-/// its target replaced by the plan's point q_c a joint-space arc length `lookahead` beyond the arm's nearest point on
-/// the path (searched forward from the last one, so progress never goes back) — the end effector at q_c, moving with
-/// J(q_c) q̇_c where q̇_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity
-/// limit (slowing down over the path's last `lookahead`), and q_c as its C-space target (scene.q_T) weighted by
-/// posture_metric. The reactive layer moves as fast as it moves, and a dodge does not leave the plan behind; the
+/// target (RrtPolicy::SolveIk). The reactive layer follows the plan as a moving reference: at every call it sees the
+/// scene with its target replaced by the plan's point q_c at arc length s_c — the end effector at q_c, moving with
+/// J(q_c) q̇_c, and q_c as its C-space target (scene.q_T) moving with q̇_c (scene.qd_T), weighted by posture_metric.
+/// s_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity limit (slowing
+/// down to pass the path's corners with a velocity change of at most corner_velocity_jump, and to rest over the
+/// path's last `lookahead`) while it leads the arm's nearest point on the path (searched forward from
+/// the last one, so progress never goes back) by less than lookahead / 2, slower beyond, and stops at a lead of
+/// lookahead; it is never behind that point. So the reactive layer tracks the plan at the plan's speed where it can,
+/// the reference waits where a dodge or the layer holds the arm back, and a dodge does not leave the plan behind; the
 /// obstacles are the scene's, so whatever moves is dodged by the reactive layer.
 ///
 /// Replans, from the measured configuration: when the nearest point has not advanced for stall_time while the arm is
@@ -25,6 +28,7 @@
 ///
 /// Evaluate allocates nothing between plans; a plan allocates (OMPL's trees, the path).
 #include <Eigen/Core>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -39,15 +43,34 @@ namespace rmpmarl::planning {
 struct PlanFollowOptions {
   /// the planner: RRT-Connect budget, validity margin and resolution, path timing, the open-loop PD gains, the retry
   /// period and the clock (evaluation_period: the controller's substep, as for RrtPolicy).
-  RrtOptions planner;
+  RrtOptions planner = [] {
+    RrtOptions o;
+    o.shortcut_iterations = 100;  // shorter paths than the greedy shortcut's alone (the cages' ~40 % shorter)
+    return o;
+  }();
   /// replan when progress stalls or the path ahead is blocked (false: plan once and never again; always false without
   /// a reactive layer).
   bool replan = true;
-  double lookahead = 0.3;     ///< the carrot's arc length beyond the arm's nearest path point [rad or m], > 0
-  /// the metric scalar of the reactive layer's C-space target toward the carrot (rmp::Scene::q_T_metric), > 0: as
-  /// much as RMPflow's end-effector target weighs at its least (target_rmp.min_metric_scalar), so the arm keeps the
-  /// planned posture where the end-effector target alone would let a redundant arm fold another way
-  double posture_metric = 2500.0;
+  /// the most the reference leads the arm's nearest path point by (arc length) [rad or m], > 0; also the distance
+  /// over which the reference slows down before a waypoint (and speeds up after it)
+  double lookahead = 0.3;
+  /// at a waypoint the reference's joint velocity turns by at most this [rad/s or m/s], > 0: it slows down to pass a
+  /// sharp corner of the path (the layer's lag would cut it, toward what the plan passes 1 cm from)
+  double corner_velocity_jump = 1.0;
+  /// the metric scalar of the reactive layer's C-space target toward the reference (rmp::Scene::q_T_metric) while
+  /// nothing that moves is within yield_far of the arm, > 0: the plan, valid against the obstacles as they are,
+  /// outweighs the layer's repulsion from the static cell it was planned around (a timid layer would hold off it)
+  double posture_metric = 2.5e6;
+  /// the same within yield_near of an obstacle that moves (velocity ≠ 0), in (0, posture_metric]: as much as RMPflow's
+  /// end-effector target weighs at its least (target_rmp.min_metric_scalar), so the layer dodges what the plan did not
+  /// know and still keeps the planned posture; between the two distances the metric goes geometrically from one to
+  /// the other
+  double yield_metric = 2500.0;
+  double yield_near = 0.2;  ///< [m], >= 0
+  double yield_far = 0.8;   ///< [m], > yield_near
+  /// the reference slows down near what moves as the metric yields (stops within yield_near), so that the arm waits
+  /// for a crossing obstacle to pass instead of meeting it on the path
+  bool yield_slows = true;
   double stall_time = 1.0;    ///< no progress this long → replan, > 0
   double check_period = 0.1;  ///< the rest of the path is checked against the obstacles this often, > 0
   /// the goal counts as reached (no stall replans) within this of q_goal (max over joints) [rad or m], or with the end
@@ -59,6 +82,11 @@ struct PlanFollowOptions {
 
 /// throws InputError (field, expected vs got) unless the options are valid.
 void ValidatePlanFollowOptions(const PlanFollowOptions& options);
+
+/// `options` with the values a YAML file sets (configs/planning/follow.yaml lists every key: the follower's fields,
+/// and under `planner:` path_speed_fraction, validity_resolution, retry_period, kp, kd); an unknown key, a value of the
+/// wrong kind or out of range throws InputError naming the file and key.
+PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanFollowOptions options = {});
 
 /// Counters since the last Reset.
 struct PlanFollowStats {
@@ -100,11 +128,16 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   bool GoalMoved(const rmp::Scene& scene) const;
   void Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, bool control_step);
   bool Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
-  void PointAt(double s);                       // q_d_ at arc length s (carrot)
+  void PointAt(double s);                       // q_d_ at arc length s, q̇_d_ at the path speed
+  void Reference();                             // q_d_, q̇_d_ of the reference (after Project)
   Eigen::Vector3d EndEffectorAt(const Eigen::Ref<const Eigen::VectorXd>& q);  // uses kin_
   void Project(const Eigen::Ref<const Eigen::VectorXd>& q);  // s_near_: the arm's nearest path point, forward only
   bool RestValid(const rmp::Scene& scene);      // the path from the arm's nearest point on, at the resolution
   void FillFollowScene(const rmp::Scene& scene);
+  // the arm's smallest distance at q to an obstacle that moves (∞: none) [m]
+  double MovingClearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
+  // 0 within yield_near of what moves, 1 beyond yield_far, linear between
+  double Yield(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
 
   kinematics::Robot robot_;
   std::unique_ptr<control::AccelerationPolicy> reactive_;
@@ -117,6 +150,7 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   std::vector<Eigen::VectorXd> path_;
   std::vector<double> path_times_;   // arrival time at each waypoint (open loop) [s]
   std::vector<double> path_s_;       // arc length at each waypoint [rad or m]
+  std::vector<double> path_corner_speed_;  // the reference's arc-length speed limit at each waypoint (∞: none)
   Eigen::VectorXd q_goal_, q_d_, qd_d_, q_check_;
   Eigen::VectorXd planned_q_T_;                       // the scene's joint goal when planned (empty: none)
   Eigen::Vector3d planned_p_WT_ = Eigen::Vector3d::Zero();  // its end-effector target then
@@ -126,6 +160,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   double time_ = 0.0;         // policy clock [s]
   double tau_ = 0.0;          // path time [s] (open loop)
   double s_near_ = 0.0;       // arc length of the arm's nearest path point (reactive)
+  double s_ref_ = 0.0;        // arc length of the reference (reactive)
+  double yield_ = 1.0;        // Yield() at the last call
   int segment_ = 0;           // the segment holding it
   double last_progress_ = 0.0, last_check_ = 0.0, last_attempt_ = -1e9;
   double plan_margin_ = 0.0;  // the margin the current path was planned with

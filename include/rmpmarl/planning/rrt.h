@@ -84,6 +84,10 @@ struct RrtOptions {
   double validity_resolution = 0.01;
   /// the path is timed at this fraction of the URDF velocity limits, in (0, 1].
   double path_speed_fraction = 0.5;
+  /// after the greedy shortcut over the waypoints, this many random shortcuts between two points drawn on the path
+  /// (kept when the straight segment between them is valid), ≥ 0; drawn from the plan's seed, so a plan stays a
+  /// function of (problem, seed).
+  int shortcut_iterations = 0;
   double kp = 100.0;  ///< PD stiffness of path tracking [1/s²], > 0
   double kd = 20.0;   ///< PD damping [1/s], > 0 (critical for kp = 100); also the braking gain when there is no path
   std::uint64_t seed = 0;  ///< IK seeds and RRT sampling (see the file comment on determinism)

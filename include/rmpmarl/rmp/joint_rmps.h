@@ -68,6 +68,10 @@ void RobustCap(const Eigen::Ref<const Eigen::VectorXd>& p, double threshold, Eig
 double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& params, const Eigen::Ref<const Eigen::VectorXd>& q,
                            const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
                            Eigen::Ref<Eigen::VectorXd> f);
+/// the same toward a moving target q0 with velocity qd0: a = k_p r(q0 − q) − k_d (q̇ − q̇0) (qd0 = 0: the above).
+double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& params, const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd0, Eigen::Ref<Eigen::VectorXd> f);
 
 /// joint-limit RMP at normalised distance x to one boundary and its rate ẋ. x is clamped to ≥ 0 (at or past the
 /// boundary the RMP keeps its contact values, no NaN/Inf).

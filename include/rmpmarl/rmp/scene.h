@@ -52,6 +52,10 @@ struct Scene {
   /// the controllers that pull toward a posture (RMPflow's C-space target RMP; the learned layer's RMPflow structure);
   /// empty: their configured home.
   Eigen::VectorXd q_T;
+  /// the C-space target's velocity (a plan's reference moving along its path), one value per joint: the C-space
+  /// target RMP damps the velocity relative to it, so that a moving reference is tracked without lag; empty: zero.
+  /// Only with q_T.
+  Eigen::VectorXd qd_T;
   /// > 0: the metric scalar of the C-space target RMP toward q_T instead of the controller's own (a plan being
   /// followed weighs as much as the end-effector target; RMPflow's own posture prior weighs 50); 0: the controller's.
   double q_T_metric = 0.0;
