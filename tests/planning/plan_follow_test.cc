@@ -57,6 +57,23 @@ Problem WallProblem() {
   return p;
 }
 
+// the wall problem as a controller sees it: the wall, the goal's end effector as target, the joint goal
+rmp::Scene WallScene(const Problem& p) {
+  rmp::Scene scene;
+  scene.obstacles.push_back(p.wall.AsRmp(p.wall.X_WO));
+  scene.p_WT = p.p_WT;
+  scene.q_T = p.q_goal;
+  return scene;
+}
+
+// the follower's defaults with a search ended by iterations alone (the same plans on any machine)
+PlanFollowOptions IterationBudget() {
+  PlanFollowOptions options;
+  options.planner.planning_time_budget = 3600.0;
+  options.planner.planning_iterations = 20000;
+  return options;
+}
+
 struct Outcome {
   sim::EpisodeMetrics metrics;
   double joint_error = 0.0;
@@ -132,14 +149,9 @@ TEST(PlanFollowTest, TheLearnedControllerFollowsThePlanAroundTheWall) {
 // anew; smaller moves keep the plan
 TEST(PlanFollowTest, AMovedGoalIsPlannedForAnew) {
   const Problem p = WallProblem();
-  PlanFollowOptions options;
-  options.planner.planning_time_budget = 3600.0;
-  options.planner.planning_iterations = 20000;
+  const PlanFollowOptions options = IterationBudget();
   PlanFollowPolicy follower(p.robot, std::make_unique<control::RmpflowAccelerationPolicy>(p.robot, 1), options);
-  rmp::Scene scene;
-  scene.obstacles.push_back(p.wall.AsRmp(p.wall.X_WO));
-  scene.p_WT = p.p_WT;
-  scene.q_T = p.q_goal;
+  rmp::Scene scene = WallScene(p);
   const VectorXd qd = VectorXd::Zero(7);
   VectorXd qdd(7);
   follower.Reset(p.q_start);
@@ -192,16 +204,11 @@ class RecordingLayer final : public control::AccelerationPolicy {
 // weight yields geometrically to yield_metric and the reference slows to a stop, as the options say
 TEST(PlanFollowTest, TheReferenceMovesAlongThePlanAndYieldsToWhatMoves) {
   const Problem p = WallProblem();
-  PlanFollowOptions options;
-  options.planner.planning_time_budget = 3600.0;
-  options.planner.planning_iterations = 20000;
+  const PlanFollowOptions options = IterationBudget();
   auto layer = std::make_unique<RecordingLayer>(7);
   RecordingLayer* recorded = layer.get();
   PlanFollowPolicy follower(p.robot, std::move(layer), options);
-  rmp::Scene scene;
-  scene.obstacles.push_back(p.wall.AsRmp(p.wall.X_WO));
-  scene.p_WT = p.p_WT;
-  scene.q_T = p.q_goal;
+  const rmp::Scene scene = WallScene(p);
   const VectorXd qd = VectorXd::Zero(7);
   VectorXd qdd(7);
   // the first control step from the start (a reset: the same plan, the reference at the path's start)
