@@ -3,15 +3,22 @@
 set -euo pipefail
 build_dir=$1; source_dir=$2
 prefix=$(mktemp -d); trap 'rm -rf "$prefix"' EXIT
-cmake --install "$build_dir" --prefix "$prefix" >/dev/null
-cmake -S "$source_dir/tests/install/consumer" -B "$prefix/consumer-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
-cmake --build "$prefix/consumer-build" >/dev/null
+# a step's output is shown only when it fails
+quiet() {
+  local log="$prefix/step.log"
+  if ! "$@" >"$log" 2>&1; then
+    echo "failed: $*" >&2; cat "$log" >&2; return 1
+  fi
+}
+quiet cmake --install "$build_dir" --prefix "$prefix"
+quiet cmake -S "$source_dir/tests/install/consumer" -B "$prefix/consumer-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$prefix"
+quiet cmake --build "$prefix/consumer-build"
 RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$prefix/consumer-build/consumer"
 # the control-loop example of examples/ (docs/control-your-robot.md), built against the same installed package
-cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
-cmake --build "$prefix/example-build" >/dev/null
+quiet cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$prefix"
+quiet cmake --build "$prefix/example-build"
 example="$prefix/example-build/control_loop"
 # built against rmpmarl::control alone: no MuJoCo, libtorch, EGL or assimp library or symbol in it
 # (a library the linker records without a symbol used from it — the sanitizers' link turns --as-needed off for what
