@@ -10,15 +10,6 @@
 #include "rmpmarl/math/geometry.h"
 
 namespace rmpmarl::control {
-namespace {
-
-math::Capsule WorldCapsule(const kinematics::Data& kin, const kinematics::LinkCapsule& lc) {
-  const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
-  return {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
-}
-
-}  // namespace
-
 WarningSensor::WarningSensor(const kinematics::Robot& robot, const WarningSensorOptions& options)
     : robot_(&robot), options_(options) {
   if (!std::isfinite(options.margin) || !(options.margin > 0.0)) {
@@ -72,7 +63,7 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
   };
   const int nc = static_cast<int>(robot.capsules.size());
   for (int c = 0; c < nc; ++c) {
-    world_capsules_[c] = WorldCapsule(kin, robot.capsules[c]);
+    world_capsules_[c] = kinematics::WorldCapsule(robot.capsules[c], kin);
     const math::Capsule& cap = world_capsules_[c];
     spheres_[c] << 0.5 * (cap.p_WA + cap.p_WB), 0.5 * (cap.p_WB - cap.p_WA).norm() + cap.radius;
   }

@@ -274,10 +274,7 @@ void SortUnique(std::vector<std::pair<int, int>>* pairs) {
 // world capsules of every robot capsule at the current data.
 void WorldCapsules(const Robot& robot, const Data& data, std::vector<math::Capsule>* out) {
   out->resize(robot.capsules.size());
-  for (size_t c = 0; c < robot.capsules.size(); ++c) {
-    const LinkCapsule& cap = robot.capsules[c];
-    (*out)[c] = {data.X_WL[cap.link] * cap.p_LA, data.X_WL[cap.link] * cap.p_LB, cap.radius};
-  }
+  for (size_t c = 0; c < robot.capsules.size(); ++c) (*out)[c] = WorldCapsule(robot.capsules[c], data);
 }
 
 double CapsuleDistance(const math::Capsule& a, const math::Capsule& b) {

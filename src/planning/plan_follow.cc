@@ -117,8 +117,7 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
     if (!path.empty()) {
       path_ = std::move(path);
       path_times_ = PathArrivalTimes(path_, v_path_);
-      path_s_.assign(path_.size(), 0.0);
-      for (size_t k = 1; k < path_.size(); ++k) path_s_[k] = path_s_[k - 1] + (path_[k] - path_[k - 1]).norm();
+      path_s_ = PathArcLengths(path_);
       // the arc-length speed at each interior waypoint at which the reference's velocity turns by at most
       // corner_velocity_jump: |q̇_out − q̇_in| = ṡ · 2 sin(θ/2) for a turn by θ (∞: no limit)
       path_corner_speed_.assign(path_.size(), std::numeric_limits<double>::infinity());
@@ -158,11 +157,10 @@ void PlanFollowPolicy::PointAt(double s) {
     q_d_ = path_[std::max(last, 0)];
     return;
   }
-  const int k = std::clamp(
-      static_cast<int>(std::upper_bound(path_s_.begin(), path_s_.end(), s) - path_s_.begin()) - 1, 0, last - 1);
+  const PathLocation at = LocateOnPath(path_s_, s);
+  const int k = at.segment;
   const double length = path_s_[k + 1] - path_s_[k];
-  const double f = length > 0.0 ? std::clamp((s - path_s_[k]) / length, 0.0, 1.0) : 1.0;
-  q_d_ = path_[k] + f * (path_[k + 1] - path_[k]);
+  q_d_ = path_[k] + at.fraction * (path_[k + 1] - path_[k]);
   if (length <= 0.0) return;
   // the reference's velocity: along the segment as fast as the slowest joint allows at the path speed, down to the
   // corner speeds linearly over `lookahead` before and after a waypoint, and to rest over the last `lookahead` of the
@@ -280,9 +278,7 @@ double PlanFollowPolicy::MovingClearance(const Eigen::Ref<const Eigen::VectorXd>
       kinematics_done = true;
     }
     for (const kinematics::LinkCapsule& lc : robot_.capsules) {
-      const Eigen::Isometry3d& X_WL = kin_.X_WL[lc.link];
-      const math::Capsule capsule{X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
-      d = std::min(d, rmp::CapsuleObstacleDistance(capsule, obstacle).distance);
+      d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(lc, kin_), obstacle).distance);
     }
   }
   return d;

@@ -102,8 +102,10 @@ struct RrtPolicy::Impl {
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
   // q within the bounds of the current plan and every checked distance > margin.
   bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && Clearance(q, false, margin) > margin; }
-  bool InBounds(const Eigen::Ref<const Eigen::VectorXd>& q) const {
-    return ((q - lower).array() >= -1e-12).all() && ((upper - q).array() >= -1e-12).all();
+  bool InBounds(const Eigen::Ref<const Eigen::VectorXd>& q) const { return Within(q, lower, upper); }
+  // q within [lo, hi] to rounding
+  static bool Within(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+    return ((q - lo).array() >= -1e-12).all() && ((hi - q).array() >= -1e-12).all();
   }
   // the states of segment a → b at most validity_resolution apart (excluding a, including b) are valid; with
   // obstacles_only, only the obstacle distances are checked (margin `margin`).
@@ -173,11 +175,9 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
                                   double stop_below) {
   kinematics::CalcForwardKinematics(robot.model, q, &kin);
   for (size_t c = 0; c < robot.capsules.size(); ++c) {
-    const kinematics::LinkCapsule& lc = robot.capsules[c];
-    const Eigen::Isometry3d& X_WL = kin.X_WL[lc.link];
-    capsule_W[c] = {X_WL * lc.p_LA, X_WL * lc.p_LB, lc.radius};
+    capsule_W[c] = kinematics::WorldCapsule(robot.capsules[c], kin);
     capsule_sphere[c] << 0.5 * (capsule_W[c].p_WA + capsule_W[c].p_WB),
-        0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + lc.radius;
+        0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + capsule_W[c].radius;
   }
   double d = kInf;
   // a pair whose distance is bounded below by the smallest distance so far cannot lower it, nor, in a validity check
@@ -235,10 +235,7 @@ bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::Vector
   const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / options.validity_resolution)));
   for (int k = 1; k <= n; ++k) {
     scratch = a + (static_cast<double>(k) / n) * (b - a);
-    if (within_limits && !(((scratch - limit_lower).array() >= -1e-12).all() &&
-                           ((limit_upper - scratch).array() >= -1e-12).all())) {
-      return false;
-    }
+    if (within_limits && !Within(scratch, limit_lower, limit_upper)) return false;
     if (Clearance(scratch, obstacles_only, margin) <= margin) return false;
   }
   return true;
@@ -379,21 +376,14 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
 void RrtPolicy::Impl::RandomShortcut(std::vector<Eigen::VectorXd>* path, std::uint64_t seed) {
   std::mt19937_64 draw(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::vector<double> s;  // arc length at each waypoint
-  auto lengths = [&]() {
-    s.assign(path->size(), 0.0);
-    for (size_t k = 1; k < path->size(); ++k) s[k] = s[k - 1] + ((*path)[k] - (*path)[k - 1]).norm();
-  };
+  std::vector<double> s = PathArcLengths(*path);
   // the point at arc length t and the index of the segment holding it
   auto at = [&](double t, Eigen::VectorXd* q) {
-    const size_t k = std::min<size_t>(
-        static_cast<size_t>(std::upper_bound(s.begin(), s.end(), t) - s.begin()) - 1, path->size() - 2);
-    const double length = s[k + 1] - s[k];
-    const double f = length > 0.0 ? std::clamp((t - s[k]) / length, 0.0, 1.0) : 0.0;
-    *q = (*path)[k] + f * ((*path)[k + 1] - (*path)[k]);
+    const PathLocation where = LocateOnPath(s, t);
+    const size_t k = static_cast<size_t>(where.segment);
+    *q = (*path)[k] + where.fraction * ((*path)[k + 1] - (*path)[k]);
     return k;
   };
-  lengths();
   Eigen::VectorXd a, b;
   for (int it = 0; it < options.shortcut_iterations && path->size() >= 3; ++it) {
     double ta = unit(draw) * s.back(), tb = unit(draw) * s.back();
@@ -409,7 +399,7 @@ void RrtPolicy::Impl::RandomShortcut(std::vector<Eigen::VectorXd>* path, std::ui
     if ((b - (*path)[kb + 1]).norm() > 1e-12) out.push_back(b);
     out.insert(out.end(), path->begin() + static_cast<std::ptrdiff_t>(kb) + 1, path->end());
     *path = std::move(out);
-    lengths();
+    s = PathArcLengths(*path);
   }
 }
 
@@ -437,6 +427,23 @@ std::vector<double> PathArrivalTimes(const std::vector<Eigen::VectorXd>& path, c
   return times;
 }
 
+std::vector<double> PathArcLengths(const std::vector<Eigen::VectorXd>& path) {
+  std::vector<double> s(path.size(), 0.0);
+  for (size_t k = 1; k < path.size(); ++k) s[k] = s[k - 1] + (path[k] - path[k - 1]).norm();
+  return s;
+}
+
+PathLocation LocateOnPath(const std::vector<double>& knots, double x) {
+  RMPMARL_ASSERT(knots.size() >= 2, "LocateOnPath: a path of at least two waypoints");
+  const int last = static_cast<int>(knots.size()) - 1;
+  PathLocation at;
+  at.segment =
+      std::clamp(static_cast<int>(std::upper_bound(knots.begin(), knots.end(), x) - knots.begin()) - 1, 0, last - 1);
+  const double length = knots[at.segment + 1] - knots[at.segment];
+  at.fraction = length > 0.0 ? std::clamp((x - knots[at.segment]) / length, 0.0, 1.0) : 0.0;
+  return at;
+}
+
 void SamplePath(const std::vector<Eigen::VectorXd>& path, const std::vector<double>& times, double t,
                 Eigen::VectorXd* q_d, Eigen::VectorXd* qd_d) {
   RMPMARL_ASSERT(!path.empty() && times.size() == path.size(), "SamplePath: a path and its times");
@@ -446,12 +453,10 @@ void SamplePath(const std::vector<Eigen::VectorXd>& path, const std::vector<doub
     qd_d->setZero(path[last].size());
     return;
   }
-  const int k = static_cast<int>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
-  const int segment = std::clamp(k, 0, last - 1);
-  const double duration = times[segment + 1] - times[segment];
-  const double s = std::clamp((t - times[segment]) / duration, 0.0, 1.0);
-  *q_d = path[segment] + s * (path[segment + 1] - path[segment]);
-  *qd_d = (path[segment + 1] - path[segment]) / duration;
+  const PathLocation at = LocateOnPath(times, t);  // every segment lasts > 0 (PathArrivalTimes)
+  const int segment = at.segment;
+  *q_d = path[segment] + at.fraction * (path[segment + 1] - path[segment]);
+  *qd_d = (path[segment + 1] - path[segment]) / (times[segment + 1] - times[segment]);
 }
 
 void RrtPolicy::Impl::Adopt(std::vector<Eigen::VectorXd> waypoints, const Eigen::Vector3d& p_WE_goal) {

@@ -37,10 +37,6 @@ Eigen::Vector3d EndEffector(const kinematics::Robot& robot, const kinematics::Da
   return kinematics::CalcPointPosition(data, robot.end_effector.link, robot.end_effector.X_LE.translation());
 }
 
-math::Capsule WorldCapsule(const kinematics::LinkCapsule& c, const kinematics::Data& data) {
-  return {data.X_WL[c.link] * c.p_LA, data.X_WL[c.link] * c.p_LB, c.radius};
-}
-
 // smallest distance between capsules of checked link pairs (different links, not excluded) at the FK in data.
 double MinSelfClearance(const kinematics::Robot& robot, const kinematics::Data& data) {
   double d = kInf;
@@ -49,7 +45,8 @@ double MinSelfClearance(const kinematics::Robot& robot, const kinematics::Data& 
       const auto& ca = robot.capsules[a];
       const auto& cb = robot.capsules[b];
       if (ca.link == cb.link || robot.IsExcludedPair(ca.link, cb.link)) continue;
-      d = std::min(d, math::CapsuleCapsuleDistance(WorldCapsule(ca, data), WorldCapsule(cb, data)).distance);
+      d = std::min(d, math::CapsuleCapsuleDistance(kinematics::WorldCapsule(ca, data),
+                                                   kinematics::WorldCapsule(cb, data)).distance);
     }
   }
   return d;
@@ -60,7 +57,7 @@ double LowestMovingPoint(const kinematics::Robot& robot, const kinematics::Data&
   double z = kInf;
   for (const auto& c : robot.capsules) {
     if (robot.model.link_dofs(c.link).size() < 2) continue;
-    const math::Capsule w = WorldCapsule(c, data);
+    const math::Capsule w = kinematics::WorldCapsule(c, data);
     z = std::min({z, w.p_WA.z() - c.radius, w.p_WB.z() - c.radius});
   }
   return z;
@@ -351,7 +348,7 @@ double Scenario::RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Ve
   const rmp::Obstacle o = spec.AsRmp(X_WO);
   double d = kInf;
   for (const auto& c : robot_.capsules) {
-    d = std::min(d, rmp::CapsuleObstacleDistance(WorldCapsule(c, data), o).distance);
+    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, data), o).distance);
   }
   return d;
 }

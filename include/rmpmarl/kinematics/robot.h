@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/model.h"
+#include "rmpmarl/math/geometry.h"
 
 namespace rmpmarl::kinematics {
 
@@ -18,6 +19,12 @@ struct LinkCapsule {
   Eigen::Vector3d p_LB = Eigen::Vector3d::Zero();
   double radius = 0.0;
 };
+
+/// the capsule in the world frame W at the link poses of `data` (CalcForwardKinematics run on it).
+inline math::Capsule WorldCapsule(const LinkCapsule& capsule, const Data& data) {
+  const Eigen::Isometry3d& X_WL = data.X_WL[capsule.link];
+  return {X_WL * capsule.p_LA, X_WL * capsule.p_LB, capsule.radius};
+}
 
 /// The end-effector frame: a point (and orientation) fixed on a link.
 struct EndEffector {
