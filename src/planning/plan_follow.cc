@@ -38,6 +38,7 @@ void ValidatePlanFollowOptions(const PlanFollowOptions& o) {
   Require(PositiveFinite(o.check_period), "check_period", "a finite period > 0 s", o.check_period);
   Require(PositiveFinite(o.goal_tolerance), "goal_tolerance", "a finite distance > 0", o.goal_tolerance);
   Require(PositiveFinite(o.goal_shift), "goal_shift", "a finite distance > 0", o.goal_shift);
+  Require(PositiveFinite(o.approach_distance), "approach_distance", "a finite distance > 0", o.approach_distance);
 }
 
 PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
@@ -118,15 +119,7 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
       path_ = std::move(path);
       path_times_ = PathArrivalTimes(path_, v_path_);
       path_s_ = PathArcLengths(path_);
-      // the arc-length speed at each interior waypoint at which the reference's velocity turns by at most
-      // corner_velocity_jump: |q̇_out − q̇_in| = ṡ · 2 sin(θ/2) for a turn by θ (∞: no limit)
-      path_corner_speed_.assign(path_.size(), std::numeric_limits<double>::infinity());
-      for (size_t k = 1; k + 1 < path_.size(); ++k) {
-        const double l_in = path_s_[k] - path_s_[k - 1], l_out = path_s_[k + 1] - path_s_[k];
-        if (!(l_in > 0.0) || !(l_out > 0.0)) continue;
-        const double turn = ((path_[k + 1] - path_[k]) / l_out - (path_[k] - path_[k - 1]) / l_in).norm();
-        if (turn > 1e-12) path_corner_speed_[k] = options_.corner_velocity_jump / turn;
-      }
+      CornerSpeeds();
       s_near_ = s_ref_ = 0.0;
       segment_ = 0;
       if (stats_.plans_succeeded == 0) stats_.first_path_length = path_s_.back();
@@ -162,19 +155,47 @@ void PlanFollowPolicy::PointAt(double s) {
   const double length = path_s_[k + 1] - path_s_[k];
   q_d_ = path_[k] + at.fraction * (path_[k + 1] - path_[k]);
   if (length <= 0.0) return;
-  // the reference's velocity: along the segment as fast as the slowest joint allows at the path speed, down to the
-  // corner speeds linearly over `lookahead` before and after a waypoint, and to rest over the last `lookahead` of the
-  // path
-  const Eigen::VectorXd& a = path_[k];
-  const Eigen::VectorXd& b = path_[k + 1];
-  const double speed = 1.0 / ((b - a).cwiseAbs().cwiseQuotient(v_path_) / length).maxCoeff();
+  // the reference's velocity: along the segment at most at its speed, and within `lookahead` of a waypoint (any
+  // waypoint, not only the segment's ends) or of the path's end at most on a ramp from the waypoint's speed (0 at the
+  // end) up to the path's top speed: the speed is continuous in s, its slope at most top speed / lookahead
   const double L = options_.lookahead;
-  double rate = speed * std::min(1.0, (path_s_[last] - s) / L);
-  for (const auto& [corner, distance] : {std::pair{path_corner_speed_[k + 1], path_s_[k + 1] - s},
-                                         std::pair{path_corner_speed_[k], s - path_s_[k]}}) {
-    if (corner < speed) rate = std::min(rate, corner + (speed - corner) * std::min(1.0, distance / L));
+  double rate = std::min(path_segment_speed_[k], Ramp(0.0, path_s_[last] - s, options_.approach_distance));
+  for (int j = k; j >= 1 && path_s_[j] > s - L; --j) {
+    rate = std::min(rate, Ramp(path_corner_speed_[j], s - path_s_[j], L));
   }
-  qd_d_ = (rate / length) * (b - a);
+  for (int j = k + 1; j < last && path_s_[j] < s + L; ++j) {
+    rate = std::min(rate, Ramp(path_corner_speed_[j], path_s_[j] - s, L));
+  }
+  qd_d_ = (rate / length) * (path_[k + 1] - path_[k]);
+}
+
+double PlanFollowPolicy::Ramp(double corner, double distance, double length) const {
+  return corner + (path_top_speed_ - corner) * std::min(1.0, distance / length);
+}
+
+void PlanFollowPolicy::CornerSpeeds() {
+  // each segment's speed: its slowest joint at the path speed
+  const size_t n = path_.size();
+  path_segment_speed_.assign(n, 0.0);
+  path_top_speed_ = 0.0;
+  for (size_t k = 0; k + 1 < n; ++k) {
+    const double length = path_s_[k + 1] - path_s_[k];
+    if (length > 0.0) {
+      path_segment_speed_[k] = 1.0 / ((path_[k + 1] - path_[k]).cwiseAbs().cwiseQuotient(v_path_) / length).maxCoeff();
+      path_top_speed_ = std::max(path_top_speed_, path_segment_speed_[k]);
+    }
+  }
+  // the speed at each interior waypoint: at most the slower of its two segments', and such that the velocity turns by
+  // at most corner_velocity_jump: |q̇_out − q̇_in| = ṡ · |d_out − d_in| for unit directions d
+  path_corner_speed_.assign(n, path_top_speed_);  // the ends and waypoints between zero-length segments: no limit
+  for (size_t k = 1; k + 1 < n; ++k) {
+    const double l_in = path_s_[k] - path_s_[k - 1], l_out = path_s_[k + 1] - path_s_[k];
+    if (!(l_in > 0.0) || !(l_out > 0.0)) continue;
+    double corner = std::min(path_segment_speed_[k - 1], path_segment_speed_[k]);
+    const double turn = ((path_[k + 1] - path_[k]) / l_out - (path_[k] - path_[k - 1]) / l_in).norm();
+    if (turn > 1e-12) corner = std::min(corner, options_.corner_velocity_jump / turn);
+    path_corner_speed_[k] = corner;
+  }
 }
 
 void PlanFollowPolicy::Reference() {

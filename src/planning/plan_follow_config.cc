@@ -26,6 +26,7 @@ PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanF
       r, root, "",
       {internal::FlagField(r, "replan", &o.replan), internal::NumberField(r, "lookahead", &o.lookahead),
        internal::NumberField(r, "corner_velocity_jump", &o.corner_velocity_jump),
+       internal::NumberField(r, "approach_distance", &o.approach_distance),
        internal::NumberField(r, "posture_metric", &o.posture_metric),
        internal::NumberField(r, "yield_metric", &o.yield_metric), internal::NumberField(r, "yield_near", &o.yield_near),
        internal::NumberField(r, "yield_far", &o.yield_far),
@@ -39,6 +40,8 @@ PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanF
                                      internal::NumberField(r, "validity_resolution", &p.validity_resolution),
                                      internal::NumberField(r, "retry_period", &p.retry_period),
                                      internal::IntegerField(r, "shortcut_iterations", &p.shortcut_iterations),
+                                     internal::NumberField(r, "range", &p.range),
+                                     internal::NumberField(r, "end_margin_distance", &p.end_margin_distance),
                                      internal::NumberField(r, "kp", &p.kp), internal::NumberField(r, "kd", &p.kd)});
         }}});
   try {

@@ -84,6 +84,9 @@ void ValidateRrtOptions(const RrtOptions& o) {
   Require(std::isfinite(o.safety_margin) && o.safety_margin >= 0.0, "safety_margin", "a finite margin >= 0 m",
           o.safety_margin);
   Require(positive(o.validity_resolution), "validity_resolution", "a finite step > 0", o.validity_resolution);
+  Require(std::isfinite(o.range) && o.range >= 0.0, "range", "a finite extension >= 0 (0: OMPL's own)", o.range);
+  Require(std::isfinite(o.end_margin_distance) && o.end_margin_distance >= 0.0, "end_margin_distance",
+          "a finite distance >= 0 (0: the whole path)", o.end_margin_distance);
   Require(o.shortcut_iterations >= 0 && o.shortcut_iterations <= 1000000, "shortcut_iterations",
           "an integer in [0, 1e6]", o.shortcut_iterations);
   Require(positive(o.path_speed_fraction) && o.path_speed_fraction <= 1.0, "path_speed_fraction",
@@ -100,6 +103,16 @@ struct RrtPolicy::Impl {
   // otherwise a value <= stop_below exactly when the clearance is (pairs that cannot come within stop_below are
   // skipped: a validity check needs no more).
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
+  // the floor and self-collision part of Clearance on the capsules it placed last, continuing from its distance d so
+  // far (+inf: that part alone), with the same early return
+  double SelfClearance(double stop_below, double d = kInf) const;
+  // q valid for a PlanPath search: its obstacle distances beyond MarginAt(q), its floor and self distances beyond
+  // self_margin (an arm that always keeps two of its links close, inside the margin, can still move)
+  bool ValidRelaxed(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
+    const double m = MarginAt(q);
+    if (Clearance(q, /*obstacles_only=*/true, m) <= m) return false;
+    return obstacles_only || SelfClearance(self_margin) > self_margin;
+  }
   // q within the bounds of the current plan and every checked distance > margin.
   bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && Clearance(q, false, margin) > margin; }
   bool InBounds(const Eigen::Ref<const Eigen::VectorXd>& q) const { return Within(q, lower, upper); }
@@ -149,6 +162,26 @@ struct RrtPolicy::Impl {
   std::vector<Eigen::Vector4d> capsule_sphere;  // bounding sphere (centre, radius) per capsule
   std::vector<rmp::Obstacle> obstacles;         // the snapshot planning and path checks use
   double margin = 0.0;                          // validity margin in use (safety_margin, or less from a tight start)
+  // a PlanPath search with end_margin_distance > 0 from or to an end inside the safety margin: the obstacles' margin
+  // MarginAt(q), relaxed near such an end (relaxed_ends), the floor and self-collision margin self_margin; otherwise
+  // `margin` holds for every distance
+  bool split_margins = false;
+  struct RelaxedEnd {
+    Eigen::VectorXd q;
+    double margin = 0.0;
+  };
+  std::vector<RelaxedEnd> relaxed_ends;
+  double self_margin = 0.0;
+  // the obstacles' margin at q with split_margins: safety_margin, or near a relaxed end its margin growing linearly to
+  // safety_margin over end_margin_distance
+  double MarginAt(const Eigen::Ref<const Eigen::VectorXd>& q) const {
+    double m = options.safety_margin;
+    for (const RelaxedEnd& e : relaxed_ends) {
+      const double f = std::min(1.0, (q - e.q).norm() / options.end_margin_distance);
+      m = std::min(m, e.margin + (options.safety_margin - e.margin) * f);
+    }
+    return m;
+  }
 
   // the executed path
   std::vector<Eigen::VectorXd> path;
@@ -214,6 +247,15 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
     }
   }
   if (obstacles_only) return d;
+  return SelfClearance(stop_below, d);
+}
+
+double RrtPolicy::Impl::SelfClearance(double stop_below, double d) const {
+  const double cull_above = std::isfinite(stop_below) ? stop_below : kInf;
+  auto cannot_matter = [&d, cull_above](double lower_bound) { return lower_bound >= d || lower_bound > cull_above; };
+  auto bounded_out = [&](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+    return cannot_matter((a.head<3>() - centre).norm() - a[3] - radius);
+  };
   if (options.check_floor) {
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (!floor_checked[c]) continue;
@@ -236,7 +278,11 @@ bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::Vector
   for (int k = 1; k <= n; ++k) {
     scratch = a + (static_cast<double>(k) / n) * (b - a);
     if (within_limits && !Within(scratch, limit_lower, limit_upper)) return false;
-    if (Clearance(scratch, obstacles_only, margin) <= margin) return false;
+    if (split_margins) {
+      if (!ValidRelaxed(scratch, obstacles_only)) return false;
+    } else if (Clearance(scratch, obstacles_only, margin) <= margin) {
+      return false;
+    }
   }
   return true;
 }
@@ -334,7 +380,8 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
   auto si = std::make_shared<ob::SpaceInformation>(space);
   si->setStateValidityChecker([this](const ob::State* state) {
     const double* v = state->as<ob::RealVectorStateSpace::StateType>()->values;
-    return Clearance(Eigen::Map<const Eigen::VectorXd>(v, nq), false, margin) > margin;
+    const Eigen::Map<const Eigen::VectorXd> q(v, nq);
+    return split_margins ? ValidRelaxed(q, false) : Clearance(q, false, margin) > margin;
   });
   si->setStateValidityCheckingResolution(options.validity_resolution / space->getMaximumExtent());
   si->setup();
@@ -348,6 +395,7 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
   auto pdef = std::make_shared<ob::ProblemDefinition>(si);
   pdef->setStartAndGoalStates(start, goal, 1e-9);
   og::RRTConnect planner(si);
+  if (options.range > 0.0) planner.setRange(options.range);
   planner.setProblemDefinition(pdef);
   planner.setup();
   ob::PlannerTerminationCondition budget = ob::timedPlannerTerminationCondition(options.planning_time_budget);
@@ -706,11 +754,27 @@ std::vector<Eigen::VectorXd> RrtPolicy::PlanPath(const Eigen::Ref<const Eigen::V
   Impl& m = *impl_;
   m.SetObstacles(scene);
   // an end inside the safety margin (a goal configuration at a grasp, a start beside what the arm just dodged) is
-  // planned with half the smaller end clearance as the margin; an end in penetration has no path
-  const double ends = std::min(m.Clearance(q_start, false, -kInf), m.Clearance(q_goal, false, -kInf));
+  // planned with half its clearance as the margin: the whole path with the smaller end's, or with end_margin_distance
+  // > 0 only near that end; an end in penetration has no path
+  // (obstacle distances only: an arm that keeps two links inside the margin everywhere, e.g. a hand's fitted capsules,
+  // has its floor and self-collision margin relaxed on the whole path, as without end_margin_distance)
+  const double safety = m.options.safety_margin;
+  const double start_obstacles = m.Clearance(q_start, true, -kInf), start_self = m.SelfClearance(-kInf);
+  const double goal_obstacles = m.Clearance(q_goal, true, -kInf), goal_self = m.SelfClearance(-kInf);
+  const double ends = std::min({start_obstacles, start_self, goal_obstacles, goal_self});
   if (!(ends > 0.0)) return {};
-  m.margin = ends <= m.options.safety_margin ? 0.5 * ends : m.options.safety_margin;
+  m.margin = ends <= safety ? 0.5 * ends : safety;
+  m.relaxed_ends.clear();
+  m.split_margins = m.options.end_margin_distance > 0.0 && m.margin < safety;
+  if (m.split_margins) {
+    const double self = std::min(start_self, goal_self);
+    m.self_margin = self <= safety ? 0.5 * self : safety;
+    if (start_obstacles <= safety) m.relaxed_ends.push_back({q_start, 0.5 * start_obstacles});
+    if (goal_obstacles <= safety) m.relaxed_ends.push_back({q_goal, 0.5 * goal_obstacles});
+  }
   std::vector<Eigen::VectorXd> path = m.Plan(q_start, q_goal);
+  m.split_margins = false;
+  m.relaxed_ends.clear();
   ++m.plans;
   return path;
 }

@@ -273,6 +273,67 @@ TEST(PlanFollowTest, TheReferenceMovesAlongThePlanAndYieldsToWhatMoves) {
   }
 }
 
+// at a waypoint the reference's velocity turns by at most corner_velocity_jump and its speed is at most the slower of
+// its two segments' (the slowest joint at the path speed): the reference tracked perfectly (the arm put on it after
+// every evaluation), its speed where it passes a waypoint is at most that hand-derived corner speed (up to the one step
+// it moves past it), and it changes by at most the fastest segment's speed over lookahead per unit of arc length (it
+// never drops at once, as it did when only a segment's own ends slowed it)
+TEST(PlanFollowTest, TheReferenceSlowsDownSmoothlyForCorners) {
+  const Problem p = WallProblem();
+  const rmp::Scene scene = WallScene(p);
+  std::vector<double> slowest_corner;  // per jump, the slowest speed at which the reference passed a waypoint
+  for (const double jump : {1.0, 0.02}) {
+    PlanFollowOptions options = IterationBudget();
+    options.corner_velocity_jump = jump;
+    auto layer = std::make_unique<RecordingLayer>(7);
+    RecordingLayer* recorded = layer.get();
+    PlanFollowPolicy follower(p.robot, std::move(layer), options);
+    const VectorXd qd = VectorXd::Zero(7);
+    VectorXd q = p.q_start, qdd(7);
+    follower.Reset(q);
+    follower.BeginControlStep(q, qd, scene);
+    const std::vector<VectorXd> path = follower.path();
+    ASSERT_GE(path.size(), 3u) << "the wall's plan has a corner";
+    VectorXd v_max(7);
+    for (int i = 0; i < 7; ++i) v_max[i] = options.planner.path_speed_fraction * p.robot.model.limits()[i].velocity;
+    std::vector<double> s{0.0}, segment_speed;
+    for (size_t k = 1; k < path.size(); ++k) {
+      const VectorXd d = path[k] - path[k - 1];
+      s.push_back(s.back() + d.norm());
+      segment_speed.push_back(1.0 / (d.normalized().cwiseAbs().cwiseQuotient(v_max)).maxCoeff());
+    }
+    const double fastest = *std::max_element(segment_speed.begin(), segment_speed.end());
+    const double dt = options.planner.evaluation_period;
+    double s_ref = 0.0, last_rate = -1.0;
+    size_t next = 1;  // the next interior waypoint the reference passes
+    double slowest = INFINITY;
+    for (int step = 0; step < 20000 && next + 1 < path.size(); ++step) {
+      follower.Evaluate(q, qd, scene, qdd);
+      const double rate = recorded->seen.qd_T.norm();
+      if (last_rate >= 0.0) {
+        EXPECT_LE(std::abs(rate - last_rate), fastest / options.lookahead * dt * last_rate * (1.0 + 1e-9) + 1e-12)
+            << "step " << step << ", corner velocity jump " << jump;
+      }
+      last_rate = rate;
+      q = recorded->seen.q_T;  // the arm on the reference
+      const double s_now = s_ref + dt * rate;
+      if (s_now >= s[next]) {  // the reference passes waypoint `next` within this step
+        const VectorXd d_in = (path[next] - path[next - 1]).normalized();
+        const double turn = ((path[next + 1] - path[next]).normalized() - d_in).norm();
+        const double corner = std::min({jump / turn, segment_speed[next - 1], segment_speed[next]});
+        EXPECT_LE(rate, corner + fastest * (dt * rate) / options.lookahead + 1e-9)
+            << "waypoint " << next << ", corner velocity jump " << jump;
+        slowest = std::min(slowest, rate);
+        ++next;
+      }
+      s_ref = s_now;
+    }
+    EXPECT_EQ(next + 1, path.size()) << "the reference passed every corner";
+    slowest_corner.push_back(slowest);
+  }
+  EXPECT_LT(slowest_corner[1], slowest_corner[0]) << "a smaller jump passes the sharpest corner more slowly";
+}
+
 // configs/planning/follow.yaml documents the values built in: reading it changes nothing; a bad file is refused
 // naming the file and key
 TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
@@ -281,6 +342,7 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
   const PlanFollowOptions o = LoadPlanFollowOptions(shipped);
   EXPECT_EQ(o.lookahead, d.lookahead);
   EXPECT_EQ(o.corner_velocity_jump, d.corner_velocity_jump);
+  EXPECT_EQ(o.approach_distance, d.approach_distance);
   EXPECT_EQ(o.posture_metric, d.posture_metric);
   EXPECT_EQ(o.yield_metric, d.yield_metric);
   EXPECT_EQ(o.yield_near, d.yield_near);
@@ -297,6 +359,8 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
   EXPECT_EQ(o.planner.kp, d.planner.kp);
   EXPECT_EQ(o.planner.kd, d.planner.kd);
   EXPECT_EQ(o.planner.shortcut_iterations, d.planner.shortcut_iterations);
+  EXPECT_EQ(o.planner.range, d.planner.range);
+  EXPECT_EQ(o.planner.end_margin_distance, d.planner.end_margin_distance);
   // a value read over what the caller had; the rest kept
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "rmpmarl-follow-config-test";
   std::filesystem::create_directories(dir);
@@ -314,7 +378,7 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
            {"look_ahead: 0.2\n", "look_ahead"},
            {"planner:\n  kp: fast\n", "planner.kp"},
            {"yield_near: 0.5\nyield_far: 0.4\n", "yield_far"},
-           {"yield_metric: 1e7\n", "yield_metric"},
+           {"yield_metric: 1e9\n", "yield_metric"},
            {"lookahead: [1, 2\n", "malformed"}}) {
     const std::filesystem::path file = write("bad.yaml", text);
     try {
@@ -338,6 +402,7 @@ TEST(PlanFollowTest, BadOptionsAndLayersAreRefusedByName) {
            {"goal_tolerance", [](PlanFollowOptions& o) { o.goal_tolerance = 0.0; }},
            {"posture_metric", [](PlanFollowOptions& o) { o.posture_metric = INFINITY; }},
            {"goal_shift", [](PlanFollowOptions& o) { o.goal_shift = -0.1; }},
+           {"approach_distance", [](PlanFollowOptions& o) { o.approach_distance = 0.0; }},
            {"yield_metric", [](PlanFollowOptions& o) { o.yield_metric = 0.0; }},
            {"yield_near", [](PlanFollowOptions& o) { o.yield_near = -0.1; }},
            {"yield_far", [](PlanFollowOptions& o) { o.yield_far = o.yield_near; }},

@@ -120,8 +120,10 @@ TEST(RrtOptionsTest, BadOptionsThrowInputError) {
       {"ik_tolerance", {.ik_tolerance = 0.0}},
       {"floor_height", {.floor_height = NAN}},
       {"safety_margin", {.safety_margin = -0.01}},
+      {"end_margin_distance", {.end_margin_distance = NAN}},
       {"validity_resolution", {.validity_resolution = 0.0}},
       {"path_speed_fraction", {.path_speed_fraction = 1.5}},
+      {"range", {.range = -0.5}},
       {"kp", {.kp = 0.0}},
       {"kd", {.kd = -1.0}},
   };
@@ -337,6 +339,90 @@ TEST(RrtPlanningTest, RandomShortcutsShortenThePathAndKeepItValid) {
   for (size_t k = 0; k < path.size(); ++k) EXPECT_EQ(repeat[k], path[k]);
   options.shortcut_iterations = -1;
   EXPECT_THROW(RrtPolicy(panda, options), InputError);
+}
+
+// a start inside the safety margin (a sphere 4 mm above the hand) is planned from with half its clearance (2 mm) as
+// the margin. The straight way to a goal 1 rad of the first joint away passes 5 mm from a second sphere half-way:
+// planned with the relaxed margin everywhere (end_margin_distance 0) the path is that straight way; with the margin
+// relaxed only within 0.3 rad of the start, every waypoint keeps the margin growing linearly from 2 mm to
+// safety_margin over that distance, and beyond it the path keeps safety_margin at a finer resolution than it was
+// checked at (to a tenth of it)
+TEST(RrtPlanningTest, AStartInsideTheMarginRelaxesItOnlyNearTheStart) {
+  const kinematics::Robot panda = Panda();
+  const VectorXd q_start = sim::ReadyConfiguration(panda);
+  VectorXd q_goal = q_start;
+  q_goal[0] += 1.0;
+  RrtPolicy probe(panda, IterationBudget({}));
+  // a 3 cm sphere above the hand at q, lifted until the clearance there is d
+  auto sphere_above = [&](const rmp::Scene& scene, const VectorXd& q, double d) {
+    const Vector3d p_WE = EndEffector(panda, q);
+    double h = 0.1;
+    rmp::Scene s = scene;
+    s.obstacles.emplace_back();
+    for (int k = 0; k < 50; ++k) {
+      s.obstacles.back() = rmp::Obstacle::MakeSphere(p_WE + Vector3d(0.0, 0.0, h), 0.03);
+      h += d - probe.Clearance(q, s);
+    }
+    return s;
+  };
+  rmp::Scene scene = sphere_above(rmp::Scene{}, q_start, 0.004);
+  scene = sphere_above(scene, 0.5 * (q_start + q_goal), 0.005);
+  ASSERT_NEAR(probe.Clearance(q_start, scene), 0.004, 1e-6);
+  // the smallest clearance of a path's states at least `from` away from the start, sampled every 1 mrad
+  auto clearance_beyond = [&](const std::vector<VectorXd>& path, double from) {
+    double d = INFINITY;
+    for (size_t k = 1; k < path.size(); ++k) {
+      const int n = static_cast<int>(std::ceil((path[k] - path[k - 1]).norm() / 1e-3));
+      for (int i = 0; i <= n; ++i) {
+        const VectorXd q = path[k - 1] + (double(i) / n) * (path[k] - path[k - 1]);
+        if ((q - q_start).norm() >= from) d = std::min(d, probe.Clearance(q, scene));
+      }
+    }
+    return d;
+  };
+  RrtOptions options = IterationBudget({.seed = 5});
+  const double safety = options.safety_margin, relaxed = 0.002, distance = 0.3;
+  RrtPolicy everywhere(panda, options);
+  const std::vector<VectorXd> straight = everywhere.PlanPath(q_start, q_goal, scene);
+  ASSERT_EQ(straight.size(), 2u) << "valid at 2 mm, the straight way is the path";
+  const double straight_clearance = clearance_beyond(straight, distance);
+  EXPECT_LT(straight_clearance, 0.006);
+
+  options.end_margin_distance = distance;
+  RrtPolicy near_start(panda, options);
+  const std::vector<VectorXd> path = near_start.PlanPath(q_start, q_goal, scene);
+  ASSERT_GE(path.size(), 3u) << "the straight way passes the second sphere inside the margin";
+  EXPECT_NEAR(near_start.last_plan_margin(), relaxed, 1e-9);
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double f = std::min(1.0, (path[k] - q_start).norm() / distance);
+    EXPECT_GT(probe.Clearance(path[k], scene), relaxed + (safety - relaxed) * f) << "waypoint " << k;
+  }
+  const double far_clearance = clearance_beyond(path, distance);
+  std::printf("[ margin   ] start 4.0 mm from a sphere: beyond %.1f rad of it the straight way passes %.2f mm from "
+              "the other, the path (%zu waypoints) %.2f mm\n", distance, 1e3 * straight_clearance, path.size(),
+              1e3 * far_clearance);
+  EXPECT_GT(far_clearance, 0.9 * safety);
+}
+
+// the margin near the ends is the obstacles': an arm that keeps two of its links (or a link and the floor) inside the
+// margin everywhere — here a 20 cm margin, inside which the Panda's checked self pairs stay at its ready posture — still
+// plans, its self-collision and floor margin half the ends' own clearance on the whole path, as without
+// end_margin_distance. Turning the first joint by 1 rad moves no link relative to another: the straight way is the path.
+TEST(RrtPlanningTest, LinksThatStayInsideTheMarginDoNotBlockARelaxedPlan) {
+  const kinematics::Robot panda = Panda();
+  const VectorXd q_start = sim::ReadyConfiguration(panda);
+  VectorXd q_goal = q_start;
+  q_goal[0] += 1.0;
+  RrtOptions options = IterationBudget({.safety_margin = 0.2, .seed = 5});
+  options.end_margin_distance = 0.3;
+  RrtPolicy policy(panda, options);
+  const rmp::Scene empty;
+  const double clearance = policy.Clearance(q_start, empty);
+  ASSERT_GT(clearance, 0.0);
+  ASSERT_LT(clearance, options.safety_margin) << "a pair inside the margin at the start";
+  const std::vector<VectorXd> path = policy.PlanPath(q_start, q_goal, empty);
+  ASSERT_EQ(path.size(), 2u);
+  EXPECT_NEAR(policy.last_plan_margin(), 0.5 * clearance, 1e-9);
 }
 
 // A sphere dropped onto the path being executed invalidates it at the next evaluation: the policy brakes, and replans

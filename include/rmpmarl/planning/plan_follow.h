@@ -8,9 +8,10 @@
 /// target (RrtPolicy::SolveIk). The reactive layer follows the plan as a moving reference: at every call it sees the
 /// scene with its target replaced by the plan's point q_c at arc length s_c — the end effector at q_c, moving with
 /// J(q_c) q̇_c, and q_c as its C-space target (scene.q_T) moving with q̇_c (scene.qd_T), weighted by posture_metric.
-/// s_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity limit (slowing
-/// down to pass the path's corners with a velocity change of at most corner_velocity_jump, and to rest over the
-/// path's last `lookahead`) while it leads the arm's nearest point on the path (searched forward from
+/// s_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity limit, its speed
+/// continuous in s: it slows down linearly over `lookahead` before each waypoint (whichever segment it is on) to pass
+/// it with a velocity change of at most corner_velocity_jump and at most the slower of the two segments' speeds, and to
+/// rest over the path's last `lookahead`, while it leads the arm's nearest point on the path (searched forward from
 /// the last one, so progress never goes back) by less than lookahead / 2, slower beyond, and stops at a lead of
 /// lookahead; it is never behind that point. So the reactive layer tracks the plan at the plan's speed where it can,
 /// the reference waits where a dodge or the layer holds the arm back, and a dodge does not leave the plan behind; the
@@ -46,6 +47,8 @@ struct PlanFollowOptions {
   RrtOptions planner = [] {
     RrtOptions o;
     o.shortcut_iterations = 100;  // shorter paths than the greedy shortcut's alone (the cages' ~40 % shorter)
+    o.range = 0.5;                // fewer searches that run out of time in shelves and cages than OMPL's 2.5 rad
+    o.end_margin_distance = 0.3;  // a goal at a grasp relaxes the margin only near it
     return o;
   }();
   /// replan when progress stalls or the path ahead is blocked (false: plan once and never again; always false without
@@ -57,10 +60,13 @@ struct PlanFollowOptions {
   /// at a waypoint the reference's joint velocity turns by at most this [rad/s or m/s], > 0: it slows down to pass a
   /// sharp corner of the path (the layer's lag would cut it, toward what the plan passes 1 cm from)
   double corner_velocity_jump = 1.0;
+  /// the reference slows down to rest over this much of the path's end (arc length) [rad or m], > 0: the layer lags a
+  /// decelerating reference, and a goal at a grasp is often close to the cell
+  double approach_distance = 0.6;
   /// the metric scalar of the reactive layer's C-space target toward the reference (rmp::Scene::q_T_metric) while
   /// nothing that moves is within yield_far of the arm, > 0: the plan, valid against the obstacles as they are,
   /// outweighs the layer's repulsion from the static cell it was planned around (a timid layer would hold off it)
-  double posture_metric = 2.5e6;
+  double posture_metric = 2.5e8;
   /// the same within yield_near of an obstacle that moves (velocity ≠ 0), in (0, posture_metric]: as much as RMPflow's
   /// end-effector target weighs at its least (target_rmp.min_metric_scalar), so the layer dodges what the plan did not
   /// know and still keeps the planned posture; between the two distances the metric goes geometrically from one to
@@ -129,6 +135,9 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   void Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, bool control_step);
   bool Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   void PointAt(double s);                       // q_d_ at arc length s, q̇_d_ at the path speed
+  void CornerSpeeds();                          // path_segment_speed_ and path_corner_speed_ of a new path
+  // the speed limit `distance` from a waypoint of speed `corner`: up to path_top_speed_ over `length`
+  double Ramp(double corner, double distance, double length) const;
   void Reference();                             // q_d_, q̇_d_ of the reference (after Project)
   Eigen::Vector3d EndEffectorAt(const Eigen::Ref<const Eigen::VectorXd>& q);  // uses kin_
   void Project(const Eigen::Ref<const Eigen::VectorXd>& q);  // s_near_: the arm's nearest path point, forward only
@@ -150,7 +159,9 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   std::vector<Eigen::VectorXd> path_;
   std::vector<double> path_times_;   // arrival time at each waypoint (open loop) [s]
   std::vector<double> path_s_;       // arc length at each waypoint [rad or m]
-  std::vector<double> path_corner_speed_;  // the reference's arc-length speed limit at each waypoint (∞: none)
+  std::vector<double> path_segment_speed_;  // each segment's arc-length speed: its slowest joint at the path speed
+  double path_top_speed_ = 0.0;             // the fastest segment's
+  std::vector<double> path_corner_speed_;   // the reference's arc-length speed limit at each waypoint
   Eigen::VectorXd q_goal_, q_d_, qd_d_, q_check_;
   Eigen::VectorXd planned_q_T_;                       // the scene's joint goal when planned (empty: none)
   Eigen::Vector3d planned_p_WT_ = Eigen::Vector3d::Zero();  // its end-effector target then

@@ -79,6 +79,10 @@ struct RrtOptions {
   double floor_height = 0.0;  ///< [m]
   /// a configuration is valid when every checked signed distance exceeds this [m], ≥ 0.
   double safety_margin = 0.01;
+  /// PlanPath from or to an end inside safety_margin plans with half that end's clearance as the margin: 0 the whole
+  /// path, > 0 only within this joint-space distance of that end [rad or m], the margin growing linearly back to
+  /// safety_margin over it (a goal at a grasp then does not let the whole path graze the shelf).
+  double end_margin_distance = 0.0;
   /// motion checks test states at most this far apart along straight joint-space segments (Euclidean norm in q)
   /// [rad or m]; OMPL gets it as its longest-valid-segment fraction.
   double validity_resolution = 0.01;
@@ -88,6 +92,9 @@ struct RrtOptions {
   /// (kept when the straight segment between them is valid), ≥ 0; drawn from the plan's seed, so a plan stays a
   /// function of (problem, seed).
   int shortcut_iterations = 0;
+  /// RRT-Connect's longest extension [rad or m], >= 0 (0: OMPL's own, a fifth of the joint space's diagonal,
+  /// ≈ 2.5 rad on a 7-joint arm; shorter steps find their way out of shelves and cages more often).
+  double range = 0.0;
   double kp = 100.0;  ///< PD stiffness of path tracking [1/s²], > 0
   double kd = 20.0;   ///< PD damping [1/s], > 0 (critical for kp = 100); also the braking gain when there is no path
   std::uint64_t seed = 0;  ///< IK seeds and RRT sampling (see the file comment on determinism)
