@@ -8,6 +8,16 @@
 
 namespace rmpmarl::internal {
 
+YAML::Node LoadYamlFile(const std::string& file, std::string_view what) {
+  try {
+    return YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw InputError(fmt::format("{}: cannot open {} (missing or unreadable)", file, what));
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
+  }
+}
+
 YAML::Node LoadYamlText(const std::string& text, const std::string& source) {
   try {
     return YAML::Load(text);

@@ -56,6 +56,10 @@ YamlField IntegerField(const YamlReader& r, std::string key, int* target);
 YamlField FlagField(const YamlReader& r, std::string key, bool* target);
 YamlField RangeField(const YamlReader& r, std::string key, std::array<double, 2>* target);
 
+/// reads a YAML file; throws InputError "<file>: cannot open <what> (missing or unreadable)" or
+/// "<file>:<line>: malformed YAML: ...".
+YAML::Node LoadYamlFile(const std::string& file, std::string_view what);
+
 /// parses YAML text; throws InputError "<source>:<line>: malformed YAML: ..." on a syntax error.
 YAML::Node LoadYamlText(const std::string& text, const std::string& source);
 

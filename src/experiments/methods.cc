@@ -18,16 +18,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-YAML::Node LoadYaml(const fs::path& path, const char* what) {
-  try {
-    return YAML::LoadFile(path.string());
-  } catch (const YAML::BadFile&) {
-    throw InputError(fmt::format("{}: cannot open {} (missing or unreadable)", path.string(), what));
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", path.string(), e.mark.line + 1, e.msg));
-  }
-}
-
 /// a non-empty string
 std::string String(const internal::YamlReader& r, const YAML::Node& node, const std::string& key) {
   const std::string v = r.String(node, key);
@@ -95,7 +85,7 @@ std::vector<std::string> KeysIn(const char* dir) {
 }  // namespace
 
 MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
-  const YAML::Node root = LoadYaml(file, "method file");
+  const YAML::Node root = internal::LoadYamlFile(file.string(), "method file");
   const internal::YamlReader r(file.string());
   r.CheckKeys(root, "",
             {"label", "kind", "train", "shipped", "layer", "option", "parameters", "gate", "evaluate", "rmpflow"});
@@ -148,7 +138,7 @@ MethodSpec LoadMethodFile(const std::string& key, const fs::path& file) {
     if (!fs::exists(train_file)) {
       r.Fail(root, "train.config", fmt::format("no training config {}", train_file.string()));
     }
-    const YAML::Node train = LoadYaml(train_file, "training config");
+    const YAML::Node train = internal::LoadYamlFile(train_file.string(), "training config");
     const YAML::Node task = train["task"];
     if (!task || !task.IsMap() || !task["name"] || !task["interface"]) {
       throw InputError(fmt::format("{}: expected task.name and task.interface", train_file.string()));
@@ -233,7 +223,7 @@ std::string LayerOverrides(const std::string& layer) {
     std::vector<std::string> known = KeysIn("layers");
     throw InputError(fmt::format("layer '{}': no {} (known: {})", layer, file.string(), fmt::join(known, ", ")));
   }
-  const YAML::Node root = LoadYaml(file, "layer file");
+  const YAML::Node root = internal::LoadYamlFile(file.string(), "layer file");
   if (root.IsNull()) return "";
   return FlowMap(internal::YamlReader(file.string()), root, "<root>");
 }
@@ -261,7 +251,7 @@ std::vector<std::string> MethodKeys() {
 
 std::vector<std::string> DefaultMethods(const std::string& experiment) {
   const fs::path file = ConfigsDirectory() / "experiments" / (experiment + ".yaml");
-  const YAML::Node root = LoadYaml(file, "experiment file");
+  const YAML::Node root = internal::LoadYamlFile(file.string(), "experiment file");
   const internal::YamlReader r(file.string());
   r.CheckKeys(root, "", {"methods"});
   const YAML::Node list = root["methods"];

@@ -70,14 +70,7 @@ void AddAdjacentExclusions(Robot* robot) {
 
 void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
   const std::string file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw InputError(fmt::format("{}: cannot open collision YAML (missing or unreadable)", file));
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = internal::LoadYamlFile(file, "collision YAML");
   const RobotYamlReader yaml(file);
   if (!root.IsMap()) yaml.Fail(root, "<root>", "expected a mapping with keys robot, end_effector, capsules");
   yaml.CheckKeys(root, "", {"robot", "end_effector", "capsules", "links_without_capsule", "self_collision_exclude"});

@@ -10,14 +10,7 @@ namespace rmpmarl::planning {
 
 PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanFollowOptions options) {
   const std::string file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw InputError(fmt::format("{}: cannot open the plan follower's config (missing or unreadable)", file));
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = internal::LoadYamlFile(file, "the plan follower's config");
   if (root.IsNull()) return options;  // an empty file keeps every value
   const internal::YamlReader r(file);
   PlanFollowOptions& o = options;

@@ -57,14 +57,7 @@ void ReadRmpflowNode(const YAML::Node& root, const std::string& file, RmpflowOpt
 
 RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path) {
   const std::string file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw InputError(fmt::format("{}: cannot open RMPflow config (missing or unreadable)", file));
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = internal::LoadYamlFile(file, "RMPflow config");
   RmpflowOptions o;
   if (root.IsNull()) return o;  // an empty file keeps every default
   ReadRmpflowNode(root, file, o);
@@ -72,12 +65,7 @@ RmpflowOptions LoadRmpflowOptions(const std::filesystem::path& path) {
 }
 
 void ApplyRmpflowOverrides(RmpflowOptions& options, const std::string& overrides_yaml, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(overrides_yaml);
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", source, e.mark.line + 1, e.msg));
-  }
+  const YAML::Node root = internal::LoadYamlText(overrides_yaml, source);
   if (root.IsNull()) return;
   if (!root.IsMap()) throw InputError(fmt::format("{}: expected a mapping of RMPflow config keys", source));
   RmpflowOptions o = options;

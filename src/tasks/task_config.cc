@@ -227,27 +227,17 @@ TaskConfig LoadShippedTaskConfig(std::string_view name) {
 
 namespace {
 
-YAML::Node LoadYamlFile(const std::string& file) {
-  try {
-    return YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw InputError(fmt::format("{}: cannot open task config (missing or unreadable)", file));
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}: malformed YAML: {}", file, e.mark.line + 1, e.msg));
-  }
-}
-
 TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file);
 void ReadTaskNode(const YAML::Node& root, const std::string& file, TaskConfig& c);
 
 }  // namespace
 
 TaskConfig LoadTaskConfig(const std::filesystem::path& path) {
-  return ParseTaskNode(LoadYamlFile(path.string()), path.string());
+  return ParseTaskNode(internal::LoadYamlFile(path.string(), "task config"), path.string());
 }
 
 TaskConfig LoadTaskConfig(const std::filesystem::path& path, const std::string& overrides_yaml) {
-  YAML::Node root = LoadYamlFile(path.string());
+  YAML::Node root = internal::LoadYamlFile(path.string(), "task config");
   const std::string source = path.string() + " + overrides";
   const YAML::Node over = LoadYamlText(overrides_yaml, source);
   if (!over.IsNull()) {
