@@ -85,8 +85,9 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        options.jobs);
   if (options.moving > 0) {
     setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "
-                         "{:g}–{:g} m/s (crossing seed {}).", options.moving, options.moving == 1 ? "" : "s",
-                         options.moving_radius, options.speed_min, options.speed_max, options.crossing_seed);
+                         "{:g}–{:g} m/s (crossing seed {}), each {:g} m clear of the arm at the start and the goal.",
+                         options.moving, options.moving == 1 ? "" : "s", options.moving_radius, options.speed_min,
+                         options.speed_max, options.crossing_seed, options.crossing_clearance);
   }
   fmt::print("rmpmarl benchmark mbm: {}\n", setup.str());
   const auto start = std::chrono::steady_clock::now();
@@ -141,7 +142,8 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_option("--seed", args->seed, "planner seed (a problem uses seed + a key of its family and index)")->check(SeedCheck());
   mbm->add_option("--jobs", args->jobs, "worker threads")->check(CLI::Range(1, 256));
   mbm->add_option("--moving", args->moving, "the dynamic variant: this many spheres cross each problem's way, timed to "
-                                            "meet the plan executed open loop")
+                                            "meet the plan executed open loop (each clear of the arm at the start "
+                                            "and the goal: avoidable)")
       ->check(CLI::Range(0, 64));
   mbm->add_option("--speed", args->speed, "the crossing spheres' speed, or a range MIN MAX drawn from [m/s]")
       ->expected(1, 2)

@@ -86,12 +86,14 @@ class Controller:
                       cylinders: Optional[ArrayLike] = None, cylinder_velocities: Optional[ArrayLike] = None,
                       cylinder_rotations: Optional[ArrayLike] = None, joint_target: Optional[ArrayLike] = None,
                       joint_target_velocity: Optional[ArrayLike] = None,
+                      joint_target_acceleration: Optional[ArrayLike] = None,
                       cloud: Optional[ArrayLike] = None, cloud_time: Optional[float] = None,
                       decide: bool = True) -> FloatArray:
         """q̈ [nq] at (q, q̇); spheres [K, 4] (x, y, z, r), boxes [K, 6] (centre, half sizes), cylinders [K, 5]
         (centre, radius, half length), velocities [K, 3], box_rotations and cylinder_rotations [K, 3, 3]; joint_target
-        [nq] a joint-space goal, joint_target_velocity [nq] its velocity; cloud [N, 3] a sensor's new frame (base frame) taken at cloud_time [s]; target None
-        holds the end effector"""
+        [nq] a joint-space goal, joint_target_velocity [nq] its velocity, joint_target_acceleration [nq] its
+        acceleration; cloud [N, 3] a sensor's new frame (base frame) taken at cloud_time [s]; target None holds the end
+        effector"""
     def update(self, q: ArrayLike, qd: ArrayLike, *, target: Optional[ArrayLike] = None,
                target_velocity: Optional[ArrayLike] = None, spheres: Optional[ArrayLike] = None,
                sphere_velocities: Optional[ArrayLike] = None, boxes: Optional[ArrayLike] = None,
@@ -99,7 +101,7 @@ class Controller:
                box_rotations: Optional[ArrayLike] = None, cylinders: Optional[ArrayLike] = None,
                cylinder_velocities: Optional[ArrayLike] = None, cylinder_rotations: Optional[ArrayLike] = None,
                joint_target: Optional[ArrayLike] = None, joint_target_velocity: Optional[ArrayLike] = None,
-               cloud: Optional[ArrayLike] = None,
+               joint_target_acceleration: Optional[ArrayLike] = None, cloud: Optional[ArrayLike] = None,
                cloud_time: Optional[float] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
         """one control step: (q_cmd [nq], qd_cmd [nq], info)"""
     def clear_cloud(self) -> None:

@@ -122,7 +122,8 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
                const py::handle& spheres, const py::handle& sphere_velocities, const py::handle& boxes,
                const py::handle& box_velocities, const py::handle& box_rotations, const py::handle& cylinders,
                const py::handle& cylinder_velocities, const py::handle& cylinder_rotations,
-               const py::handle& joint_target, const py::handle& joint_target_velocity, const py::handle& cloud,
+               const py::handle& joint_target, const py::handle& joint_target_velocity,
+               const py::handle& joint_target_acceleration, const py::handle& cloud,
                const py::handle& cloud_time) {
   rmp::Scene& s = h.scene;
   // a new cloud (base frame, [N, 3]; NaN rows are dropped and counted): its obstacles replace the last cloud's
@@ -171,6 +172,13 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
                            : CheckedArray(joint_target_velocity,
                                           {.name = "joint_target_velocity", .shape = {h.controller->nq()}});
   if (jv.size() > 0 && jt.size() == 0) BadArgument("joint_target_velocity: given without joint_target");
+  const py::array ja = joint_target_acceleration.is_none()
+                           ? py::array()
+                           : CheckedArray(joint_target_acceleration,
+                                          {.name = "joint_target_acceleration", .shape = {h.controller->nq()}});
+  if (ja.size() > 0 && jv.size() == 0) {
+    BadArgument("joint_target_acceleration: given without joint_target_velocity");
+  }
   const py::array t = target.is_none() ? py::array() : CheckedArray(target, {.name = "target", .shape = {3}});
   const py::array tv = target_velocity.is_none() ? py::array()
                                                  : CheckedArray(target_velocity, {.name = "target_velocity", .shape = {3}});
@@ -219,6 +227,11 @@ void FillScene(ControllerHandle& h, const py::array& q, const py::handle& target
   } else {
     s.qd_T.resize(0);
   }
+  if (ja.size() > 0) {  // and its acceleration, fed forward
+    s.qdd_T = AsVector(ja);
+  } else {
+    s.qdd_T.resize(0);
+  }
   s.has_target = t.size() > 0;
   s.p_WT = s.has_target ? Eigen::Vector3d(static_cast<const double*>(t.data())) : Eigen::Vector3d::Zero();
   s.v_WT = tv.size() > 0 ? Eigen::Vector3d(static_cast<const double*>(tv.data())) : Eigen::Vector3d::Zero();
@@ -240,7 +253,8 @@ py::object PerJoint(const ControllerHandle& h, const std::vector<float>* values)
       py::arg("box_velocities") = py::none(), py::arg("box_rotations") = py::none(), py::arg("cylinders") = py::none(), \
       py::arg("cylinder_velocities") = py::none(), py::arg("cylinder_rotations") = py::none(),                      \
       py::arg("joint_target") = py::none(), py::arg("joint_target_velocity") = py::none(),                      \
-      py::arg("cloud") = py::none(), py::arg("cloud_time") = py::none()
+      py::arg("joint_target_acceleration") = py::none(), py::arg("cloud") = py::none(),                          \
+      py::arg("cloud_time") = py::none()
 
 constexpr const char* kSceneDoc = R"doc(
 The scene (keyword-only, float64): target [3] (None: no target this step, the controller holds the end effector),
@@ -251,7 +265,8 @@ cylinders [K, 5] rows (centre x, y, z, radius, half length) with cylinder_veloci
 most max_obstacles obstacles in all. joint_target [nq]: a joint-space goal, the posture RMPflow's C-space target (and
 the learned layer's) pulls toward instead of the home posture; give the end effector at it as the target too;
 joint_target_velocity [nq]: its velocity, for a joint_target that moves along a plan (damped relative to it, so it is
-tracked without lag).
+tracked without lag); joint_target_acceleration [nq]: its acceleration, where the plan speeds up or slows down (fed
+forward, so the arm does not trail it).
 cloud [N, 3]: a sensor's point cloud in the base frame (rows with NaN are dropped), taken at cloud_time [s] (default:
 the controller's own clock). It is cropped, downsampled to voxels, cleared of the robot's own points, clustered into
 point-set obstacles and tracked for their velocities (docs/perception.md); its obstacles stay until the next cloud or
@@ -293,13 +308,15 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
                                const py::handle& box_velocities, const py::handle& box_rotations,
                                const py::handle& cylinders, const py::handle& cylinder_velocities,
                                const py::handle& cylinder_rotations, const py::handle& joint_target,
-                               const py::handle& joint_target_velocity, const py::handle& cloud,
+                               const py::handle& joint_target_velocity, const py::handle& joint_target_acceleration,
+                               const py::handle& cloud,
                                const py::handle& cloud_time, bool decide) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
         FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
-                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, joint_target_velocity, cloud,
+                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, joint_target_velocity,
+                  joint_target_acceleration, cloud,
                   cloud_time);
         if (decide) ++h.steps;
         {
@@ -319,13 +336,15 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
                         const py::handle& sphere_velocities, const py::handle& boxes, const py::handle& box_velocities,
                         const py::handle& box_rotations, const py::handle& cylinders,
                         const py::handle& cylinder_velocities, const py::handle& cylinder_rotations,
-                        const py::handle& joint_target, const py::handle& joint_target_velocity, const py::handle& cloud,
+                        const py::handle& joint_target, const py::handle& joint_target_velocity,
+                        const py::handle& joint_target_acceleration, const py::handle& cloud,
                         const py::handle& cloud_time) {
         const int n = h.controller->nq();
         const py::array qa = CheckedArray(q, {.name = "q", .shape = {n}});
         const py::array qda = CheckedArray(qd, {.name = "qd", .shape = {n}});
         FillScene(h, qa, target, target_velocity, spheres, sphere_velocities, boxes, box_velocities, box_rotations,
-                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, joint_target_velocity, cloud,
+                  cylinders, cylinder_velocities, cylinder_rotations, joint_target, joint_target_velocity,
+                  joint_target_acceleration, cloud,
                   cloud_time);
         ++h.steps;
         control::ControlStepResult r;

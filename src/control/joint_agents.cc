@@ -45,7 +45,7 @@ class JointAgents::Layer final : public AccelerationPolicy {
     if (config_.resolve == rmp::LayerResolve::kCoupled) {
       // the agents' RMPs resolved together on the robot's RMPflow structure, capped as RMPflow caps; the structure's
       // push-forward computed the kinematics of (q, q̇), which the agents' leaves read too
-      structure_->EvaluateStructure(q, qd, scene.q_T, scene.q_T_metric, scene.qd_T);
+      structure_->EvaluateStructure(q, qd, scene.q_T, scene.q_T_metric, scene.qd_T, scene.qdd_T);
       rmp::EvaluateCoupledLayer(*robot_, structure_->data().kinematics, scene, config_.params, weights,
                                 structure_->data().f_root, structure_->data().M_root, config_.relative_regularizer,
                                 &coupled_, qdd);

@@ -108,6 +108,7 @@ void LearnedController::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q,
   hold_scene_.q_T = scene.q_T;
   hold_scene_.q_T_metric = scene.q_T_metric;
   hold_scene_.qd_T = scene.qd_T;
+  hold_scene_.qdd_T = scene.qdd_T;
   hold_scene_.has_target = true;
   hold_scene_.p_WT = p_hold_;
   hold_scene_.v_WT.setZero();

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -138,20 +139,43 @@ std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot,
   std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + key);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   kinematics::Data data(robot.model);
+  // the arm's capsules at the start and at the goal: a sphere's way keeps clear of both
+  std::vector<math::Capsule> ends;
+  for (const Eigen::VectorXd* q_end : {&q_start, &q_goal}) {
+    kinematics::CalcForwardKinematics(robot.model, *q_end, &data);
+    for (const kinematics::LinkCapsule& lc : robot.capsules) ends.push_back(kinematics::WorldCapsule(lc, data));
+  }
   Eigen::VectorXd q, qd;
   std::vector<sim::LinearMotion> moving;
   for (int k = 0; k < options.moving; ++k) {
-    const double t = (0.25 + 0.5 * unit(rng)) * times.back();
-    planning::SamplePath(path, times, t, &q, &qd);
-    kinematics::CalcForwardKinematics(robot.model, q, &data);
-    const Eigen::Vector3d p = kinematics::CalcPointPosition(data, robot.end_effector.link,
-                                                            robot.end_effector.X_LE.translation());
-    const double heading = 2.0 * M_PI * unit(rng);
+    double t = (0.25 + 0.5 * unit(rng)) * times.back();
+    double heading = 2.0 * M_PI * unit(rng);
     const double speed = options.speed_min + (options.speed_max - options.speed_min) * unit(rng);
     sim::LinearMotion m;
     m.spec = sim::ObstacleSpec::Sphere(options.moving_radius);
-    m.v_W = speed * Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.0);
-    m.p_W0 = p - t * m.v_W;
+    double best = -std::numeric_limits<double>::infinity();
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      if (attempt > 0) {
+        t = (0.25 + 0.5 * unit(rng)) * times.back();
+        heading = 2.0 * M_PI * unit(rng);
+      }
+      planning::SamplePath(path, times, t, &q, &qd);
+      kinematics::CalcForwardKinematics(robot.model, q, &data);
+      const Eigen::Vector3d p = kinematics::CalcPointPosition(data, robot.end_effector.link,
+                                                              robot.end_effector.X_LE.translation());
+      const Eigen::Vector3d v_W = speed * Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.0);
+      const Eigen::Vector3d p_W0 = p - t * v_W;
+      // the sphere's way over the episode: a capsule of its radius
+      const math::Capsule way{p_W0, p_W0 + options.duration * v_W, options.moving_radius};
+      double clearance = std::numeric_limits<double>::infinity();
+      for (const math::Capsule& c : ends) clearance = std::min(clearance, math::CapsuleCapsuleDistance(c, way).distance);
+      if (clearance > best) {
+        best = clearance;
+        m.v_W = v_W;
+        m.p_W0 = p_W0;
+      }
+      if (clearance >= options.crossing_clearance) break;
+    }
     moving.push_back(m);
   }
   return moving;
@@ -268,6 +292,16 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
 
 }  // namespace
 
+sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
+                                        const MbmOptions& options) {
+  const PreparedProblem prepared = Prepare(robot, problem, options, MbmProblemKey(problem));
+  if (!prepared.valid) {
+    throw InputError(fmt::format("{} {}: not a valid problem: {}", problem.family, problem.index,
+                                 prepared.invalid_reason));
+  }
+  return prepared.scene;
+}
+
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
                         const MbmOptions& options) {
   std::optional<control::PolicyFile> file;
@@ -293,6 +327,9 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
   if (!(options.speed_min > 0.0) || !(options.speed_max >= options.speed_min) || !std::isfinite(options.speed_max)) {
     throw InputError(fmt::format("--speed: expected 0 < min <= max, got {} … {} m/s", options.speed_min,
                                  options.speed_max));
+  }
+  if (!(options.crossing_clearance >= 0.0) || !std::isfinite(options.crossing_clearance)) {
+    throw InputError(fmt::format("crossing_clearance: expected a distance >= 0 m, got {}", options.crossing_clearance));
   }
   if (!(options.moving_radius > 0.0) || !std::isfinite(options.moving_radius)) {
     throw InputError(fmt::format("moving_radius: expected a radius > 0 m, got {}", options.moving_radius));

@@ -60,6 +60,7 @@ PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
   q_goal_.setZero(nq);
   q_d_.setZero(nq);
   qd_d_.setZero(nq);
+  qdd_d_.setZero(nq);
   J_WE_.setZero(3, nq);
   q_check_.setZero(nq);
   follow_.q_T.setZero(nq);
@@ -146,6 +147,7 @@ Eigen::Vector3d PlanFollowPolicy::EndEffectorAt(const Eigen::Ref<const Eigen::Ve
 void PlanFollowPolicy::PointAt(double s) {
   const int last = static_cast<int>(path_.size()) - 1;
   qd_d_.setZero();
+  qdd_d_.setZero();
   if (last <= 0 || s >= path_s_[last]) {
     q_d_ = path_[std::max(last, 0)];
     return;
@@ -157,16 +159,25 @@ void PlanFollowPolicy::PointAt(double s) {
   if (length <= 0.0) return;
   // the reference's velocity: along the segment at most at its speed, and within `lookahead` of a waypoint (any
   // waypoint, not only the segment's ends) or of the path's end at most on a ramp from the waypoint's speed (0 at the
-  // end) up to the path's top speed: the speed is continuous in s, its slope at most top speed / lookahead
+  // end) up to the path's top speed: the speed is continuous in s, its slope at most top speed / lookahead; and its
+  // acceleration: rate · d(rate)/ds along the segment, d(rate)/ds the slope of the ramp that limits it
   const double L = options_.lookahead;
   double rate = std::min(path_segment_speed_[k], Ramp(0.0, path_s_[last] - s, options_.approach_distance));
-  for (int j = k; j >= 1 && path_s_[j] > s - L; --j) {
-    rate = std::min(rate, Ramp(path_corner_speed_[j], s - path_s_[j], L));
+  double slope = 0.0;
+  if (rate < path_segment_speed_[k] && path_s_[last] - s < options_.approach_distance) {
+    slope = -path_top_speed_ / options_.approach_distance;
   }
-  for (int j = k + 1; j < last && path_s_[j] < s + L; ++j) {
-    rate = std::min(rate, Ramp(path_corner_speed_[j], path_s_[j] - s, L));
-  }
+  auto limit = [&](double corner, double distance, double span, double sign) {
+    const double r = Ramp(corner, distance, span);
+    if (r < rate) {
+      rate = r;
+      slope = distance < span ? sign * (path_top_speed_ - corner) / span : 0.0;
+    }
+  };
+  for (int j = k; j >= 1 && path_s_[j] > s - L; --j) limit(path_corner_speed_[j], s - path_s_[j], L, 1.0);
+  for (int j = k + 1; j < last && path_s_[j] < s + L; ++j) limit(path_corner_speed_[j], path_s_[j] - s, L, -1.0);
   qd_d_ = (rate / length) * (path_[k + 1] - path_[k]);
+  qdd_d_ = (rate * slope / length) * (path_[k + 1] - path_[k]);
 }
 
 double PlanFollowPolicy::Ramp(double corner, double distance, double length) const {
@@ -203,8 +214,13 @@ void PlanFollowPolicy::Reference() {
   s_ref_ = std::clamp(s_ref_, s_near_, s_near_ + options_.lookahead);
   PointAt(s_ref_);
   const double lead = s_ref_ - s_near_;
-  qd_d_ *= std::clamp(2.0 * (options_.lookahead - lead) / options_.lookahead, 0.0, 1.0);
-  if (options_.yield_slows) qd_d_ *= yield_;
+  const double lead_scale = std::clamp(2.0 * (options_.lookahead - lead) / options_.lookahead, 0.0, 1.0);
+  qd_d_ *= lead_scale;
+  qdd_d_ *= lead_scale * lead_scale;  // both the rate and the speed along the path are scaled
+  if (options_.yield_slows) {
+    qd_d_ *= yield_;
+    qdd_d_ *= yield_ * yield_;
+  }
 }
 
 void PlanFollowPolicy::Project(const Eigen::Ref<const Eigen::VectorXd>& q) {
@@ -326,6 +342,7 @@ void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
       follow_.q_T.resize(0);
     }
     follow_.qd_T.resize(0);
+    follow_.qdd_T.resize(0);
     return;
   }
   const kinematics::EndEffector& ee = robot_.end_effector;
@@ -336,6 +353,11 @@ void PlanFollowPolicy::FillFollowScene(const rmp::Scene& scene) {
   follow_.v_WT = J_WE_ * qd_d_;
   follow_.q_T = q_d_;
   follow_.qd_T = qd_d_;
+  if (options_.acceleration_feedforward) {
+    follow_.qdd_T = qdd_d_;
+  } else {
+    follow_.qdd_T.resize(0);
+  }
   // geometrically from yield_metric (near what moves) to posture_metric (nothing moving near)
   follow_.q_T_metric = yield_ >= 1.0 ? options_.posture_metric
                                      : options_.yield_metric *

@@ -20,6 +20,7 @@ PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanF
       {internal::FlagField(r, "replan", &o.replan), internal::NumberField(r, "lookahead", &o.lookahead),
        internal::NumberField(r, "corner_velocity_jump", &o.corner_velocity_jump),
        internal::NumberField(r, "approach_distance", &o.approach_distance),
+       internal::FlagField(r, "acceleration_feedforward", &o.acceleration_feedforward),
        internal::NumberField(r, "posture_metric", &o.posture_metric),
        internal::NumberField(r, "yield_metric", &o.yield_metric), internal::NumberField(r, "yield_near", &o.yield_near),
        internal::NumberField(r, "yield_far", &o.yield_far),

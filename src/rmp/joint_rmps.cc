@@ -85,6 +85,15 @@ double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& p, const Eigen::Ref<cons
   return s;
 }
 
+double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& p, const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd0, const Eigen::Ref<const Eigen::VectorXd>& qdd0,
+                           Eigen::Ref<Eigen::VectorXd> f) {
+  const double s = EvalCSpaceTargetRmp(p, q, qd, q0, qd0, f);
+  f.noalias() += p.metric_scalar * qdd0;
+  return s;
+}
+
 Rmp1 EvalJointLimitRmp(const JointLimitRmpParams& p, double x, double xd) {
   const double xc = std::max(x, 0.0);
   const double lp = p.accel_potential_exploder_length_scale;

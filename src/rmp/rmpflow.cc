@@ -12,13 +12,22 @@
 namespace rmpmarl::rmp {
 namespace {
 
-// a C-space target's velocity: only beside a target posture, one finite value per joint
-void CheckPostureVelocity(const kinematics::Model& model, const Eigen::VectorXd& posture,
-                          const Eigen::VectorXd& posture_velocity) {
-  if (posture.size() == 0) {
-    throw InputError("RMPflow: qd_T (the C-space target's velocity) is given without q_T (the C-space target)");
+// a C-space target's velocity: only beside a target posture, one finite value per joint; its acceleration only beside
+// its velocity
+void CheckPostureMotion(const kinematics::Model& model, const Eigen::VectorXd& posture,
+                        const Eigen::VectorXd& posture_velocity, const Eigen::VectorXd& posture_acceleration) {
+  if (posture_velocity.size() > 0) {
+    if (posture.size() == 0) {
+      throw InputError("RMPflow: qd_T (the C-space target's velocity) is given without q_T (the C-space target)");
+    }
+    kinematics::CheckJointVector(model, posture_velocity, "qd_T (the C-space target's velocity)");
   }
-  kinematics::CheckJointVector(model, posture_velocity, "qd_T (the C-space target's velocity)");
+  if (posture_acceleration.size() > 0) {
+    if (posture_velocity.size() == 0) {
+      throw InputError("RMPflow: qdd_T (the C-space target's acceleration) is given without qd_T (its velocity)");
+    }
+    kinematics::CheckJointVector(model, posture_acceleration, "qdd_T (the C-space target's acceleration)");
+  }
 }
 
 }  // namespace
@@ -179,8 +188,8 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
   const Eigen::VectorXd& posture = PostureTarget(scene.q_T);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, true);
   PushForward(tree_, q, qd, scene, &data_);
-  if (scene.qd_T.size() > 0) CheckPostureVelocity(model, scene.q_T, scene.qd_T);
-  WriteLeaves(q, qd, scene, posture, scene.q_T_metric, scene.qd_T, /*task_leaves=*/true);
+  CheckPostureMotion(model, scene.q_T, scene.qd_T, scene.qdd_T);
+  WriteLeaves(q, qd, scene, posture, scene.q_T_metric, scene.qd_T, scene.qdd_T, /*task_leaves=*/true);
   PullbackAndResolve(tree_, &data_, qdd);
   diagnostics_.lambda = data_.lambda;
   const double norm = qdd.norm();
@@ -192,15 +201,16 @@ void RmpflowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const E
 
 void RmpflowPolicy::EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q,
                                       const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::VectorXd& posture,
-                                      double posture_metric, const Eigen::VectorXd& posture_velocity) {
+                                      double posture_metric, const Eigen::VectorXd& posture_velocity,
+                                      const Eigen::VectorXd& posture_acceleration) {
   const kinematics::Model& model = tree_.robot().model;
   kinematics::CheckJointVector(model, q, "q");
   kinematics::CheckJointVector(model, qd, "qd");
   const Eigen::VectorXd& target = PostureTarget(posture);
   if (ee_node_ >= 0) data_.set_enabled(ee_node_, false);  // the target leaf is the caller's (its RMP would be zero)
   PushForward(tree_, q, qd, no_task_, &data_);
-  if (posture_velocity.size() > 0) CheckPostureVelocity(model, posture, posture_velocity);
-  WriteLeaves(q, qd, no_task_, target, posture_metric, posture_velocity, /*task_leaves=*/false);
+  CheckPostureMotion(model, posture, posture_velocity, posture_acceleration);
+  WriteLeaves(q, qd, no_task_, target, posture_metric, posture_velocity, posture_acceleration, /*task_leaves=*/false);
   Pullback(tree_, &data_);
 }
 
@@ -213,7 +223,8 @@ const Eigen::VectorXd& RmpflowPolicy::PostureTarget(const Eigen::VectorXd& postu
 void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
                                 const Eigen::Ref<const Eigen::VectorXd>& qd, const Scene& scene,
                                 const Eigen::VectorXd& posture, double posture_metric,
-                                const Eigen::VectorXd& posture_velocity, bool task_leaves) {
+                                const Eigen::VectorXd& posture_velocity,
+                                const Eigen::VectorXd& posture_acceleration, bool task_leaves) {
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
   RmpflowDiagnostics& diag = diagnostics_;
   diag = RmpflowDiagnostics{};
@@ -234,16 +245,21 @@ void RmpflowPolicy::WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q,
   // C-space target + inertia + damping, all with metrics proportional to I
   {
     auto f = data_.f(cspace_node_);
+    // toward the posture, moving with its velocity and acceleration where given
+    auto target = [&](const CSpaceTargetRmpParams& params) {
+      if (posture_acceleration.size() > 0) {
+        return EvalCSpaceTargetRmp(params, q, qd, posture, posture_velocity, posture_acceleration, f);
+      }
+      if (posture_velocity.size() > 0) return EvalCSpaceTargetRmp(params, q, qd, posture, posture_velocity, f);
+      return EvalCSpaceTargetRmp(params, q, qd, posture, f);
+    };
     double s = 0.0;
     if (posture_metric > 0.0) {
       CSpaceTargetRmpParams params = options_.cspace_target;
       params.metric_scalar = posture_metric;
-      s = posture_velocity.size() > 0 ? EvalCSpaceTargetRmp(params, q, qd, posture, posture_velocity, f)
-                                      : EvalCSpaceTargetRmp(params, q, qd, posture, f);
-    } else if (posture_velocity.size() > 0) {
-      s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, posture, posture_velocity, f);
+      s = target(params);
     } else {
-      s = EvalCSpaceTargetRmp(options_.cspace_target, q, qd, posture, f);
+      s = target(options_.cspace_target);
     }
     const CSpaceDampingRmpParams& damping = options_.cspace_damping;
     f.noalias() -= (damping.metric_scalar * damping.accel_d_gain) * qd;

@@ -117,6 +117,11 @@ void ValidateScene(const Scene& scene, std::string_view what) {
                                  "of q_T), got {}{}", what, scene.q_T.size(), scene.qd_T.size(),
                                  scene.qd_T.allFinite() ? "" : " with a non-finite one"));
   }
+  if (scene.qdd_T.size() > 0 && (scene.qdd_T.size() != scene.qd_T.size() || !scene.qdd_T.allFinite())) {
+    throw InputError(fmt::format("{}: qdd_T (the C-space target's acceleration): expected {} finite values (one per "
+                                 "entry of qd_T; only with qd_T), got {}{}", what, scene.qd_T.size(),
+                                 scene.qdd_T.size(), scene.qdd_T.allFinite() ? "" : " with a non-finite one"));
+  }
   if (!(scene.q_T_metric >= 0.0) || !std::isfinite(scene.q_T_metric)) {
     throw InputError(fmt::format("{}: q_T_metric: expected a finite metric >= 0, got {}", what, scene.q_T_metric));
   }

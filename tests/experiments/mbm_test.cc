@@ -7,9 +7,11 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
@@ -164,6 +166,44 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   EXPECT_EQ(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic)[0].final_error, crossed[0].final_error);
   dynamic.speed_min = 0.0;
   EXPECT_THROW(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic), InputError);
+
+  // every crossing is avoidable: its sphere, sampled every millisecond of the episode, keeps crossing_clearance from
+  // the arm's capsules at the start and at the goal (point-to-segment distances, not the drawing's capsule distance)
+  dynamic.speed_min = 0.5;
+  dynamic.moving = 8;
+  const sim::StaticSceneOptions set_up = MbmProblemScene(panda, first[0], dynamic);
+  ASSERT_EQ(set_up.moving.size(), 8u);
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> segments;
+  std::vector<double> radii;
+  kinematics::Data data(panda.model);
+  for (const Eigen::VectorXd* q : {&set_up.q_start, &set_up.q_goal}) {
+    kinematics::CalcForwardKinematics(panda.model, *q, &data);
+    for (const kinematics::LinkCapsule& c : panda.capsules) {
+      segments.emplace_back(data.X_WL[c.link] * c.p_LA, data.X_WL[c.link] * c.p_LB);
+      radii.push_back(c.radius);
+    }
+  }
+  for (const sim::LinearMotion& m : set_up.moving) {
+    EXPECT_EQ(m.v_W.z(), 0.0);
+    EXPECT_GE(m.v_W.norm(), dynamic.speed_min - 1e-12);
+    EXPECT_LE(m.v_W.norm(), dynamic.speed_max + 1e-12);
+    double clearance = std::numeric_limits<double>::infinity();
+    for (int step = 0; step <= 1000 * dynamic.duration; ++step) {
+      const Eigen::Vector3d p = m.p_W0 + 1e-3 * step * m.v_W;
+      for (size_t c = 0; c < segments.size(); ++c) {
+        const auto& [a, b] = segments[c];
+        const double f = std::clamp((p - a).dot(b - a) / std::max((b - a).squaredNorm(), 1e-30), 0.0, 1.0);
+        clearance = std::min(clearance, (p - (a + f * (b - a))).norm() - radii[c] - dynamic.moving_radius);
+      }
+    }
+    EXPECT_GE(clearance, dynamic.crossing_clearance - 1e-6);
+  }
+  try {
+    MbmProblemScene(panda, problems[1], dynamic);
+    ADD_FAILURE() << "gave the set-up of a problem whose start is in collision";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("start in collision"), std::string::npos) << e.what();
+  }
 
   const fs::path out = dir / "out";
   WriteMbmResults(results, out, "rmpmarl benchmark mbm --problems X", "setup");

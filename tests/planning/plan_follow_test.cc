@@ -307,6 +307,11 @@ TEST(PlanFollowTest, TheReferenceSlowsDownSmoothlyForCorners) {
     double s_ref = 0.0, last_rate = -1.0;
     size_t next = 1;  // the next interior waypoint the reference passes
     double slowest = INFINITY;
+    // the acceleration the layer is given is the reference velocity's rate of change: against finite differences
+    // between steps on one segment, where the ramp that limits the speed stays the same
+    VectorXd last_qd_T, last_qdd_T;
+    bool passed = true;
+    int accelerations_checked = 0;
     for (int step = 0; step < 20000 && next + 1 < path.size(); ++step) {
       follower.Evaluate(q, qd, scene, qdd);
       const double rate = recorded->seen.qd_T.norm();
@@ -315,6 +320,18 @@ TEST(PlanFollowTest, TheReferenceSlowsDownSmoothlyForCorners) {
             << "step " << step << ", corner velocity jump " << jump;
       }
       last_rate = rate;
+      const VectorXd& qd_T = recorded->seen.qd_T;
+      const VectorXd& qdd_T = recorded->seen.qdd_T;
+      ASSERT_EQ(qdd_T.size(), 7);
+      // (the reference moves on by dt times its rate, and the rate is linear in s on a ramp: the difference quotient
+      // is the last step's acceleration)
+      if (!passed && last_qdd_T.norm() > 1.0 && (qdd_T - last_qdd_T).norm() <= 0.1 * last_qdd_T.norm()) {
+        EXPECT_LE(((qd_T - last_qd_T) / dt - last_qdd_T).norm(), 1e-3 * last_qdd_T.norm()) << "step " << step;
+        ++accelerations_checked;
+      }
+      last_qd_T = qd_T;
+      last_qdd_T = qdd_T;
+      passed = false;
       q = recorded->seen.q_T;  // the arm on the reference
       const double s_now = s_ref + dt * rate;
       if (s_now >= s[next]) {  // the reference passes waypoint `next` within this step
@@ -325,13 +342,28 @@ TEST(PlanFollowTest, TheReferenceSlowsDownSmoothlyForCorners) {
             << "waypoint " << next << ", corner velocity jump " << jump;
         slowest = std::min(slowest, rate);
         ++next;
+        passed = true;
       }
       s_ref = s_now;
     }
     EXPECT_EQ(next + 1, path.size()) << "the reference passed every corner";
+    EXPECT_GT(accelerations_checked, 20) << "corner velocity jump " << jump;
     slowest_corner.push_back(slowest);
   }
   EXPECT_LT(slowest_corner[1], slowest_corner[0]) << "a smaller jump passes the sharpest corner more slowly";
+
+  // without the feed-forward the layer is given no acceleration
+  PlanFollowOptions options = IterationBudget();
+  options.acceleration_feedforward = false;
+  auto layer = std::make_unique<RecordingLayer>(7);
+  RecordingLayer* recorded = layer.get();
+  PlanFollowPolicy follower(p.robot, std::move(layer), options);
+  VectorXd qdd(7);
+  follower.Reset(p.q_start);
+  follower.BeginControlStep(p.q_start, VectorXd::Zero(7), scene);
+  follower.Evaluate(p.q_start, VectorXd::Zero(7), scene, qdd);
+  EXPECT_GT(recorded->seen.qd_T.size(), 0);
+  EXPECT_EQ(recorded->seen.qdd_T.size(), 0);
 }
 
 // configs/planning/follow.yaml documents the values built in: reading it changes nothing; a bad file is refused
@@ -343,6 +375,7 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
   EXPECT_EQ(o.lookahead, d.lookahead);
   EXPECT_EQ(o.corner_velocity_jump, d.corner_velocity_jump);
   EXPECT_EQ(o.approach_distance, d.approach_distance);
+  EXPECT_EQ(o.acceleration_feedforward, d.acceleration_feedforward);
   EXPECT_EQ(o.posture_metric, d.posture_metric);
   EXPECT_EQ(o.yield_metric, d.yield_metric);
   EXPECT_EQ(o.yield_near, d.yield_near);

@@ -110,6 +110,10 @@ def test_scene_bad_input_raises_and_leaves_the_controller_usable():
         (dict(joint_target_velocity=np.zeros(7)), "joint_target_velocity: given without joint_target"),
         (dict(joint_target=np.zeros(7), joint_target_velocity=np.zeros(6)),
          "joint_target_velocity: expected shape float64[7]"),
+        (dict(joint_target=np.zeros(7), joint_target_acceleration=np.zeros(7)),
+         "joint_target_acceleration: given without joint_target_velocity"),
+        (dict(joint_target=np.zeros(7), joint_target_velocity=np.zeros(7), joint_target_acceleration=np.zeros(5)),
+         "joint_target_acceleration: expected shape float64[7]"),
     ]
     for kwargs, message in cases:
         with pytest.raises(ValueError) as e:
@@ -167,6 +171,15 @@ def test_cylinders_and_joint_targets(which):
         np.testing.assert_allclose(d2, 2 * d1, rtol=1e-6, atol=1e-9)
     else:
         np.testing.assert_allclose(d2, 2 * d1, rtol=0.1, atol=1e-2)
+    # and its acceleration enters as μ q̈_T: linear again, with a positive projection on it
+    moving = qdd(joint_target=home, joint_target_velocity=v)
+    np.testing.assert_array_equal(qdd(joint_target=home, joint_target_velocity=v, joint_target_acceleration=np.zeros(7)),
+                                  moving)
+    a1 = qdd(joint_target=home, joint_target_velocity=v, joint_target_acceleration=v) - moving
+    a2 = qdd(joint_target=home, joint_target_velocity=v, joint_target_acceleration=2 * v) - moving
+    assert np.abs(a1).max() > 1e-4 and a1 @ v > 0 and a2 @ v > 0
+    if which == "rmpflow":
+        np.testing.assert_allclose(a2, 2 * a1, rtol=1e-6, atol=1e-9)
 
 
 def test_without_a_target_the_learned_controller_holds_the_end_effector():

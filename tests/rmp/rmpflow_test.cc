@@ -180,6 +180,63 @@ TEST(RmpflowPolicyTest, AMovingCSpaceTargetAddsItsVelocityTermOnly) {
   EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
 }
 
+// its acceleration (Scene::qdd_T) adds μ q̈_T and nothing to the metric; refused without qd_T, of the wrong size or not
+// finite. With it, RMPflow's C-space target trails a reference that accelerates steadily by nothing in the end; without
+// it, by q̈_T / k_p (the two-link arm, no obstacles, the reference weighted as a plan's).
+TEST(RmpflowPolicyTest, AnAcceleratingCSpaceTargetIsFollowedWithoutLag) {
+  const kinematics::Robot robot = kinematics::MakePlanar2();
+  const RmpflowOptions options;
+  RmpflowPolicy policy(robot, options, 1);
+  const Eigen::Vector2d q(0.3, -0.4), qd(0.5, 0.2), q_T(0.6, 0.1), qd_T(-0.7, 0.9), qdd_T(2.0, -3.0);
+  const double metric = 2500.0;
+  policy.EvaluateStructure(q, qd, q_T, metric, qd_T);
+  const Eigen::VectorXd f0 = policy.data().f_root;
+  const Eigen::MatrixXd M0 = policy.data().M_root;
+  policy.EvaluateStructure(q, qd, q_T, metric, qd_T, qdd_T);
+  const Eigen::VectorXd expected = f0 + metric * qdd_T;
+  EXPECT_LT((policy.data().f_root - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_EQ(policy.data().M_root, M0);
+
+  Scene scene;
+  scene.has_target = false;
+  Eigen::VectorXd qdd(2);
+  scene.q_T = q_T;
+  scene.qdd_T = qdd_T;  // without qd_T
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+  EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
+  scene.qd_T = qd_T;
+  ValidateScene(scene, "scene");
+  scene.qdd_T = Eigen::Vector3d::Zero();
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+  EXPECT_THROW(policy.Evaluate(q, qd, scene, qdd), InputError);
+  scene.qdd_T = Eigen::Vector2d(0.0, INFINITY);
+  EXPECT_THROW(ValidateScene(scene, "scene"), InputError);
+
+  // a reference from rest at 0.5 rad/s² on both joints for 2 s, the arm integrated at 0.2 ms from it
+  const Eigen::Vector2d accel(0.5, 0.5), start(-0.5, -0.5);
+  std::vector<double> lag;
+  for (const bool feedforward : {false, true}) {
+    Eigen::VectorXd x = start, v = Eigen::VectorXd::Zero(2);
+    Scene follow;
+    follow.has_target = false;
+    follow.q_T_metric = 2.5e8;
+    const double h = 2e-4;
+    for (int k = 0; k < 10000; ++k) {
+      const double t = k * h;
+      follow.q_T = start + 0.5 * t * t * accel;
+      follow.qd_T = t * accel;
+      follow.qdd_T = feedforward ? Eigen::VectorXd(accel) : Eigen::VectorXd();
+      policy.Evaluate(x, v, follow, qdd);
+      v += h * qdd;
+      x += h * v;
+    }
+    lag.push_back((start + 0.5 * 4.0 * accel - x).norm());
+  }
+  const double expected_lag = accel.norm() / options.cspace_target.position_gain;
+  EXPECT_NEAR(lag[0], expected_lag, 0.25 * expected_lag) << "without the feed-forward: q̈_T / k_p";
+  EXPECT_LT(lag[1], 0.1 * lag[0]) << "with it";
+}
+
 TEST(RmpflowPolicyTest, BuildsTheUsualLeafSet) {
   const kinematics::Robot robot = testing::LoadTreeRobot();
   const RmpflowPolicy policy(robot, RmpflowOptions{}, 3);

@@ -17,6 +17,7 @@
 
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/planning/plan_follow.h"
+#include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::experiments {
 
@@ -54,10 +55,15 @@ struct MbmOptions {
   /// path RRT-Connect plans for the problem (the open-loop method's, same seed), timed as it is executed: at a time
   /// drawn in [0.25, 0.75] of the path's duration its centre passes through the end effector's position then, on a
   /// horizontal line in a drawn direction, at a speed drawn in [speed_min, speed_max] — so the plan executed open
-  /// loop meets it. Drawn from crossing_seed and MbmProblemKey (the same for every method and selection).
+  /// loop meets it. Drawn from crossing_seed and MbmProblemKey (the same for every method and selection). Each is
+  /// avoidable: its way over the episode keeps crossing_clearance from the arm at the start and at the goal (the
+  /// time and direction are drawn again until it does, at most 64 times, else the clearest is kept), so that no sphere crosses
+  /// the part of the arm that no joint moves (its base, a link on the first joint's axis), and an arm that waited at
+  /// the start until the spheres had gone, then went, would meet none.
   int moving = 0;
   double speed_min = 0.5, speed_max = 1.5;  ///< [m/s]
   double moving_radius = 0.05;              ///< [m]
+  double crossing_clearance = 0.02;         ///< [m], >= 0
   std::uint64_t crossing_seed = 1;
 };
 
@@ -83,6 +89,11 @@ struct MbmResult {
 /// a number of the problem's family and index (the same whichever problems a run selects): the planner's and the
 /// crossings' seeds of the problem are drawn from it.
 std::uint64_t MbmProblemKey(const MbmProblem& problem);
+
+/// the set-up every method of `problem` runs on: its start, joint goal and cell, and the dynamic variant's crossing
+/// spheres (options.moving). Throws InputError when the problem is not valid (start or goal in collision), with why.
+sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
+                                        const MbmOptions& options);
 
 /// runs one method on one problem.
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,

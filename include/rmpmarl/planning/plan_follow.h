@@ -63,6 +63,9 @@ struct PlanFollowOptions {
   /// the reference slows down to rest over this much of the path's end (arc length) [rad or m], > 0: the layer lags a
   /// decelerating reference, and a goal at a grasp is often close to the cell
   double approach_distance = 0.6;
+  /// the layer is given the reference's acceleration too (rmp::Scene::qdd_T: where it speeds up after a waypoint or
+  /// slows down before one), so that it does not trail a reference that changes speed
+  bool acceleration_feedforward = true;
   /// the metric scalar of the reactive layer's C-space target toward the reference (rmp::Scene::q_T_metric) while
   /// nothing that moves is within yield_far of the arm, > 0: the plan, valid against the obstacles as they are,
   /// outweighs the layer's repulsion from the static cell it was planned around (a timid layer would hold off it)
@@ -162,7 +165,7 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   std::vector<double> path_segment_speed_;  // each segment's arc-length speed: its slowest joint at the path speed
   double path_top_speed_ = 0.0;             // the fastest segment's
   std::vector<double> path_corner_speed_;   // the reference's arc-length speed limit at each waypoint
-  Eigen::VectorXd q_goal_, q_d_, qd_d_, q_check_;
+  Eigen::VectorXd q_goal_, q_d_, qd_d_, qdd_d_, q_check_;
   Eigen::VectorXd planned_q_T_;                       // the scene's joint goal when planned (empty: none)
   Eigen::Vector3d planned_p_WT_ = Eigen::Vector3d::Zero();  // its end-effector target then
   Eigen::Vector3d p_WG_ = Eigen::Vector3d::Zero();          // the end effector at q_goal_

@@ -72,6 +72,12 @@ double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& params, const Eigen::Ref
 double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& params, const Eigen::Ref<const Eigen::VectorXd>& q,
                            const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
                            const Eigen::Ref<const Eigen::VectorXd>& qd0, Eigen::Ref<Eigen::VectorXd> f);
+/// the same with the target's acceleration q̈0 as a feed-forward: a = k_p r(q0 − q) − k_d (q̇ − q̇0) + q̈0, so that a
+/// target that speeds up or slows down is tracked without the lag q̈0 / k_p.
+double EvalCSpaceTargetRmp(const CSpaceTargetRmpParams& params, const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                           const Eigen::Ref<const Eigen::VectorXd>& qd0, const Eigen::Ref<const Eigen::VectorXd>& qdd0,
+                           Eigen::Ref<Eigen::VectorXd> f);
 
 /// joint-limit RMP at normalised distance x to one boundary and its rate ẋ. x is clamped to ≥ 0 (at or past the
 /// boundary the RMP keeps its contact values, no NaN/Inf).

@@ -95,11 +95,13 @@ class RmpflowPolicy {
   /// and data().M_root: the rest of RMPflow under a coupled per-joint basic layer (rmp::EvaluateCoupledLayer). The
   /// end-effector node is left out (end_effector_position() stays that of the last Evaluate). The C-space target is
   /// `posture` when non-empty (a scene's q_T), else home(), with metric scalar `posture_metric` when > 0 (a scene's
-  /// q_T_metric), else the options', moving with `posture_velocity` when non-empty (a scene's qd_T). Throws InputError
-  /// for q/q̇/posture/posture velocity of the wrong size or non-finite. Allocates nothing.
+  /// q_T_metric), else the options', moving with `posture_velocity` when non-empty (a scene's qd_T) and
+  /// `posture_acceleration` (qdd_T, only with a velocity). Throws InputError for q/q̇/posture/posture velocity or
+  /// acceleration of the wrong size or non-finite. Allocates nothing.
   void EvaluateStructure(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                          const Eigen::VectorXd& posture = Eigen::VectorXd(), double posture_metric = 0.0,
-                         const Eigen::VectorXd& posture_velocity = Eigen::VectorXd());
+                         const Eigen::VectorXd& posture_velocity = Eigen::VectorXd(),
+                         const Eigen::VectorXd& posture_acceleration = Eigen::VectorXd());
 
   /// sets the C-space target posture (nq finite values).
   void set_home(const Eigen::Ref<const Eigen::VectorXd>& home);
@@ -116,7 +118,8 @@ class RmpflowPolicy {
   /// writes the leaves' RMPs after PushForward; without task_leaves, not the target's nor the obstacles'.
   void WriteLeaves(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                    const Scene& scene, const Eigen::VectorXd& posture, double posture_metric,
-                   const Eigen::VectorXd& posture_velocity, bool task_leaves);
+                   const Eigen::VectorXd& posture_velocity, const Eigen::VectorXd& posture_acceleration,
+                   bool task_leaves);
   /// `posture` when given (checked), else home_.
   const Eigen::VectorXd& PostureTarget(const Eigen::VectorXd& posture) const;
 

@@ -56,6 +56,10 @@ struct Scene {
   /// target RMP damps the velocity relative to it, so that a moving reference is tracked without lag; empty: zero.
   /// Only with q_T.
   Eigen::VectorXd qd_T;
+  /// the C-space target's acceleration (a plan's reference speeding up or slowing down), one value per joint: a
+  /// feed-forward of the C-space target RMP, so that the reference is not trailed by q̈_T / k_p; empty: zero. Only with
+  /// qd_T.
+  Eigen::VectorXd qdd_T;
   /// > 0: the metric scalar of the C-space target RMP toward q_T instead of the controller's own (a plan being
   /// followed weighs as much as the end-effector target; RMPflow's own posture prior weighs 50); 0: the controller's.
   double q_T_metric = 0.0;
