@@ -290,30 +290,8 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   return r;
 }
 
-}  // namespace
-
-sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
-                                        const MbmOptions& options) {
-  const PreparedProblem prepared = Prepare(robot, problem, options, MbmProblemKey(problem));
-  if (!prepared.valid) {
-    throw InputError(fmt::format("{} {}: not a valid problem: {}", problem.family, problem.index,
-                                 prepared.invalid_reason));
-  }
-  return prepared.scene;
-}
-
-MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
-                        const MbmOptions& options) {
-  std::optional<control::PolicyFile> file;
-  if (Learned(method)) file = control::LoadPolicyFile(options.policy);
-  const std::uint64_t key = MbmProblemKey(problem);
-  return RunMethod(robot, problem, Prepare(robot, problem, options, key), method, options, key,
-                   file ? &*file : nullptr);
-}
-
-std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std::vector<MbmProblem>& problems,
-                                       const std::vector<MbmMethod>& methods, const MbmOptions& options,
-                                       const std::function<void(int)>& progress) {
+// throws InputError naming the option unless `options` are valid
+void ValidateMbmOptions(const MbmOptions& options) {
   if (!(options.duration > 0.0) || !std::isfinite(options.duration)) {
     throw InputError(fmt::format("--duration: expected a time > 0 s, got {}", options.duration));
   }
@@ -334,6 +312,34 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
   if (!(options.moving_radius > 0.0) || !std::isfinite(options.moving_radius)) {
     throw InputError(fmt::format("moving_radius: expected a radius > 0 m, got {}", options.moving_radius));
   }
+}
+
+}  // namespace
+
+sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
+                                        const MbmOptions& options) {
+  ValidateMbmOptions(options);
+  const PreparedProblem prepared = Prepare(robot, problem, options, MbmProblemKey(problem));
+  if (!prepared.valid) {
+    throw InputError(fmt::format("{} {}: not a valid problem: {}", problem.family, problem.index,
+                                 prepared.invalid_reason));
+  }
+  return prepared.scene;
+}
+
+MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
+                        const MbmOptions& options) {
+  std::optional<control::PolicyFile> file;
+  if (Learned(method)) file = control::LoadPolicyFile(options.policy);
+  const std::uint64_t key = MbmProblemKey(problem);
+  return RunMethod(robot, problem, Prepare(robot, problem, options, key), method, options, key,
+                   file ? &*file : nullptr);
+}
+
+std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std::vector<MbmProblem>& problems,
+                                       const std::vector<MbmMethod>& methods, const MbmOptions& options,
+                                       const std::function<void(int)>& progress) {
+  ValidateMbmOptions(options);
   // the learned controller's file read once for every problem
   std::optional<control::PolicyFile> policy_file;
   if (std::any_of(methods.begin(), methods.end(), Learned)) policy_file = control::LoadPolicyFile(options.policy);

@@ -216,7 +216,9 @@ void PlanFollowPolicy::Reference() {
   const double lead = s_ref_ - s_near_;
   const double lead_scale = std::clamp(2.0 * (options_.lookahead - lead) / options_.lookahead, 0.0, 1.0);
   qd_d_ *= lead_scale;
-  qdd_d_ *= lead_scale * lead_scale;  // both the rate and the speed along the path are scaled
+  // the acceleration scaled as the rate and the speed along the path both are (the scales' own rates of change left
+  // out: where the arm lags or yields, the feed-forward is an approximation)
+  qdd_d_ *= lead_scale * lead_scale;
   if (options_.yield_slows) {
     qd_d_ *= yield_;
     qdd_d_ *= yield_ * yield_;

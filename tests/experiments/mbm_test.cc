@@ -198,6 +198,9 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
     }
     EXPECT_GE(clearance, dynamic.crossing_clearance - 1e-6);
   }
+  MbmOptions thin = dynamic;
+  thin.moving_radius = 0.0;
+  EXPECT_THROW(MbmProblemScene(panda, first[0], thin), InputError);
   try {
     MbmProblemScene(panda, problems[1], dynamic);
     ADD_FAILURE() << "gave the set-up of a problem whose start is in collision";

@@ -57,7 +57,7 @@ struct MbmOptions {
   /// horizontal line in a drawn direction, at a speed drawn in [speed_min, speed_max] — so the plan executed open
   /// loop meets it. Drawn from crossing_seed and MbmProblemKey (the same for every method and selection). Each is
   /// avoidable: its way over the episode keeps crossing_clearance from the arm at the start and at the goal (the
-  /// time and direction are drawn again until it does, at most 64 times, else the clearest is kept), so that no sphere crosses
+  /// time and direction are drawn again until it does, 64 draws in all at most, else the clearest is kept), so that no sphere crosses
   /// the part of the arm that no joint moves (its base, a link on the first joint's axis), and an arm that waited at
   /// the start until the spheres had gone, then went, would meet none.
   int moving = 0;
@@ -91,7 +91,8 @@ struct MbmResult {
 std::uint64_t MbmProblemKey(const MbmProblem& problem);
 
 /// the set-up every method of `problem` runs on: its start, joint goal and cell, and the dynamic variant's crossing
-/// spheres (options.moving). Throws InputError when the problem is not valid (start or goal in collision), with why.
+/// spheres (options.moving). Throws InputError for options out of range, or when the problem is not valid (start or
+/// goal in collision), with why.
 sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
                                         const MbmOptions& options);
 

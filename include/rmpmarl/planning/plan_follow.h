@@ -7,7 +7,8 @@
 /// The goal is the scene's joint-space goal (rmp::Scene::q_T) when it has one, else an IK solution of its end-effector
 /// target (RrtPolicy::SolveIk). The reactive layer follows the plan as a moving reference: at every call it sees the
 /// scene with its target replaced by the plan's point q_c at arc length s_c — the end effector at q_c, moving with
-/// J(q_c) q̇_c, and q_c as its C-space target (scene.q_T) moving with q̇_c (scene.qd_T), weighted by posture_metric.
+/// J(q_c) q̇_c, and q_c as its C-space target (scene.q_T) moving with q̇_c (scene.qd_T) and accelerating with q̈_c
+/// (scene.qdd_T, acceleration_feedforward), weighted by posture_metric.
 /// s_c runs along the path as fast as the slowest joint allows at path_speed_fraction × its velocity limit, its speed
 /// continuous in s: it slows down linearly over `lookahead` before each waypoint (whichever segment it is on) to pass
 /// it with a velocity change of at most corner_velocity_jump and at most the slower of the two segments' speeds, and to
