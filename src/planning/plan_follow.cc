@@ -162,11 +162,8 @@ void PlanFollowPolicy::PointAt(double s) {
   // end) up to the path's top speed: the speed is continuous in s, its slope at most top speed / lookahead; and its
   // acceleration: rate · d(rate)/ds along the segment, d(rate)/ds the slope of the ramp that limits it
   const double L = options_.lookahead;
-  double rate = std::min(path_segment_speed_[k], Ramp(0.0, path_s_[last] - s, options_.approach_distance));
-  double slope = 0.0;
-  if (rate < path_segment_speed_[k] && path_s_[last] - s < options_.approach_distance) {
-    slope = -path_top_speed_ / options_.approach_distance;
-  }
+  double rate = path_segment_speed_[k], slope = 0.0;
+  // a ramp `distance` before (sign −1) or after (+1) a point of speed `corner` that limits the rate more
   auto limit = [&](double corner, double distance, double span, double sign) {
     const double r = Ramp(corner, distance, span);
     if (r < rate) {
@@ -174,6 +171,7 @@ void PlanFollowPolicy::PointAt(double s) {
       slope = distance < span ? sign * (path_top_speed_ - corner) / span : 0.0;
     }
   };
+  limit(0.0, path_s_[last] - s, options_.approach_distance, -1.0);  // to rest at the path's end
   for (int j = k; j >= 1 && path_s_[j] > s - L; --j) limit(path_corner_speed_[j], s - path_s_[j], L, 1.0);
   for (int j = k + 1; j < last && path_s_[j] < s + L; ++j) limit(path_corner_speed_[j], path_s_[j] - s, L, -1.0);
   qd_d_ = (rate / length) * (path_[k + 1] - path_[k]);

@@ -65,6 +65,18 @@ bool SameObstacle(const rmp::Obstacle& a, const rmp::Obstacle& b) {
   return a.box.X_WB.matrix() == b.box.X_WB.matrix() && a.box.half_size == b.box.half_size;
 }
 
+// a pair whose distance is bounded below by `lower_bound` cannot lower the smallest distance d found so far, nor, in a
+// validity check (a finite stop_below), make the answer <= stop_below when the bound exceeds stop_below
+bool CannotMatter(double lower_bound, double d, double stop_below) {
+  return lower_bound >= d || (std::isfinite(stop_below) && lower_bound > stop_below);
+}
+
+// the same for the pair of a bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
+bool SpheresCannotMatter(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius, double d,
+                         double stop_below) {
+  return CannotMatter((a.head<3>() - centre).norm() - a[3] - radius, d, stop_below);
+}
+
 }  // namespace
 
 void ValidateRrtOptions(const RrtOptions& o) {
@@ -213,12 +225,9 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
         0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + capsule_W[c].radius;
   }
   double d = kInf;
-  // a pair whose distance is bounded below by the smallest distance so far cannot lower it, nor, in a validity check
-  // (a finite stop_below), one bounded below by more than stop_below make the answer <= stop_below
-  const double cull_above = std::isfinite(stop_below) ? stop_below : kInf;
-  auto cannot_matter = [&d, cull_above](double lower_bound) { return lower_bound >= d || lower_bound > cull_above; };
-  auto bounded_out = [&](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
-    return cannot_matter((a.head<3>() - centre).norm() - a[3] - radius);
+  auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
+  auto bounded_out = [&d, stop_below](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+    return SpheresCannotMatter(a, centre, radius, d, stop_below);
   };
   for (const rmp::Obstacle& o : obstacles) {
     const Eigen::Vector3d centre = rmp::Centre(o);
@@ -251,11 +260,6 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
 }
 
 double RrtPolicy::Impl::SelfClearance(double stop_below, double d) const {
-  const double cull_above = std::isfinite(stop_below) ? stop_below : kInf;
-  auto cannot_matter = [&d, cull_above](double lower_bound) { return lower_bound >= d || lower_bound > cull_above; };
-  auto bounded_out = [&](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
-    return cannot_matter((a.head<3>() - centre).norm() - a[3] - radius);
-  };
   if (options.check_floor) {
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (!floor_checked[c]) continue;
@@ -265,7 +269,9 @@ double RrtPolicy::Impl::SelfClearance(double stop_below, double d) const {
     }
   }
   for (const auto& [a, b] : self_pairs) {
-    if (bounded_out(capsule_sphere[a], capsule_sphere[b].head<3>(), capsule_sphere[b][3])) continue;
+    if (SpheresCannotMatter(capsule_sphere[a], capsule_sphere[b].head<3>(), capsule_sphere[b][3], d, stop_below)) {
+      continue;
+    }
     d = std::min(d, math::CapsuleCapsuleDistance(capsule_W[a], capsule_W[b]).distance);
     if (d <= stop_below) return d;
   }
