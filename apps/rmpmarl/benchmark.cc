@@ -28,6 +28,7 @@ struct MbmArgs {
   int moving = 0;
   std::vector<double> speed{0.5, 1.5};
   std::uint64_t crossing_seed = 1;
+  bool servo_feedforward = true;
 };
 
 std::string CommandLine(int argc, char** argv) {
@@ -66,6 +67,7 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
   options.speed_min = args.speed.front();
   options.speed_max = args.speed.back();
   options.crossing_seed = args.crossing_seed;
+  options.servo_feedforward = args.servo_feedforward;
 
   std::vector<std::string> names;
   for (experiments::MbmMethod m : methods) names.push_back(experiments::MbmMethodName(m));
@@ -74,7 +76,7 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        "success: the end effector within {:g} mm of the goal's at the end and no collision event. "
                        "Learned controller: {}. Planner: RRT-Connect on the capsule model with shortcutting, {:g} s "
                        "budget{}, safety margin {:g} mm, seed {} + a key of the problem (its family and index). Plan follower: "
-                       "{}. Machine: {} threads.",
+                       "{}. Simulated servos: PD{}. Machine: {} threads.",
                        robot.name, robot.model.nq(), robot.capsules.size(),
                        robot.urdf_path.empty() ? "built in" : robot.urdf_path.filename().string(), problems.size(),
                        args.problems, fmt::join(names, ", "), options.duration, 1e3 * options.goal_tolerance,
@@ -82,6 +84,8 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        args.planning_iterations > 0 ? fmt::format(" or {} iterations", args.planning_iterations) : "",
                        1e3 * options.plan.planner.safety_margin, options.seed,
                        args.follow.empty() ? "built in" : std::filesystem::path(args.follow).filename().string(),
+                       options.servo_feedforward ? " with the inverse-dynamics feed-forward of the commanded acceleration"
+                                                 : " alone",
                        options.jobs);
   if (options.moving > 0) {
     setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "
@@ -150,6 +154,9 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
       ->check(CLI::Range(1e-3, 20.0));
   mbm->add_option("--crossing-seed", args->crossing_seed, "seed of the crossings (each problem its own draw)")
       ->check(SeedCheck());
+  mbm->add_flag("--servo-feedforward,!--no-servo-feedforward", args->servo_feedforward,
+               "the simulated arm's servos add the inverse-dynamics feed-forward of the commanded acceleration, as a "
+               "model-based joint controller does (default on; off: the PD alone)");
   mbm->add_option("--out", args->out, "output folder (results.csv, report.md)");
   const std::string command = CommandLine(argc, argv);
   mbm->callback([args, command]() { RunMbm(*args, command); });

@@ -103,7 +103,8 @@ class Controller:
                joint_target: Optional[ArrayLike] = None, joint_target_velocity: Optional[ArrayLike] = None,
                joint_target_acceleration: Optional[ArrayLike] = None, cloud: Optional[ArrayLike] = None,
                cloud_time: Optional[float] = None) -> tuple[FloatArray, FloatArray, dict[str, Any]]:
-        """one control step: (q_cmd [nq], qd_cmd [nq], info)"""
+        """one control step: (q_cmd [nq], qd_cmd [nq], info); info: finite, resynced, position_clamps,
+        velocity_clamps, compute_us [µs], qdd_cmd [nq] (the commanded acceleration over the period)"""
     def clear_cloud(self) -> None:
         """forgets the last cloud's obstacles and tracks"""
     def set_cloud_options(self, *, voxel_size: float = 0.02, self_filter_margin: float = 0.01,

@@ -358,10 +358,12 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         info["position_clamps"] = r.position_clamps;
         info["velocity_clamps"] = r.velocity_clamps;
         info["compute_us"] = r.compute_us;
+        info["qdd_cmd"] = VectorToNumpy(h.controller->qdd_cmd());
         return py::make_tuple(VectorToNumpy(h.controller->q_cmd()), VectorToNumpy(h.controller->qd_cmd()), info);
       }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS,
            (std::string("one control step: returns (q_cmd [nq], qd_cmd [nq], info). A non-finite q̈ holds position "
-                        "(info['finite'] False).") + kSceneDoc).c_str())
+                        "(info['finite'] False); info['qdd_cmd'] is the commanded acceleration over the period (for a "
+                        "torque or inverse-dynamics feed-forward).") + kSceneDoc).c_str())
       .def("clear_cloud", [](ControllerHandle& h) {
         if (h.cloud) h.cloud->Reset();
       }, "forgets the last cloud's obstacles and tracks")

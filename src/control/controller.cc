@@ -108,6 +108,7 @@ ReactiveController::ReactiveController(const ServoSpec& servos, std::unique_ptr<
   q_cmd_ = Eigen::VectorXd::Zero(nq).cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_.setZero(nq);
   qdd_.setZero(nq);
+  qdd_cmd_.setZero(nq);
   q_target_ = q_cmd_;
 }
 
@@ -125,6 +126,7 @@ void ReactiveController::Reset(const Eigen::Ref<const Eigen::VectorXd>& q, const
   q_cmd_ = q.cwiseMax(lower_).cwiseMin(upper_);
   qd_cmd_ = qd.cwiseMax(-v_max_).cwiseMin(v_max_);
   qdd_.setZero();
+  qdd_cmd_.setZero();
   q_target_ = q_cmd_;
   stats_ = ControllerStats{};
   policy_->Reset(q_cmd_);
@@ -159,6 +161,7 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
     result.resynced = true;
   }
   policy_->BeginControlStep(q, qd, scene);
+  qdd_cmd_ = qd_cmd_;  // the period's start (after a resync)
   const double h = substep();
   for (int s = 0; s < substeps_; ++s) {
     if (options_.policy_input == PolicyInput::kCommanded) {
@@ -175,6 +178,7 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
     Integrate(h, &result);
   }
   q_target_ = q_cmd_ + feedforward_.cwiseProduct(qd_cmd_);
+  qdd_cmd_ = (qd_cmd_ - qdd_cmd_) / period_;
   const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   result.compute_us = us;
   ++stats_.steps;

@@ -234,8 +234,10 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   const sim::StaticSceneOptions& static_scene = prepared.scene;
   const int num_obstacles = static_cast<int>(static_scene.obstacles.size() + static_scene.moving.size());
   sim::StaticScenario scenario(robot, static_scene);
-  auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario.scene_spec(),
-                                                             sim::WorldOptions{.warning_margin = 0.0});
+  sim::WorldOptions world_options;
+  world_options.warning_margin = 0.0;
+  world_options.servo.inverse_dynamics_feedforward = options.servo_feedforward;
+  auto world_model = std::make_shared<const sim::WorldModel>(robot, scenario.scene_spec(), world_options);
   sim::World world(world_model);
 
   // the controller: its acceleration policy and options
@@ -281,6 +283,7 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   r.final_error = m.final_tracking_error;
   r.joint_error = (world.q() - static_scene.q_goal).cwiseAbs().maxCoeff();
   r.path_length = length;
+  r.min_clearance = m.min_clearance;
   r.control_us = m.mean_control_us;
   if (follower != nullptr) {
     const planning::PlanFollowStats& s = follower->stats();
@@ -448,11 +451,12 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
   fs::create_directories(out);
   std::ofstream csv(out / "results.csv");
   csv << "family,problem,method,valid,success,reached,collisions,time_to_goal_s,final_error_mm,joint_error_rad,"
-         "path_length_rad,planning_time_ms,plans,control_us,invalid_reason\n";
+         "path_length_rad,min_clearance_mm,planning_time_ms,plans,control_us,invalid_reason\n";
   for (const MbmResult& r : results) {
-    csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{:.3f},{},{:.2f},{}\n", CsvField(r.family),
-                       r.index, r.method, r.valid ? 1 : 0, r.success ? 1 : 0, r.reached ? 1 : 0, r.collisions,
-                       r.time_to_goal, 1e3 * r.final_error, r.joint_error, r.path_length,
+    csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{:.2f},{:.3f},{},{:.2f},{}\n",
+                       CsvField(r.family), r.index, r.method, r.valid ? 1 : 0, r.success ? 1 : 0, r.reached ? 1 : 0,
+                       r.collisions, r.time_to_goal, 1e3 * r.final_error, r.joint_error, r.path_length,
+                       1e3 * r.min_clearance,
                        r.planning_time >= 0.0 ? 1e3 * r.planning_time : -1.0, r.plans, r.control_us,
                        CsvField(r.invalid_reason));
   }

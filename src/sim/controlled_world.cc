@@ -10,7 +10,7 @@ void ResetController(control::ReactiveController& controller, const World& world
 control::ControlStepResult StepController(control::ReactiveController& controller, World& world,
                                           const rmp::Scene& scene) {
   const control::ControlStepResult result = controller.Update(world.q(), world.qd(), scene);
-  world.SetJointTargets(controller.servo_target());
+  world.SetJointTargets(controller.servo_target(), controller.qdd_cmd());
   return result;
 }
 

@@ -23,6 +23,8 @@ World::World(std::shared_ptr<const WorldModel> model) : model_(std::move(model))
   q_.setZero(nq);
   qd_.setZero(nq);
   q_cmd_.setZero(nq);
+  feedforward_acc_.assign(m->nv, 0.0);
+  feedforward_tau_.assign(m->nv, 0.0);
   // the scene's initial mocap poses (mj_makeData copied them from the model) are the authoritative copy.
   saved_mocap_pos_.assign(data_->mocap_pos, data_->mocap_pos + 3 * m->nmocap);
   saved_mocap_quat_.assign(data_->mocap_quat, data_->mocap_quat + 4 * m->nmocap);
@@ -103,6 +105,32 @@ void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd) {
   kinematics::CheckJointVector(model_->kinematic_model(), q_cmd, "q_cmd");
   for (int i = 0; i < nq(); ++i) {
     q_cmd_[i] = std::clamp(q_cmd[i], model_->lower_limits()[i], model_->upper_limits()[i]);
+    data_->ctrl[model_->dof_actuator(i)] = q_cmd_[i];
+  }
+}
+
+void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd,
+                            const Eigen::Ref<const Eigen::VectorXd>& qdd_cmd) {
+  kinematics::CheckJointVector(model_->kinematic_model(), qdd_cmd, "qdd_cmd");
+  if (!model_->options().servo.inverse_dynamics_feedforward) {
+    SetJointTargets(q_cmd);
+    return;
+  }
+  kinematics::CheckJointVector(model_->kinematic_model(), q_cmd, "q_cmd");
+  // τ = M(q) q̈_cmd + c(q, q̇): mjData holds M and c of the current state (mj_step1 ran on it); a mimic joint
+  // accelerates with its leader
+  const mjModel* m = model_->mj_model();
+  std::fill(feedforward_acc_.begin(), feedforward_acc_.end(), 0.0);
+  for (int i = 0; i < nq(); ++i) feedforward_acc_[model_->dof_vel_adr(i)] = qdd_cmd[i];
+  for (const WorldModel::MimicJoint& mimic : model_->mimic_joints()) {
+    feedforward_acc_[mimic.vel_adr] = mimic.multiplier * qdd_cmd[mimic.dof];
+  }
+  mj_mulM(m, data_.get(), feedforward_tau_.data(), feedforward_acc_.data());
+  const Eigen::VectorXd& kp = model_->servo_gains().kp;
+  for (int i = 0; i < nq(); ++i) {
+    const int v = model_->dof_vel_adr(i);
+    const double target = q_cmd[i] + (feedforward_tau_[v] + data_->qfrc_bias[v]) / kp[i];
+    q_cmd_[i] = std::clamp(target, model_->lower_limits()[i], model_->upper_limits()[i]);
     data_->ctrl[model_->dof_actuator(i)] = q_cmd_[i];
   }
 }

@@ -44,6 +44,11 @@ def test_python_steps_equal_the_cpp_controller(tmp_path, reference, which):
         np.testing.assert_allclose(q_cmd, expected[t, 1], rtol=0, atol=1e-12)
         np.testing.assert_allclose(qd_cmd, expected[t, 2], rtol=0, atol=1e-12)
         assert info["finite"]
+        # the period's commanded acceleration: the change of the commanded velocity over the control period
+        if t > 0 and not info["velocity_clamps"] and not info["position_clamps"] and not info["resynced"]:
+            np.testing.assert_allclose(info["qdd_cmd"], (qd_cmd - previous_qd_cmd) * loop.control_rate, rtol=1e-9,
+                                       atol=1e-9)
+        previous_qd_cmd = qd_cmd
 
 
 def _capsule_box_clearance(capsule, centre, half):

@@ -99,6 +99,39 @@ TEST(ControllerTest, VelocityFeedForwardAddsDampingOverStiffnessTimesVelocity) {
   }
 }
 
+TEST(ControllerTest, CommandedAccelerationIsTheMeanOverThePeriod) {
+  // a constant q̈ = a: the commanded velocity grows by a T per period, so qdd_cmd = a; a velocity clamp caps it at
+  // (v_max − q̇ at the start) / T; zero after Reset
+  auto wm = Planar2World();
+  World world(wm);
+  const Eigen::Vector2d a(3.0, -2.0);
+  control::ReactiveController ctl(wm->servos(), std::make_unique<ConstantPolicy>(a));
+  world.Reset(Eigen::Vector2d(0.1, 0.2));
+  sim::ResetController(ctl, world);
+  EXPECT_EQ(ctl.qdd_cmd(), Eigen::Vector2d::Zero());
+  const double T = ctl.control_period();
+  Eigen::Vector2d v_start = ctl.qd_cmd();
+  int clamped_steps = 0;
+  for (int step = 0; step < 200; ++step) {
+    const control::ControlStepResult r = sim::StepController(ctl, world, rmp::Scene{});
+    ASSERT_FALSE(r.resynced);
+    const Eigen::Vector2d expected = (ctl.qd_cmd() - v_start) / T;
+    EXPECT_LT((ctl.qdd_cmd() - expected).cwiseAbs().maxCoeff(), 1e-9) << step;
+    if (r.position_clamps > 0) break;  // a joint limit zeroes the velocity: the period's mean says so (checked above)
+    if (r.velocity_clamps == 0) {
+      EXPECT_LT((ctl.qdd_cmd() - a).cwiseAbs().maxCoeff(), 1e-9) << step;
+    } else {
+      ++clamped_steps;
+      EXPECT_LT(ctl.qdd_cmd().cwiseAbs().maxCoeff(), a.cwiseAbs().maxCoeff() + 1e-9) << step;
+    }
+    v_start = ctl.qd_cmd();
+    world.Step(ctl.physics_steps_per_control());
+  }
+  EXPECT_GT(clamped_steps, 0);  // the velocity limit was reached
+  sim::ResetController(ctl, world);
+  EXPECT_EQ(ctl.qdd_cmd(), Eigen::Vector2d::Zero());
+}
+
 TEST(ControllerTest, ClampsVelocityAndZeroesItAtAJointLimit) {
   const kinematics::Robot robot = kinematics::MakePlanar2();  // |q| ≤ 3 rad, |q̇| ≤ 3 rad/s
   auto wm = std::make_shared<const WorldModel>(robot);

@@ -148,6 +148,10 @@ class ReactiveController {
   const Eigen::VectorXd& qd_cmd() const { return qd_cmd_; }
   /// the position-servo target of the last Update: q_cmd + (d/kp) q̇_cmd with velocity_feedforward, else q_cmd.
   const Eigen::VectorXd& servo_target() const { return q_target_; }
+  /// the commanded acceleration of the last Update: (q̇_cmd after it − q̇_cmd at its start) / control_period(), the
+  /// commanded state's mean acceleration over the period (clamps included; 0 after Reset) — what a servo with an
+  /// inverse-dynamics feed-forward adds to its target (sim::ServoOptions::inverse_dynamics_feedforward).
+  const Eigen::VectorXd& qdd_cmd() const { return qdd_cmd_; }
   /// the policy's last q̈ (as returned, possibly non-finite).
   const Eigen::VectorXd& qdd() const { return qdd_; }
 
@@ -182,7 +186,7 @@ class ReactiveController {
   int substeps_ = 1;
   Eigen::VectorXd lower_, upper_, v_max_;
   Eigen::VectorXd feedforward_;  // d_i / kp_i, or 0
-  Eigen::VectorXd q_cmd_, qd_cmd_, qdd_, q_target_;
+  Eigen::VectorXd q_cmd_, qd_cmd_, qdd_, q_target_, qdd_cmd_;
   ControllerStats stats_;
 };
 

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,10 @@ struct MbmOptions {
   planning::PlanFollowOptions plan{};
   std::uint64_t seed = 0;        ///< planner seed of a problem: seed + MbmProblemKey (the same for every method)
   int jobs = 1;                  ///< worker threads; results do not depend on it
+  /// the simulated arm's servos add the inverse-dynamics feed-forward of the commanded acceleration
+  /// (sim::ServoOptions::inverse_dynamics_feedforward), as a model-based joint controller does; false: the PD alone,
+  /// which trails a command that turns a corner at speed by centimetres — through a plan's 1 cm margin to a shelf
+  bool servo_feedforward = true;
   /// the dynamic variant: this many spheres cross the way of each problem (0: the static problems). Each crosses the
   /// path RRT-Connect plans for the problem (the open-loop method's, same seed), timed as it is executed: at a time
   /// drawn in [0.25, 0.75] of the path's duration its centre passes through the end effector's position then, on a
@@ -81,6 +86,9 @@ struct MbmResult {
   double final_error = 0.0;       ///< end-effector distance to the goal's at the end [m]
   double joint_error = 0.0;       ///< max_i |q_i − q_goal,i| at the end [rad or m]
   double path_length = 0.0;       ///< joint-space length of the executed motion [rad or m]
+  /// the arm's smallest signed distance to the cell or a moving sphere at a control step [m] (+inf: never within
+  /// 0.15 m): how close the executed motion passed
+  double min_clearance = std::numeric_limits<double>::infinity();
   double planning_time = -1.0;    ///< wall time of the first plan [s]; −1: no planner
   int plans = 0;                  ///< plans attempted
   double control_us = 0.0;        ///< mean controller time per control step [µs]

@@ -167,6 +167,10 @@ class World {
   /// commanded joint positions of the servos, clamped to the joint limits. Throws InputError unless q_cmd has nq
   /// finite entries.
   void SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd);
+  /// the same, with the commanded acceleration q̈_cmd (ReactiveController::qdd_cmd) for the servos' inverse-dynamics
+  /// feed-forward when the model's ServoOptions::inverse_dynamics_feedforward is on (ignored otherwise). Throws
+  /// InputError unless q̈_cmd has nq finite entries.
+  void SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd, const Eigen::Ref<const Eigen::VectorXd>& qdd_cmd);
   /// the current (clamped) joint targets.
   const Eigen::VectorXd& joint_targets() const { return q_cmd_; }
 
@@ -211,6 +215,7 @@ class World {
   std::shared_ptr<const WorldModel> model_;
   std::unique_ptr<mjData, DataDeleter> data_;
   Eigen::VectorXd q_, qd_, q_cmd_;
+  std::vector<double> feedforward_acc_, feedforward_tau_;  // nv: the commanded acceleration and M(q) times it
   std::vector<double> saved_mocap_pos_, saved_mocap_quat_;
   int seen_bad_qpos_ = 0, seen_bad_qvel_ = 0, seen_bad_qacc_ = 0;
   bool stale_ = false;  // a mocap pose changed since the last mj_step1
