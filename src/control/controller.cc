@@ -178,7 +178,11 @@ ControlStepResult ReactiveController::Update(const Eigen::Ref<const Eigen::Vecto
     Integrate(h, &result);
   }
   q_target_ = q_cmd_ + feedforward_.cwiseProduct(qd_cmd_);
-  qdd_cmd_ = (qd_cmd_ - qdd_cmd_) / period_;
+  if (result.finite) {
+    qdd_cmd_ = (qd_cmd_ - qdd_cmd_) / period_;
+  } else {
+    qdd_cmd_.setZero();  // holding position: no feed-forward of the velocity dropped to zero
+  }
   const double us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count();
   result.compute_us = us;
   ++stats_.steps;

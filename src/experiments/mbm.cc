@@ -453,10 +453,13 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
   csv << "family,problem,method,valid,success,reached,collisions,time_to_goal_s,final_error_mm,joint_error_rad,"
          "path_length_rad,min_clearance_mm,planning_time_ms,plans,control_us,invalid_reason\n";
   for (const MbmResult& r : results) {
-    csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{:.2f},{:.3f},{},{:.2f},{}\n",
+    // the smallest clearance "nan" where nothing came within the sensing margin, as the experiments' CSVs write it
+    const std::string min_clearance =
+        std::isfinite(r.min_clearance) ? fmt::format("{:.2f}", 1e3 * r.min_clearance) : std::string("nan");
+    csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{},{:.3f},{},{:.2f},{}\n",
                        CsvField(r.family), r.index, r.method, r.valid ? 1 : 0, r.success ? 1 : 0, r.reached ? 1 : 0,
                        r.collisions, r.time_to_goal, 1e3 * r.final_error, r.joint_error, r.path_length,
-                       1e3 * r.min_clearance,
+                       min_clearance,
                        r.planning_time >= 0.0 ? 1e3 * r.planning_time : -1.0, r.plans, r.control_us,
                        CsvField(r.invalid_reason));
   }

@@ -33,6 +33,7 @@ def test_python_steps_equal_the_cpp_controller(tmp_path, reference, which):
     make = (lambda: rmpmarl.rmpflow(robot, max_obstacles=4)) if which == "rmpflow" else \
         (lambda: rmpmarl.load_controller(source, robot=robot, max_obstacles=4))
     policy, loop = make(), make()
+    checked = 0
     for t, row in enumerate(rows):
         q, qd, p, box = row[:7], row[7:14], row[14:17], row[17:]
         if t == 0:
@@ -45,10 +46,12 @@ def test_python_steps_equal_the_cpp_controller(tmp_path, reference, which):
         np.testing.assert_allclose(qd_cmd, expected[t, 2], rtol=0, atol=1e-12)
         assert info["finite"]
         # the period's commanded acceleration: the change of the commanded velocity over the control period
-        if t > 0 and not info["velocity_clamps"] and not info["position_clamps"] and not info["resynced"]:
+        if t > 0 and not info["resynced"]:
             np.testing.assert_allclose(info["qdd_cmd"], (qd_cmd - previous_qd_cmd) * loop.control_rate, rtol=1e-9,
                                        atol=1e-9)
+            checked += 1
         previous_qd_cmd = qd_cmd
+    assert checked > 0
 
 
 def _capsule_box_clearance(capsule, centre, half):

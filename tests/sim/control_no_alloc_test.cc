@@ -62,24 +62,30 @@ TEST(ControlNoAllocTest, ControlStepScenarioAndPhysicsDoNotAllocate) {
 }
 
 TEST(ControlNoAllocTest, EpisodeLoopDoesNotAllocate) {
-  const kinematics::Robot robot = kinematics::LoadShippedRobot("ur5e");
-  LineCrossingScenario scenario(robot, {.speed = 1.8});
-  auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec());
-  World world(model);
-  control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, scenario.num_obstacles()));
-  long at_first_frame = -1, at_last_frame = -1;
-  int frames = 0;
-  const EpisodeMetrics r = RunEpisode({.duration = 4.0, .seed = 1, .video_fps = 10.0}, world, controller, scenario,
-                                     [&](const FrameInfo& f) {
-                                       const long now = AllocationCount();
-                                       if (f.index == 0) at_first_frame = now;
-                                       at_last_frame = now;
-                                       ++frames;
-                                     });
-  EXPECT_EQ(frames, 41);
-  EXPECT_EQ(r.length, 400);
-  // between the first frame (t = 0, after the set-up) and the last, the loop ran 4 s without allocating
-  EXPECT_EQ(at_last_frame - at_first_frame, 0);
+  // with the PD servos alone and with their inverse-dynamics feed-forward
+  for (const bool feedforward : {false, true}) {
+    SCOPED_TRACE(feedforward ? "feed-forward" : "PD alone");
+    const kinematics::Robot robot = kinematics::LoadShippedRobot("ur5e");
+    LineCrossingScenario scenario(robot, {.speed = 1.8});
+    WorldOptions options;
+    options.servo.inverse_dynamics_feedforward = feedforward;
+    auto model = std::make_shared<const WorldModel>(robot, scenario.scene_spec(), options);
+    World world(model);
+    control::ReactiveController controller(model->servos(), std::make_unique<control::RmpflowAccelerationPolicy>(robot, scenario.num_obstacles()));
+    long at_first_frame = -1, at_last_frame = -1;
+    int frames = 0;
+    const EpisodeMetrics r = RunEpisode({.duration = 4.0, .seed = 1, .video_fps = 10.0}, world, controller, scenario,
+                                       [&](const FrameInfo& f) {
+                                         const long now = AllocationCount();
+                                         if (f.index == 0) at_first_frame = now;
+                                         at_last_frame = now;
+                                         ++frames;
+                                       });
+    EXPECT_EQ(frames, 41);
+    EXPECT_EQ(r.length, 400);
+    // between the first frame (t = 0, after the set-up) and the last, the loop ran 4 s without allocating
+    EXPECT_EQ(at_last_frame - at_first_frame, 0);
+  }
 }
 
 }  // namespace

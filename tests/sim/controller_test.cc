@@ -192,6 +192,7 @@ TEST(ControllerTest, NonFinitePolicyOutputHoldsPositionAndNeverReachesMujoco) {
         if (held.size() == 0) held = ctl.q_cmd();
         EXPECT_EQ(ctl.q_cmd(), held);  // holds the last commanded position
         EXPECT_FALSE(ctl.qdd().allFinite());
+        EXPECT_TRUE(ctl.qdd_cmd().isZero(0.0));  // no feed-forward of the dropped velocity
       }
       const StepResult s = world.Step(ctl.physics_steps_per_control());
       ASSERT_TRUE(s.ok);

@@ -149,8 +149,9 @@ class ReactiveController {
   /// the position-servo target of the last Update: q_cmd + (d/kp) q̇_cmd with velocity_feedforward, else q_cmd.
   const Eigen::VectorXd& servo_target() const { return q_target_; }
   /// the commanded acceleration of the last Update: (q̇_cmd after it − q̇_cmd at its start) / control_period(), the
-  /// commanded state's mean acceleration over the period (clamps included; 0 after Reset) — what a servo with an
-  /// inverse-dynamics feed-forward adds to its target (sim::ServoOptions::inverse_dynamics_feedforward).
+  /// commanded state's mean acceleration over the period (clamps included; 0 after Reset and when a non-finite q̈
+  /// holds the position) — what a servo with an inverse-dynamics feed-forward adds to its target
+  /// (sim::ServoOptions::inverse_dynamics_feedforward).
   const Eigen::VectorXd& qdd_cmd() const { return qdd_cmd_; }
   /// the policy's last q̈ (as returned, possibly non-finite).
   const Eigen::VectorXd& qdd() const { return qdd_; }

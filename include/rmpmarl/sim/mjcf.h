@@ -33,10 +33,11 @@ struct ServoOptions {
   Eigen::VectorXd kp;               ///< explicit stiffness per dof (size nq, > 0); empty: computed as above
   Eigen::VectorXd damping;          ///< explicit joint damping per dof (size nq, ≥ 0); empty: computed as above
   bool limit_force_to_effort = false;  ///< clamp each servo's force to ± the URDF effort limit (when > 0)
-  /// World::SetJointTargets(q_cmd, q̈_cmd) offsets each target by (M(q) q̈_cmd + c(q, q̇))_i / kp_i, the torque the
-  /// commanded acceleration needs (joint-space inertia M and Coriolis/centrifugal forces c of the current state): a
-  /// model-based joint controller's inverse-dynamics feed-forward, so that the arm does not trail its command by
-  /// M q̈ / kp where the command accelerates (a corner of a path). Off: the PD alone, the targets as commanded.
+  /// World::SetJointTargets(q_cmd, q̈_cmd) offsets each target by τ_i / kp_i, τ = M(q) q̈_cmd + c(q, q̇) + h D q̈_cmd
+  /// (MuJoCo integrates the joint damping D implicitly, with either integrator), the torque the commanded
+  /// acceleration needs, with M (armature included) and the Coriolis/centrifugal forces c of the state at the control
+  /// step, held over its physics steps: a model-based joint controller's inverse-dynamics feed-forward, so that the arm
+  /// does not trail its command by M q̈ / kp where the command accelerates (a corner of a path). Off: the PD alone.
   bool inverse_dynamics_feedforward = false;
 };
 

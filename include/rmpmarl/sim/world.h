@@ -168,10 +168,13 @@ class World {
   /// finite entries.
   void SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd);
   /// the same, with the commanded acceleration q̈_cmd (ReactiveController::qdd_cmd) for the servos' inverse-dynamics
-  /// feed-forward when the model's ServoOptions::inverse_dynamics_feedforward is on (ignored otherwise). Throws
+  /// feed-forward when the model's ServoOptions::inverse_dynamics_feedforward is on (ignored otherwise): the servos'
+  /// targets (mjData ctrl) are the clamped commands offset by the torque q̈_cmd needs at the current state over kp,
+  /// clamped to the limits again (so within about M q̈ / kp of a limit the feed-forward is cut); joint_targets() keeps
+  /// the commands without the offset. The one-argument form gives the PD alone whatever the option. Throws
   /// InputError unless q̈_cmd has nq finite entries.
   void SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd, const Eigen::Ref<const Eigen::VectorXd>& qdd_cmd);
-  /// the current (clamped) joint targets.
+  /// the current (clamped) joint targets, without the feed-forward's offset.
   const Eigen::VectorXd& joint_targets() const { return q_cmd_; }
 
   /// moves obstacle j's centre frame to (p_WO, R_WO). Throws InputError for a bad index, non-finite values or a
