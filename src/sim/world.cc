@@ -112,15 +112,12 @@ void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd) {
 void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd,
                             const Eigen::Ref<const Eigen::VectorXd>& qdd_cmd) {
   kinematics::CheckJointVector(model_->kinematic_model(), qdd_cmd, "qdd_cmd");
-  if (!model_->options().servo.inverse_dynamics_feedforward) {
-    SetJointTargets(q_cmd);
-    return;
-  }
-  kinematics::CheckJointVector(model_->kinematic_model(), q_cmd, "q_cmd");
+  SetJointTargets(q_cmd);  // the commands (checked, clamped) and, without the feed-forward, the servos' targets
+  if (!model_->options().servo.inverse_dynamics_feedforward) return;
   // τ = M(q) q̈_cmd + c(q, q̇) + h D q̈_cmd, from mjData's M and c of the current state (mj_step1 ran on it): both
   // integrators take the joint damping D implicitly, the step solving (M + h D) q̈ = f (the implicit one also the
-  // velocity derivative of c, left out here). A mimic joint accelerates with
-  // its leader, whose servo supplies the follower's share through the equality (virtual work: multiplier × τ_f).
+  // velocity derivative of c, left out here). A mimic joint accelerates with its leader (its root servoed dof), whose
+  // servo supplies the follower's torque and joint damping through the equality (virtual work: multiplier × τ_f).
   const mjModel* m = model_->mj_model();
   std::fill(feedforward_acc_.begin(), feedforward_acc_.end(), 0.0);
   for (int i = 0; i < nq(); ++i) feedforward_acc_[model_->dof_vel_adr(i)] = qdd_cmd[i];
@@ -132,20 +129,15 @@ void World::SetJointTargets(const Eigen::Ref<const Eigen::VectorXd>& q_cmd,
   for (int v = 0; v < m->nv; ++v) {
     feedforward_tau_[v] += data_->qfrc_bias[v] + h * m->dof_damping[v] * feedforward_acc_[v];
   }
-  // a follower has no servo of its own: its joint damping (whose velocity feed-forward a servo would carry) is the
-  // leader's to supply too
   for (const WorldModel::MimicJoint& mimic : model_->mimic_joints()) {
-    feedforward_tau_[mimic.vel_adr] -= data_->qfrc_passive[mimic.vel_adr];
+    feedforward_tau_[model_->dof_vel_adr(mimic.dof)] +=
+        mimic.multiplier * (feedforward_tau_[mimic.vel_adr] - data_->qfrc_passive[mimic.vel_adr]);
   }
   const Eigen::VectorXd& kp = model_->servo_gains().kp;
   for (int i = 0; i < nq(); ++i) {
-    double tau = feedforward_tau_[model_->dof_vel_adr(i)];
-    for (const WorldModel::MimicJoint& mimic : model_->mimic_joints()) {
-      if (mimic.dof == i) tau += mimic.multiplier * feedforward_tau_[mimic.vel_adr];
-    }
-    q_cmd_[i] = std::clamp(q_cmd[i], model_->lower_limits()[i], model_->upper_limits()[i]);
-    const double target = std::clamp(q_cmd_[i] + tau / kp[i], model_->lower_limits()[i], model_->upper_limits()[i]);
-    data_->ctrl[model_->dof_actuator(i)] = target;
+    const double tau = feedforward_tau_[model_->dof_vel_adr(i)];
+    data_->ctrl[model_->dof_actuator(i)] =
+        std::clamp(q_cmd_[i] + tau / kp[i], model_->lower_limits()[i], model_->upper_limits()[i]);
   }
 }
 

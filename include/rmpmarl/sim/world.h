@@ -218,7 +218,7 @@ class World {
   std::shared_ptr<const WorldModel> model_;
   std::unique_ptr<mjData, DataDeleter> data_;
   Eigen::VectorXd q_, qd_, q_cmd_;
-  std::vector<double> feedforward_acc_, feedforward_tau_;  // nv: the commanded acceleration and M(q) times it
+  std::vector<double> feedforward_acc_, feedforward_tau_;  // nv: the commanded acceleration, the torque it needs
   std::vector<double> saved_mocap_pos_, saved_mocap_quat_;
   int seen_bad_qpos_ = 0, seen_bad_qvel_ = 0, seen_bad_qacc_ = 0;
   bool stale_ = false;  // a mocap pose changed since the last mj_step1
