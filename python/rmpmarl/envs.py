@@ -157,7 +157,7 @@ class VectorEnv(_VectorEnvBase):
 
 def make_vec_env(task, num_envs=1, *, robot=None, collision=None, interface=None, overrides=None, num_threads=1,
                  seed=0, copy=True):
-    """N environments of `task` (rmpmarl.task_names(): pretrain-2link, reach-avoid, line-crossing, cluttered, or a
+    """N environments of `task` (rmpmarl.task_names(): pretrain-2link, reach-avoid, line-crossing, cluttered, cells, or a
     task .yaml) on `robot` (default: the task's; a shipped arm, a .urdf path or an rmpmarl.Robot) with `interface`
     (default: the task's; per-joint-rmp, direct or per-joint-direct), task `overrides` (a dict or YAML text merged
     over the task file), stepped on `num_threads` threads. Environment k draws from seed + k."""

@@ -4,7 +4,7 @@
     envs = gymnasium.make_vec("rmpmarl/ReachAvoid-v0", num_envs=64)        # the batched engine (rmpmarl.VectorEnv)
 
 registered when rmpmarl is imported: rmpmarl/PretrainTwoLink-v0, rmpmarl/ReachAvoid-v0, rmpmarl/LineCrossing-v0,
-rmpmarl/Cluttered-v0. Keyword arguments are make_vec_env's (robot, collision, interface, overrides, seed, ...).
+rmpmarl/Cluttered-v0, rmpmarl/Cells-v0. Keyword arguments are make_vec_env's (robot, collision, interface, overrides, seed, ...).
 A single environment is the batched engine with one environment: every agent's observation at once
 [num_agents, obs_dim], every agent's flat action at once [num_agents, action_size], the team reward.
 """
@@ -21,6 +21,7 @@ TASK_IDS = {
     "reach-avoid": "rmpmarl/ReachAvoid-v0",
     "line-crossing": "rmpmarl/LineCrossing-v0",
     "cluttered": "rmpmarl/Cluttered-v0",
+    "cells": "rmpmarl/Cells-v0",
 }
 
 

@@ -93,9 +93,12 @@ AgentConfig DefaultAgentConfig(std::string_view task) {
   } else if (task == "cluttered") {
     c.episode.max_steps = 500;
     c.observation.max_obstacles = 6;
+  } else if (task == "cells") {
+    c.episode.max_steps = 1000;      // 10 s: a benchmark problem's time
+    c.observation.max_obstacles = 10;  // 6 boards, 2 objects, the object reached for, 1 crossing cube
   } else {
-    throw InputError(fmt::format("task: expected one of pretrain-2link, reach-avoid, line-crossing, cluttered, got "
-                                 "'{}'", task));
+    throw InputError(fmt::format("task: expected one of pretrain-2link, reach-avoid, line-crossing, cluttered, cells, "
+                                 "got '{}'", task));
   }
   return c;
 }
@@ -151,6 +154,8 @@ void ReadAgentSections(const YamlReader& r, const YAML::Node& root, AgentConfig*
                  IntegerField(r, "parameter_period", &o.parameter_period),
                  NumberField(r, "target_gate_clearance", &o.target_gate_clearance, /*allow_inf=*/true),
                  NumberField(r, "target_gate_clear", &o.target_gate_clear), NumberField(r, "target_gate_threat", &o.target_gate_threat),
+                 NumberField(r, "collision_gate_clear", &o.collision_gate_clear),
+                 NumberField(r, "collision_gate_threat", &o.collision_gate_threat),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -262,6 +267,11 @@ void ValidateAgentConfig(const AgentConfig& c, std::string_view where) {
         "a parameter u in [-1, 1]", op.target_gate_clear);
   check(std::isfinite(op.target_gate_threat) && std::abs(op.target_gate_threat) <= 1.0, "options.target_gate_threat",
         "a parameter u in [-1, 1]", op.target_gate_threat);
+  for (const auto& [key, u] : {std::pair{"options.collision_gate_clear", op.collision_gate_clear},
+                               std::pair{"options.collision_gate_threat", op.collision_gate_threat}}) {
+    check(std::isfinite(u) && std::abs(u) <= 1.0, key, "a parameter u in [-1, 1]", u);
+    check(u == 0.0 || op.TargetGated(), key, "0 unless options.target_gate_clearance sets the gate", u);
+  }
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);

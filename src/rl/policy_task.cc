@@ -88,9 +88,14 @@ tasks::TaskConfig PolicyTaskConfig(const control::PolicyFile& file, const std::s
       case tasks::TaskKind::kLineCrossing:
         config.scenario.line_speeds = {move.obstacle_speed};
         break;
+      case tasks::TaskKind::kCells:  // its crossing cubes
+        config.scenario.cells.crossing_speed = move.obstacle_speed;
+        config.scenario.cells.crossing_speed_max = 0.0;
+        break;
       default:
-        throw InputError(fmt::format("{}: --obstacle-speed: the {} scene's obstacles do not move (reach-avoid and "
-                                     "line-crossing have moving ones)", path, tasks::TaskKindName(config.task)));
+        throw InputError(fmt::format("{}: --obstacle-speed: the {} scene's obstacles do not move (reach-avoid, "
+                                     "line-crossing and cells have moving ones)", path,
+                                     tasks::TaskKindName(config.task)));
     }
   }
   tasks::ValidateTaskConfig(config, config.source);

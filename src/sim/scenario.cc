@@ -13,55 +13,22 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/rmp/rmpflow.h"
+#include "scenario_internal.h"
 
 namespace rmpmarl::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// throws InputError "<where>: expected <expected>, got <got>" unless ok (and value finite).
-void Require(bool ok, std::string_view where, std::string_view expected, double got) {
-  if (!ok || std::isnan(got)) throw InputError(fmt::format("{}: expected {}, got {}", where, expected, got));
-}
-
-double Uniform(std::mt19937_64& rng, double lo, double hi) {
-  return std::uniform_real_distribution<double>(lo, hi)(rng);
-}
-
-// lower/upper bound of dof i for sampling (continuous joints: [-pi, pi]).
-std::pair<double, double> SamplingRange(const kinematics::DofLimits& l) {
-  return {std::isfinite(l.lower) ? l.lower : -M_PI, std::isfinite(l.upper) ? l.upper : M_PI};
-}
-
-Eigen::Vector3d EndEffector(const kinematics::Robot& robot, const kinematics::Data& data) {
-  return kinematics::CalcPointPosition(data, robot.end_effector.link, robot.end_effector.X_LE.translation());
-}
-
-// smallest distance between capsules of checked link pairs (different links, not excluded) at the FK in data.
-double MinSelfClearance(const kinematics::Robot& robot, const kinematics::Data& data) {
-  double d = kInf;
-  for (size_t a = 0; a < robot.capsules.size(); ++a) {
-    for (size_t b = a + 1; b < robot.capsules.size(); ++b) {
-      const auto& ca = robot.capsules[a];
-      const auto& cb = robot.capsules[b];
-      if (ca.link == cb.link || robot.IsExcludedPair(ca.link, cb.link)) continue;
-      d = std::min(d, math::CapsuleCapsuleDistance(kinematics::WorldCapsule(ca, data),
-                                                   kinematics::WorldCapsule(cb, data)).distance);
-    }
-  }
-  return d;
-}
-
-// lowest point of the capsules on links moved by two or more dofs (an arm's first joint only spins its column).
-double LowestMovingPoint(const kinematics::Robot& robot, const kinematics::Data& data) {
-  double z = kInf;
-  for (const auto& c : robot.capsules) {
-    if (robot.model.link_dofs(c.link).size() < 2) continue;
-    const math::Capsule w = kinematics::WorldCapsule(c, data);
-    z = std::min({z, w.p_WA.z() - c.radius, w.p_WB.z() - c.radius});
-  }
-  return z;
-}
+using internal::BaseDistance;
+using internal::CutToSpawnDisc;
+using internal::EndEffector;
+using internal::HorizontalPath;
+using internal::LowestMovingPoint;
+using internal::MinSelfClearance;
+using internal::Require;
+using internal::SamplingRange;
+using internal::Uniform;
 
 void CheckStart(const kinematics::Robot& robot, const Eigen::VectorXd& q, std::string_view where) {
   const kinematics::Model& m = robot.model;
@@ -75,25 +42,6 @@ void CheckStart(const kinematics::Robot& robot, const Eigen::VectorXd& q, std::s
                                    m.dof_name(i), m.limits()[i].lower, m.limits()[i].upper, q[i]));
     }
   }
-}
-
-// A horizontal line through P with direction d, cut to the disc of radius r_spawn around the base z axis.
-struct HorizontalPath {
-  Eigen::Vector3d p_start;
-  double length;
-};
-HorizontalPath CutToSpawnDisc(const Eigen::Vector3d& P, const Eigen::Vector3d& d, double r_spawn) {
-  const Eigen::Vector2d p(P.x(), P.y());
-  const Eigen::Vector2d u(d.x(), d.y());
-  const double along = p.dot(u);
-  const double b2 = std::max(0.0, p.squaredNorm() - along * along);
-  const double half = std::sqrt(std::max(0.0, r_spawn * r_spawn - b2));
-  return {P + (-along - half) * d, 2.0 * half};
-}
-
-// horizontal distance of the line through P along d (horizontal unit vector) from the base z axis.
-double BaseDistance(const Eigen::Vector3d& P, const Eigen::Vector3d& d) {
-  return std::abs(P.x() * d.y() - P.y() * d.x());
 }
 
 SceneSpec CubeScene(int n, double side) {

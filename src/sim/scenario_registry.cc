@@ -69,6 +69,16 @@ std::vector<Entry>& Registry() {
                    RejectOverride(o.num_obstacles.has_value(), "pretrain-2link", "obstacle count");
                    return std::unique_ptr<Scenario>(new PretrainScenario(robot, s.pretrain));
                  }});
+    r.push_back({"cells", [](const kinematics::Robot& robot, const SceneOptions& s, const ScenarioOverrides& o) {
+                   RejectOverride(o.target_speed.has_value(), "cells", "target speed");
+                   CellsOptions options = s.cells;
+                   if (o.obstacle_speed) {  // every crossing cube at this speed
+                     options.crossing_speed = *o.obstacle_speed;
+                     options.crossing_speed_max = 0.0;
+                   }
+                   if (o.num_obstacles) options.num_crossing = *o.num_obstacles;
+                   return std::unique_ptr<Scenario>(new CellsScenario(robot, options));
+                 }});
     return r;
   }();
   return registry;

@@ -93,6 +93,38 @@ void ReadScenario(const Reader& r, const YAML::Node& node, TaskKind task, Scenar
                    Workspace(r, &c.workspace)});
       break;
     }
+    case TaskKind::kCells: {
+      sim::CellsOptions& c = s->cells;
+      ReadYamlSection(r, node, key,
+                  {{"kind_weights", [&r, &c](const YAML::Node& n, const std::string& k) {
+                      const std::vector<double> w = r.List(n, k);
+                      if (w.size() != c.kind_weights.size()) {
+                        r.Fail(n, k, fmt::format("expected {} weights (shelf, box, table, under-table), got {}",
+                                                 c.kind_weights.size(), w.size()));
+                      }
+                      std::copy(w.begin(), w.end(), c.kind_weights.begin());
+                    }},
+                   NumberField(r, "panel_length", &c.panel_length), NumberField(r, "panel_width", &c.panel_width),
+                   NumberField(r, "panel_thickness", &c.panel_thickness), IntegerField(r, "num_panels", &c.num_panels),
+                   IntegerField(r, "num_objects", &c.num_objects), NumberField(r, "object_side", &c.object_side),
+                   RangeField(r, "opening_width", &c.opening_width), RangeField(r, "opening_height", &c.opening_height),
+                   RangeField(r, "depth", &c.depth), RangeField(r, "box_size", &c.box_size),
+                   RangeField(r, "box_height", &c.box_height), RangeField(r, "table_gap", &c.table_gap),
+                   NumberField(r, "grasp_object_probability", &c.grasp_object_probability),
+                   NumberField(r, "grasp_object_half_width", &c.grasp_object_half_width),
+                   NumberField(r, "grasp_object_half_length", &c.grasp_object_half_length),
+                   RangeField(r, "grasp_clearance", &c.grasp_clearance),
+                   IntegerField(r, "num_crossing", &c.num_crossing), NumberField(r, "crossing_side", &c.crossing_side),
+                   NumberField(r, "crossing_speed", &c.crossing_speed),
+                   NumberField(r, "crossing_speed_max", &c.crossing_speed_max),
+                   NumberField(r, "min_base_distance", &c.min_base_distance), NumberField(r, "spawn_margin", &c.spawn_margin),
+                   NumberField(r, "start_spread", &c.start_spread), NumberField(r, "limit_margin", &c.limit_margin),
+                   NumberField(r, "min_target_distance", &c.min_target_distance),
+                   NumberField(r, "goal_clearance", &c.goal_clearance), NumberField(r, "start_clearance", &c.start_clearance),
+                   FlagField(r, "joint_goal", &c.joint_goal), IntegerField(r, "max_attempts", &c.max_attempts),
+                   Workspace(r, &c.workspace)});
+      break;
+    }
   }
 }
 
@@ -105,6 +137,7 @@ std::string_view TaskKindName(TaskKind kind) {
     case TaskKind::kReachAvoid: return "reach-avoid";
     case TaskKind::kLineCrossing: return "line-crossing";
     case TaskKind::kCluttered: return "cluttered";
+    case TaskKind::kCells: return "cells";
   }
   return "?";
 }
@@ -115,6 +148,7 @@ std::string_view TaskSceneName(TaskKind kind) {
     case TaskKind::kReachAvoid: return "crossing";
     case TaskKind::kLineCrossing: return "line-crossing";
     case TaskKind::kCluttered: return "cluttered";
+    case TaskKind::kCells: return "cells";
   }
   return "?";
 }
@@ -122,7 +156,7 @@ std::string_view TaskSceneName(TaskKind kind) {
 TaskKind TaskOfScene(std::string_view scene) {
   std::string scenes;
   for (TaskKind kind : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing,
-                        TaskKind::kCluttered}) {
+                        TaskKind::kCluttered, TaskKind::kCells}) {
     if (TaskSceneName(kind) == scene) return kind;
     scenes += fmt::format("{}{} ({})", scenes.empty() ? "" : ", ", TaskSceneName(kind), TaskKindName(kind));
   }
@@ -130,7 +164,7 @@ TaskKind TaskOfScene(std::string_view scene) {
 }
 
 bool IsArmTaskScene(std::string_view scene) {
-  for (TaskKind kind : {TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered}) {
+  for (TaskKind kind : {TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered, TaskKind::kCells}) {
     if (TaskSceneName(kind) == scene) return true;
   }
   return false;
@@ -158,14 +192,17 @@ void SetAgentConfig(TaskConfig& config, const control::AgentConfig& agent) {
   config.basic_layer = agent.basic_layer;
 }
 
-std::vector<std::string> TaskNames() { return {"pretrain-2link", "reach-avoid", "line-crossing", "cluttered"}; }
+std::vector<std::string> TaskNames() {
+  return {"pretrain-2link", "reach-avoid", "line-crossing", "cluttered", "cells"};
+}
 
 TaskKind ParseTaskKind(std::string_view name) {
-  for (TaskKind k : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered}) {
+  for (TaskKind k : {TaskKind::kPretrain2Link, TaskKind::kReachAvoid, TaskKind::kLineCrossing, TaskKind::kCluttered,
+                     TaskKind::kCells}) {
     if (TaskKindName(k) == name) return k;
   }
   throw InputError(fmt::format("unknown task '{}': expected one of pretrain-2link, reach-avoid, line-crossing, "
-                               "cluttered", name));
+                               "cluttered, cells", name));
 }
 
 TaskConfig DefaultTaskConfig(TaskKind task) {
@@ -207,6 +244,11 @@ TaskConfig DefaultTaskConfig(TaskKind task) {
     case TaskKind::kCluttered:
       c.robot = "panda";
       c.scenario.cluttered.num_obstacles = 6;
+      break;
+    case TaskKind::kCells:
+      c.robot = "panda";
+      c.randomization.variants = 8;
+      c.randomization.link_scale = {0.85, 1.15};
       break;
   }
   return c;
@@ -274,7 +316,7 @@ TaskConfig ParseTaskNode(const YAML::Node& root, const std::string& file) {
               {"task", "robot", "collision", "interface", "episode", "controller", "options", "direct", "observation", "reward",
                "randomization", "planar2", "scenario", "rmp"});
   const YAML::Node task_node = root["task"];
-  if (!task_node) r.Fail(root, "task", "missing (expected one of pretrain-2link, reach-avoid, line-crossing, cluttered)");
+  if (!task_node) r.Fail(root, "task", "missing (expected one of pretrain-2link, reach-avoid, line-crossing, cluttered, cells)");
   const std::string task_name = r.String(task_node, "task");
   TaskKind task = TaskKind::kReachAvoid;
   try {

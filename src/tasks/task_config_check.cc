@@ -35,6 +35,10 @@ int ScenarioObstacleCount(const TaskConfig& c) {
     case TaskKind::kReachAvoid: return c.scenario.crossing.num_obstacles;
     case TaskKind::kLineCrossing: return c.scenario.line_crossing.num_obstacles;
     case TaskKind::kCluttered: return c.scenario.cluttered.num_obstacles;
+    case TaskKind::kCells: {
+      const sim::CellsOptions& s = c.scenario.cells;
+      return s.num_panels + s.num_objects + 1 + s.num_crossing;
+    }
   }
   return 0;
 }
@@ -114,6 +118,17 @@ void CheckScenario(const Checker& check, const TaskConfig& c) {
       check(std::isfinite(s.start_clearance), "scenario.start_clearance", "a finite distance", s.start_clearance);
       check(std::isfinite(s.target_clearance), "scenario.target_clearance", "a finite distance", s.target_clearance);
       check(s.max_attempts >= 1, "scenario.max_attempts", "an integer >= 1", s.max_attempts);
+      CheckWorkspace(check, s.workspace, "scenario.workspace");
+      break;
+    }
+    case TaskKind::kCells: {
+      // the scene checks its own options (sim::CellsScenario, InputError naming CellsOptions.<key>); here the counts
+      // the env sizes its observation from
+      const sim::CellsOptions& s = c.scenario.cells;
+      check(s.num_panels >= 6 && s.num_panels <= 16, "scenario.num_panels", "an integer in [6, 16]", s.num_panels);
+      check(s.num_objects >= 0 && s.num_objects <= 16, "scenario.num_objects", "an integer in [0, 16]", s.num_objects);
+      check(s.num_crossing >= 0 && s.num_crossing <= 16, "scenario.num_crossing", "an integer in [0, 16]",
+            s.num_crossing);
       CheckWorkspace(check, s.workspace, "scenario.workspace");
       break;
     }

@@ -35,7 +35,7 @@ for task in rmpmarl.task_names():
     print('passed', task)
 """)
     assert r.returncode == 0, r.stdout + r.stderr
-    for task in ("pretrain-2link", "reach-avoid", "line-crossing", "cluttered"):
+    for task in ("pretrain-2link", "reach-avoid", "line-crossing", "cluttered", "cells"):
         assert f"passed {task}" in r.stdout, r.stdout + r.stderr
 
 

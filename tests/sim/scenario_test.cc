@@ -60,7 +60,7 @@ const ContactReport kNoContacts{};
 TEST(ScenarioTest, RegistryMakesEveryNamedScenarioAndRejectsUnknownNames) {
   const std::vector<std::string> names = ScenarioNames();
   const std::vector<std::string> expected = {"crossing", "line-crossing", "cluttered", "static-reach",
-                                             "static-obstacle", "pretrain-2link"};
+                                             "static-obstacle", "pretrain-2link", "cells"};
   ASSERT_GE(names.size(), expected.size());
   EXPECT_TRUE(std::equal(expected.begin(), expected.end(), names.begin()));
   EXPECT_EQ(kDefaultScenario, "crossing");

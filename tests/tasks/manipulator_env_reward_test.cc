@@ -179,7 +179,8 @@ TEST(ManipulatorEnvTest, PrecisionPassClearanceGatesTheKernelOnTheLookaheadBlock
   }
 }
 
-// options.target_gate_*: a hand prior under the agent's target accel parameter, switched by the look-ahead block.
+// options.target_gate_* and collision_gate_*: hand priors under the agent's target and collision accel parameters,
+// switched by the look-ahead block.
 // Reference: an env without the prior, reading its parameters every step, fed the agent's held parameters (its last
 // read, StepOutput::parameters_read) + the prior decided from its own observation's block (the clearance feature,
 // decoded to metres). The actions are multiples of 2^-12, so the float sums of the reference are exact and the two
@@ -197,8 +198,12 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
     prior.options.target_gate_clearance = 0.15;
     prior.options.target_gate_clear = 1.0;
     prior.options.target_gate_threat = -0.5;
+    prior.options.collision_gate_clear = -0.75;
+    prior.options.collision_gate_threat = 0.25;
     TaskConfig unprimed = prior;  // the same parameter period, no prior
     unprimed.options.target_gate_clearance = -std::numeric_limits<double>::infinity();
+    unprimed.options.collision_gate_clear = 0.0;
+    unprimed.options.collision_gate_threat = 0.0;
     ManipulatorEnv a(MakeTaskContext(prior)), b(MakeTaskContext(plain)), raw(MakeTaskContext(unprimed));
     const EnvSpec& spec = a.spec();
     const ActionSpec& as = spec.action;
@@ -209,7 +214,7 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
     raw.Reset(rng_r, br.out());
     std::vector<float> actions(spec.num_agents * as.size()), fed(actions.size()), kept(actions.size(), 0.0f);
     const int clearance_feature = control::LookaheadOffset(prior.interface) + control::LocalObs::kLookaheadClearance;
-    int clear = 0, threat = 0, clipped = 0, holds = 0;
+    int clear = 0, threat = 0, clipped = 0, collision_clipped = 0, holds = 0;
     double raw_gap = 0.0;
     for (int step = 0; step < 300 && !ba.terminated && !ba.truncated; ++step) {
       RandomActions(spec, arng, actions.data());
@@ -236,6 +241,10 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
         const float sum = u + (fires[i] ? -0.5f : 1.0f);
         if (std::abs(sum) > 1.0f) ++clipped;
         u = std::clamp(sum, -1.0f, 1.0f);
+        float& uc = fed[i * as.size() + control::RmpActionLayout::kCollisionAccelScale];
+        const float csum = uc + (fires[i] ? 0.25f : -0.75f);
+        if (std::abs(csum) > 1.0f) ++collision_clipped;
+        uc = std::clamp(csum, -1.0f, 1.0f);
       }
       b.Step(fed.data(), rng_b, bb.out());
       ASSERT_EQ((a.world().q() - b.world().q()).cwiseAbs().maxCoeff(), 0.0) << "step " << step;
@@ -245,6 +254,7 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
     EXPECT_GT(clear, 100);
     EXPECT_GT(threat, 100);
     EXPECT_GT(clipped, 100);
+    EXPECT_GT(collision_clipped, 20);
     if (period > 1) {
       EXPECT_GT(holds, 1000);  // the agent's part was held on most steps
     }
@@ -279,6 +289,15 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
   TaskConfig below = prior;
   below.options.target_gate_threat = -1.01;
   EXPECT_TRUE(refused(below, "options.target_gate_threat"));
+  TaskConfig collision_far = prior;
+  collision_far.options.collision_gate_clear = -1.5;
+  EXPECT_TRUE(refused(collision_far, "options.collision_gate_clear"));
+  TaskConfig collision_nan = prior;
+  collision_nan.options.collision_gate_threat = std::nan("");
+  EXPECT_TRUE(refused(collision_nan, "options.collision_gate_threat"));
+  TaskConfig ungated = plain;  // a collision prior needs the gate's clearance
+  ungated.options.collision_gate_clear = -1.0;
+  EXPECT_TRUE(refused(ungated, "options.collision_gate_clear"));
 }
 
 // options.parameter_period: a joint reads its RMP parameters at the first step, at option starts, when W_i fills or

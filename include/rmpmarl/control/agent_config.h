@@ -93,6 +93,13 @@ struct OptionConfig {
   double target_gate_clearance = -std::numeric_limits<double>::infinity();
   double target_gate_clear = 0.0;   ///< the prior's u with no pass predicted, in [−1, 1]
   double target_gate_threat = 0.0;  ///< the prior's u while a pass is predicted, in [−1, 1]
+  /// The same gate's prior under the learned collision accel parameter (which also sets the collision RMPs' length
+  /// scales, options.collision_length_exponent): u_agent + collision_gate_clear while no pass is predicted within
+  /// target_gate_clearance, u_agent + collision_gate_threat while one is, clipped to [−1, 1]. With the v2 gains and
+  /// exponent 0.75, u = −1 is RMPflow's collision RMP (gain and reach ÷ 4 and ÷ 2.83): gentle near the walls of a
+  /// cell, the v2 gains only for an obstacle about to pass. Both 0: no prior (the target gate alone).
+  double collision_gate_clear = 0.0;
+  double collision_gate_threat = 0.0;
   bool TargetGated() const { return std::isfinite(target_gate_clearance); }
 };
 
@@ -132,7 +139,7 @@ struct AgentConfig {
   BasicLayerConfig basic_layer;
 };
 
-/// the agents' defaults of a task (`task`: pretrain-2link, reach-avoid, line-crossing or cluttered): the episode
+/// the agents' defaults of a task (`task`: pretrain-2link, reach-avoid, line-crossing, cluttered or cells): the episode
 /// horizon and the obstacle slots differ per task. Throws InputError naming the known tasks.
 AgentConfig DefaultAgentConfig(std::string_view task);
 /// reads the controller sections of a task config's YAML text (`task:` picks the defaults; interface, episode's

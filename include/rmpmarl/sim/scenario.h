@@ -334,6 +334,87 @@ class ClutteredScenario final : public Scenario {
   ClutteredOptions options_;
 };
 
+/// The kinds of cell `cells` draws (CellsOptions::kind_weights, in this order).
+enum class CellKind {
+  kShelf,       ///< a compartment of a shelf (boards, back wall, side walls); the target inside, reached from the front
+  kBox,         ///< an open box (floor and four walls); the target inside, reached from above
+  kTable,       ///< a table top with objects on it; the target just above it
+  kUnderTable,  ///< a table top above the target (and sometimes a board below it); reached from the front
+};
+inline constexpr int kNumCellKinds = 4;
+
+/// Options of `cells`: a procedurally generated work cell around a static target (MotionBenchMaker's families —
+/// shelves, boxes, tables, under tables — drawn with random sizes and poses), with cubes crossing on top. Each
+/// episode draws a collision-free joint goal first (uniform within the limits, away from singularities and self-
+/// collision), takes its end effector as the target and builds the cell around it, facing the way the hand comes
+/// in (the direction from the wrist to the end effector), then checks the arm's clearance from the cell at the goal
+/// and at the start. A cell is built from `num_panels` boards of one size (placed so that they overlap or reach past
+/// each other where a cell is smaller than a board, as the boards of a bookshelf continue into its next
+/// compartment), `num_objects` cubes and the object reached for; what a cell does not use is parked out of reach.
+/// Obstacle order: the boards, the cubes, the object reached for, the crossing cubes.
+struct CellsOptions {
+  std::array<double, kNumCellKinds> kind_weights = {1.0, 1.0, 1.0, 1.0};  ///< shelf, box, table, under-table (≥ 0)
+  double panel_length = 0.8;      ///< the boards' long side [m]
+  double panel_width = 0.45;      ///< their short side [m] (a shelf's depth and a box wall's height are at most this)
+  double panel_thickness = 0.02;  ///< [m]
+  int num_panels = 6;             ///< boards in the scene (a shelf uses up to 6, a box 5, a table 1–2)
+  int num_objects = 2;            ///< cubes on a shelf board, in a box or on a table
+  double object_side = 0.06;      ///< [m]
+  std::array<double, 2> opening_width = {0.3, 0.7};   ///< a shelf compartment's inner width [m]
+  std::array<double, 2> opening_height = {0.2, 0.4};  ///< its inner height [m]
+  std::array<double, 2> depth = {0.25, 0.43};         ///< its inner depth [m]
+  std::array<double, 2> box_size = {0.25, 0.55};      ///< a box's inner length and width [m]
+  std::array<double, 2> box_height = {0.1, 0.25};     ///< its walls above its floor [m]
+  std::array<double, 2> table_gap = {0.08, 0.25};     ///< under a table: its underside above the target [m]
+  /// the object being reached for: an upright box (a carton; MuJoCo 2.2.2's distances to a cylinder within a contact
+  /// margin are off by millimetres) placed beside the hand at the goal — ahead of it in a
+  /// shelf or under a table, beside it on a table or in a box — standing on the cell's surface, its clearance from
+  /// the arm at the goal drawn from grasp_clearance (as a benchmark's goals are grasps millimetres from the object);
+  /// with probability grasp_object_probability, else parked
+  double grasp_object_probability = 0.75;
+  double grasp_object_half_width = 0.03;   ///< [m] its half side, horizontally
+  double grasp_object_half_length = 0.07;  ///< [m] its half height
+  std::array<double, 2> grasp_clearance = {0.003, 0.02};  ///< [m]
+  int num_crossing = 1;           ///< cubes crossing the workspace on horizontal lines, as in `crossing`
+  double crossing_side = 0.1;     ///< [m]
+  double crossing_speed = 0.2;    ///< [m/s]; with crossing_speed_max > it, each path's speed is U[speed, max]
+  double crossing_speed_max = 2.8;
+  double min_base_distance = 0.3;  ///< crossing paths pass this far from the base z axis [m]
+  double spawn_margin = 0.3;       ///< and start this far outside the horizontal reach [m]
+  double start_spread = 0.3;       ///< q_start = ReadyConfiguration + U(±spread) per joint [rad]
+  double limit_margin = 0.1;       ///< the joint goal this far inside the limits [rad]
+  double min_target_distance = 0.2;  ///< the target this far from the end effector at the start [m]
+  double goal_clearance = 0.01;    ///< the arm's capsules this far from the cell at the joint goal [m]
+  double start_clearance = 0.05;   ///< and at the start [m]
+  bool joint_goal = true;          ///< give the controllers the joint goal (rmp::Scene::q_T), as a benchmark does
+  int max_attempts = 200000;       ///< draws before giving up (InputError)
+  WorkspaceOptions workspace{};
+};
+
+/// `cells`.
+class CellsScenario final : public Scenario {
+ public:
+  CellsScenario(const kinematics::Robot& robot, const CellsOptions& options = {});
+  const CellsOptions& options() const { return options_; }
+  /// the kind of the current episode's cell.
+  CellKind cell_kind() const { return kind_; }
+  /// the joint goal of the current episode (whose end effector is the target).
+  const Eigen::VectorXd& q_goal() const { return q_goal_; }
+
+ private:
+  void Draw(std::mt19937_64& rng) override;
+  void OnPathEnd(int j, std::mt19937_64& rng) override;
+  // one attempt at a cell of `kind` around the end effector of q_goal_: the static obstacles' poses, or false
+  bool BuildCell(CellKind kind, std::mt19937_64& rng);
+  void DrawCrossingPath(int j, std::mt19937_64& rng);
+  CellsOptions options_;
+  CellKind kind_ = CellKind::kShelf;
+  Eigen::VectorXd q_goal_;
+};
+
+/// "shelf", "box", "table", "under-table".
+std::string_view CellKindName(CellKind kind);
+
 /// The `pretrain-2link` scenario (docs/environments.md): a target in uniform linear motion in a random in-plane
 /// direction (reflected in the workspace box) and one cube placed beside (or, with a zero offset, on) the target's
 /// path.
@@ -358,9 +439,9 @@ struct PretrainScenarioOptions {
 
 /// Generic overrides a command line can apply to any registered scenario (unset: the scenario's default).
 struct ScenarioOverrides {
-  std::optional<double> obstacle_speed{};  ///< [m/s] (crossing, line-crossing)
+  std::optional<double> obstacle_speed{};  ///< [m/s] (crossing, line-crossing; cells: its crossing cubes)
   std::optional<double> target_speed{};    ///< [m/s] (crossing, line-crossing, cluttered)
-  std::optional<int> num_obstacles{};      ///< (crossing, line-crossing, cluttered)
+  std::optional<int> num_obstacles{};      ///< (crossing, line-crossing, cluttered; cells: its crossing cubes)
 };
 
 /// The options of the built-in scenes, one member each (a scene reads its own; the defaults are the scenes' own).
@@ -371,6 +452,7 @@ struct SceneOptions {
   LineCrossingOptions line_crossing;      ///< line-crossing
   ClutteredOptions cluttered;             ///< cluttered
   StaticReachOptions static_reach;        ///< static-reach, static-obstacle (obstacle_on_path set by the name)
+  CellsOptions cells;                     ///< cells
 };
 
 /// Makes a scenario for a robot from the scene options, with a command line's overrides applied on top.
@@ -382,7 +464,7 @@ inline constexpr std::string_view kDefaultScenario = "crossing";
 
 /// The one registry of scenes: every scene has one name, the same for the CLI (`--scenario`), the tasks (a task
 /// names its scene: tasks::TaskSceneName) and the viewer. Registered in this order: crossing, line-crossing,
-/// cluttered, static-reach, static-obstacle, pretrain-2link, then any added by RegisterScenario.
+/// cluttered, static-reach, static-obstacle, pretrain-2link, cells, then any added by RegisterScenario.
 std::vector<std::string> ScenarioNames();
 /// whether `name` is registered.
 bool HasScenario(std::string_view name);

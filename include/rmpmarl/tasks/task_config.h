@@ -38,19 +38,20 @@ enum class TaskKind {
   kReachAvoid,     ///< `reach-avoid`: moving target, up to four crossing cubes (IV.B; sim::CrossingScenario)
   kLineCrossing,   ///< `line-crossing`: a line of cubes crossing at speed v, stop on impact (IV.C, Table 4)
   kCluttered,      ///< `cluttered`: static cubes 20–50 cm around the start end effector (IV.C)
+  kCells,          ///< `cells`: a generated shelf, box, table or under-table cell around a static target (sim::CellsScenario)
 };
 
 /// When the scenario moves obstacles and target inside one env step (the episode loop's choice).
 using ScenarioUpdate = sim::ScenarioUpdate;
 
-/// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered".
+/// "pretrain-2link", "reach-avoid", "line-crossing", "cluttered", "cells".
 std::string_view TaskKindName(TaskKind kind);
 /// the registered scene a task runs (sim::MakeScenario): pretrain-2link, crossing (reach-avoid), line-crossing,
-/// cluttered.
+/// cluttered, cells.
 std::string_view TaskSceneName(TaskKind kind);
 /// the task whose scene is `scene`; throws InputError naming the scenes that have a task.
 TaskKind TaskOfScene(std::string_view scene);
-/// whether `scene` is the scene of an arm task (crossing, line-crossing, cluttered): where the learned controllers run.
+/// whether `scene` is the scene of an arm task (crossing, line-crossing, cluttered, cells): where the learned controllers run.
 bool IsArmTaskScene(std::string_view scene);
 
 /// Episode timing and ending: the agents' horizon and clock (control::AgentEpisode) and how training runs them.
@@ -150,7 +151,7 @@ control::AgentConfig AgentConfigOf(const TaskConfig& config);
 /// sets the controller sections of `config` to `agent`.
 void SetAgentConfig(TaskConfig& config, const control::AgentConfig& agent);
 
-/// the task names in order: pretrain-2link, reach-avoid, line-crossing, cluttered.
+/// the task names in order: pretrain-2link, reach-avoid, line-crossing, cluttered, cells.
 std::vector<std::string> TaskNames();
 /// the task called `name`; throws InputError listing the known names.
 TaskKind ParseTaskKind(std::string_view name);
