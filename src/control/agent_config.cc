@@ -156,6 +156,7 @@ void ReadAgentSections(const YamlReader& r, const YAML::Node& root, AgentConfig*
                  NumberField(r, "target_gate_clear", &o.target_gate_clear), NumberField(r, "target_gate_threat", &o.target_gate_threat),
                  NumberField(r, "collision_gate_clear", &o.collision_gate_clear),
                  NumberField(r, "collision_gate_threat", &o.collision_gate_threat),
+                 FlagField(r, "agents_under_threat_only", &o.agents_under_threat_only),
                  {"warnings", [&r, &o](const YAML::Node& v, const std::string& k) {
                     o.warnings = r.Choice(v, k, {"obstacles", "all"}) == 0 ? OptionWarnings::kObstacles
                                                                           : OptionWarnings::kAll;
@@ -272,6 +273,8 @@ void ValidateAgentConfig(const AgentConfig& c, std::string_view where) {
     check(std::isfinite(u) && std::abs(u) <= 1.0, key, "a parameter u in [-1, 1]", u);
     check(u == 0.0 || op.TargetGated(), key, "0 unless options.target_gate_clearance sets the gate", u);
   }
+  check(!op.agents_under_threat_only || op.TargetGated(), "options.agents_under_threat_only",
+        "false unless options.target_gate_clearance sets the gate", "true");
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);

@@ -353,20 +353,25 @@ void JointAgents::Apply(const float* actions, float* option_started, float* para
     w.use_target = sel.use_target || target_weight > 0.0;
     w.use_collision = sel.use_collision;
     double u_target_accel = p(RmpActionLayout::kTargetAccelScale);
+    double u_target_metric = p(RmpActionLayout::kTargetMetricScale);
     double u_collision_accel = p(RmpActionLayout::kCollisionAccelScale);
+    double u_collision_metric = p(RmpActionLayout::kCollisionMetricScale);
     if (const OptionConfig& oc = config_.options; oc.TargetGated()) {
       // options.target_gate_* and collision_gate_*: the hand priors of the look-ahead block (as seen in this step's
       // observation) under the agent's target and collision accel parameters, decided every step
       const bool threat = lookahead_[i].clearance < oc.target_gate_clearance;
+      if (oc.agents_under_threat_only && !threat) {
+        u_target_accel = u_target_metric = u_collision_accel = u_collision_metric = 0.0;
+      }
       u_target_accel += threat ? oc.target_gate_threat : oc.target_gate_clear;
       u_target_accel = std::clamp(u_target_accel, -1.0, 1.0);
       u_collision_accel += threat ? oc.collision_gate_threat : oc.collision_gate_clear;
       u_collision_accel = std::clamp(u_collision_accel, -1.0, 1.0);
     }
     w.target_accel_scale = GainScale(u_target_accel, g_target);
-    w.target_metric_scale = target_weight * GainScale(p(RmpActionLayout::kTargetMetricScale), g_target);
+    w.target_metric_scale = target_weight * GainScale(u_target_metric, g_target);
     w.collision_accel_scale = GainScale(u_collision_accel, g);
-    w.collision_metric_scale = GainScale(p(RmpActionLayout::kCollisionMetricScale), g);
+    w.collision_metric_scale = GainScale(u_collision_metric, g);
     w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);
     terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
   }

@@ -131,8 +131,11 @@ CellsScenario::CellsScenario(const kinematics::Robot& robot, const CellsOptions&
   Require(std::isfinite(options.start_clearance) && options.start_clearance >= 0.0, w + ".start_clearance",
           ">= 0 m", options.start_clearance);
   Require(options.max_attempts >= 1, w + ".max_attempts", ">= 1", options.max_attempts);
-  Require(!workspace_.planar, w, "a spatial arm (cells are 3-D)", robot.model.nq());
-  Require(robot.model.nq() >= 3, w, "an arm with at least 3 joints", robot.model.nq());
+  if (workspace_.planar || robot.model.nq() < 3) {
+    throw InputError(fmt::format("scenario 'cells': expected a spatial arm with at least 3 joints (cells are 3-D), got "
+                                 "robot '{}' ({} joints{})", robot.name, robot.model.nq(),
+                                 workspace_.planar ? ", planar" : ""));
+  }
 }
 
 bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
@@ -252,59 +255,70 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       break;
     }
   }
-  auto as_rmp = [&](int j) {
-    Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
-    X_WO.linear() = obstacles_[j].R_WO;
-    X_WO.translation() = obstacles_[j].p_start;
-    return spec_.obstacles[j].AsRmp(X_WO);
-  };
-  auto clearance = [&](const kinematics::Data& at, const rmp::Obstacle& ob) {
-    double d = kInf;
-    for (const auto& c : robot_.capsules) {
-      d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, at), ob).distance);
-    }
-    return d;
-  };
-  // the object reached for: beside the hand at a drawn clearance (bisection along `dir`, the box turned to face the
-  // way it is approached), on the cell's surface
-  // when the hand is within its height above it, else centred at the hand's height
-  const int grasp = o.num_panels + o.num_objects;
   if (std::bernoulli_distribution(o.grasp_object_probability)(rng)) {
-    Eigen::Vector3d dir = x;  // ahead of the hand
+    // ahead of the hand in a shelf or under a table, beside it in a random direction on a table or in a box
+    Eigen::Vector3d dir = x;
     if (kind == CellKind::kBox || kind == CellKind::kTable) {
       const double angle = Uniform(rng, 0.0, 2.0 * M_PI);
       dir = std::cos(angle) * x + std::sin(angle) * y;
     }
-    const double hl = o.grasp_object_half_length, r = o.grasp_object_half_width;
-    const double zc = p_E.z() - support < 2.0 * hl ? support + hl : p_E.z();
-    const double want = Uniform(rng, o.grasp_clearance);
-    auto at = [&](double s) {
-      const Eigen::Vector3d c = p_E + s * dir;
-      obstacles_[grasp].p_start = Eigen::Vector3d(c.x(), c.y(), zc);
-      obstacles_[grasp].R_WO = BoardFrame(dir, z.cross(dir));
-      return clearance(data, as_rmp(grasp));
-    };
-    double lo = std::sqrt(2.0) * r + 0.005, hi = 0.5;  // never around the target itself
-    if (at(hi) < want) return false;
-    if (at(lo) < want) {
-      for (int it = 0; it < 30; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (at(mid) < want ? lo : hi) = mid;
-      }
-    } else {
-      hi = lo;
-    }
-    at(hi);
+    if (!PlaceGraspObject(data, p_E, dir, support, rng)) return false;
   }
-  // the arm's clearance from the cell at the goal and at the start
-  kinematics::Data start(m);
-  kinematics::CalcForwardKinematics(m, q_start_, &start);
-  const int used = num_obstacles() - o.num_crossing;
-  for (int j = 0; j < used; ++j) {
+  return ClearOfCell(data);
+}
+
+bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E,
+                                     const Eigen::Vector3d& dir, double support, std::mt19937_64& rng) {
+  // beside the hand at a drawn clearance (bisection along `dir`, the box turned to face the way it is approached),
+  // standing on the cell's surface when the hand is within its height above it, else centred at the hand's height
+  const CellsOptions& o = options_;
+  const int grasp = o.num_panels + o.num_objects;
+  const double hl = o.grasp_object_half_length, r = o.grasp_object_half_width;
+  const double zc = p_E.z() - support < 2.0 * hl ? support + hl : p_E.z();
+  const double want = Uniform(rng, o.grasp_clearance);
+  auto at = [&](double s) {
+    const Eigen::Vector3d c = p_E + s * dir;
+    obstacles_[grasp].p_start = Eigen::Vector3d(c.x(), c.y(), zc);
+    obstacles_[grasp].R_WO = BoardFrame(dir, Eigen::Vector3d::UnitZ().cross(dir));
+    return ArmClearance(goal, grasp);
+  };
+  double lo = std::sqrt(2.0) * r + 0.005, hi = 0.5;  // never around the target itself
+  if (at(hi) < want) return false;
+  if (at(lo) < want) {
+    for (int it = 0; it < 30; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (at(mid) < want ? lo : hi) = mid;
+    }
+  } else {
+    hi = lo;
+  }
+  at(hi);
+  return true;
+}
+
+double CellsScenario::ArmClearance(const kinematics::Data& at, int j) const {
+  Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
+  X_WO.linear() = obstacles_[j].R_WO;
+  X_WO.translation() = obstacles_[j].p_start;
+  const rmp::Obstacle ob = spec_.obstacles[j].AsRmp(X_WO);
+  double d = kInf;
+  for (const auto& c : robot_.capsules) {
+    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, at), ob).distance);
+  }
+  return d;
+}
+
+bool CellsScenario::ClearOfCell(const kinematics::Data& goal) const {
+  // every placed board and object clear of the arm at the goal (the object reached for at its own clearance) and at
+  // the start
+  const CellsOptions& o = options_;
+  kinematics::Data start(robot_.model);
+  kinematics::CalcForwardKinematics(robot_.model, q_start_, &start);
+  const int grasp = o.num_panels + o.num_objects;
+  for (int j = 0; j < num_obstacles() - o.num_crossing; ++j) {
     if (obstacles_[j].p_start == ParkedPose().translation()) continue;
-    const rmp::Obstacle ob = as_rmp(j);
-    if (j != grasp && clearance(data, ob) < o.goal_clearance) return false;
-    if (clearance(start, ob) < o.start_clearance) return false;
+    if (j != grasp && ArmClearance(goal, j) < o.goal_clearance) return false;
+    if (ArmClearance(start, j) < o.start_clearance) return false;
   }
   return true;
 }

@@ -33,7 +33,8 @@ TEST(ShippedPoliciesTest, TheMethodsNameEveryShippedFile) {
     if (e.path().extension() == ".rmpp") present.insert(e.path().filename().string());
   }
   EXPECT_EQ(named, present);
-  EXPECT_EQ(named, (std::set<std::string>{"hrl-rmp-2link.rmpp", "marl-rmp.rmpp", "marl-rmp-residual.rmpp"}));
+  EXPECT_EQ(named, (std::set<std::string>{"hrl-rmp-2link.rmpp", "marl-rmp.rmpp", "marl-rmp-residual.rmpp",
+                                          "marl-rmp-gated.rmpp"}));
 }
 
 TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
@@ -42,7 +43,7 @@ TEST(ShippedPoliciesTest, EachLoadsAndRunsItsTask) {
     const char* method;  // the method file that names it (its basic layer)
   };
   for (const Case& c : {Case{"hrl-rmp-2link.rmpp", "hrl-rmp"}, Case{"marl-rmp.rmpp", "marl-rmp"},
-                        Case{"marl-rmp-residual.rmpp", "marl-rmp-residual"}}) {
+                        Case{"marl-rmp-residual.rmpp", "marl-rmp-residual"}, Case{"marl-rmp-gated.rmpp", "marl-rmp-gated"}}) {
     SCOPED_TRACE(c.file);
     const fs::path path = Shipped(c.file);
     ASSERT_TRUE(fs::exists(path)) << path << " (scripts/ship-policies writes it)";

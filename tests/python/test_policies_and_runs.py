@@ -10,12 +10,12 @@ import rmpmarl
 
 
 def test_shipped_policies_load_with_their_cards():
-    assert rmpmarl.shipped_policies() == ["hrl-rmp-2link", "marl-rmp", "marl-rmp-residual"]
+    assert rmpmarl.shipped_policies() == ["hrl-rmp-2link", "marl-rmp", "marl-rmp-gated", "marl-rmp-residual"]
     for name in rmpmarl.shipped_policies():
         policy = rmpmarl.Policy(rmpmarl.shipped_policy(name))
         assert policy.obs_dim > 0 and policy.action_size > 0 and "task" in policy.task_yaml
         assert name in policy.card
-    with pytest.raises(ValueError, match="name: expected one of hrl-rmp-2link, marl-rmp, marl-rmp-residual"):
+    with pytest.raises(ValueError, match="name: expected one of hrl-rmp-2link, marl-rmp, marl-rmp-gated, marl-rmp-residual"):
         rmpmarl.shipped_policy("best")
 
 

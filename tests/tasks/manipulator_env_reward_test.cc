@@ -3,6 +3,7 @@
 #include "rmpmarl/tasks/manipulator_env.h"
 #include "rmpmarl/common/error.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -191,11 +192,14 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
   TaskConfig plain = SmallConfig(TaskKind::kLineCrossing, "panda", 1);
   plain.scenario.line_speeds = {1.2};
   plain.observation.lookahead = 1.0;
-  for (const int period : {1, 25}) {
-    SCOPED_TRACE(period);
+  for (const auto& [period, threat_only] : {std::pair{1, false}, std::pair{25, false}, std::pair{25, true}}) {
+    SCOPED_TRACE(fmt::format("period {}, agents under threat only {}", period, threat_only));
     TaskConfig prior = plain;
     prior.options.parameter_period = period;
-    prior.options.target_gate_clearance = 0.15;
+    prior.options.agents_under_threat_only = threat_only;
+    // with the agents' part only under threat the arm tracks calmly and the line passes wider: a wider gate
+    const double gate = threat_only ? 0.2 : 0.15;
+    prior.options.target_gate_clearance = gate;
     prior.options.target_gate_clear = 1.0;
     prior.options.target_gate_threat = -0.5;
     prior.options.collision_gate_clear = -0.75;
@@ -204,6 +208,7 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
     unprimed.options.target_gate_clearance = -std::numeric_limits<double>::infinity();
     unprimed.options.collision_gate_clear = 0.0;
     unprimed.options.collision_gate_threat = 0.0;
+    unprimed.options.agents_under_threat_only = false;
     ManipulatorEnv a(MakeTaskContext(prior)), b(MakeTaskContext(plain)), raw(MakeTaskContext(unprimed));
     const EnvSpec& spec = a.spec();
     const ActionSpec& as = spec.action;
@@ -222,8 +227,8 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
       std::vector<bool> fires(spec.num_agents);
       for (int i = 0; i < spec.num_agents; ++i) {
         const double nearest = bb.obs(spec, i, clearance_feature) * plain.observation.length_scale;
-        ASSERT_FALSE(std::abs(nearest - 0.15) <= 1e-6) << step;  // no step on the threshold itself
-        fires[i] = nearest < 0.15;
+        ASSERT_FALSE(std::abs(nearest - gate) <= 1e-6) << step;  // no step on the threshold itself
+        fires[i] = nearest < gate;
         (fires[i] ? threat : clear) += 1;
       }
       a.Step(actions.data(), rng_a, ba.out());
@@ -237,6 +242,8 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
           ++holds;
         }
         std::copy_n(kept.begin() + row, as.num_continuous, fed.begin() + row);
+        // agents_under_threat_only: no pass predicted, the priors alone
+        if (threat_only && !fires[i]) std::fill_n(fed.begin() + row, as.num_continuous, 0.0f);
         float& u = fed[i * as.size() + control::RmpActionLayout::kTargetAccelScale];
         const float sum = u + (fires[i] ? -0.5f : 1.0f);
         if (std::abs(sum) > 1.0f) ++clipped;
@@ -298,6 +305,9 @@ TEST(ManipulatorEnvTest, TargetGatePriorAddsTheGatedParameterToTheAgents) {
   TaskConfig ungated = plain;  // a collision prior needs the gate's clearance
   ungated.options.collision_gate_clear = -1.0;
   EXPECT_TRUE(refused(ungated, "options.collision_gate_clear"));
+  TaskConfig ungated_agents = plain;
+  ungated_agents.options.agents_under_threat_only = true;
+  EXPECT_TRUE(refused(ungated_agents, "options.agents_under_threat_only"));
 }
 
 // options.parameter_period: a joint reads its RMP parameters at the first step, at option starts, when W_i fills or

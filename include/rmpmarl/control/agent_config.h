@@ -100,6 +100,10 @@ struct OptionConfig {
   /// cell, the v2 gains only for an obstacle about to pass. Both 0: no prior (the target gate alone).
   double collision_gate_clear = 0.0;
   double collision_gate_threat = 0.0;
+  /// true: the agents' four parameters count only while the gate predicts a pass within target_gate_clearance of a
+  /// capsule the joint moves; otherwise joint i's layer runs on the priors alone (the hand gates): the learned
+  /// residual acts where an obstacle is about to pass, and a static cell is left to the layer.
+  bool agents_under_threat_only = false;
   bool TargetGated() const { return std::isfinite(target_gate_clearance); }
 };
 

@@ -406,6 +406,13 @@ class CellsScenario final : public Scenario {
   void OnPathEnd(int j, std::mt19937_64& rng) override;
   // one attempt at a cell of `kind` around the end effector of q_goal_: the static obstacles' poses, or false
   bool BuildCell(CellKind kind, std::mt19937_64& rng);
+  // the object reached for beside the hand (end effector p_E at the goal's kinematics) along `dir`; false: no room
+  bool PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E, const Eigen::Vector3d& dir,
+                        double support, std::mt19937_64& rng);
+  // the smallest distance of the arm's capsules (kinematics `at`) from obstacle j where it is placed now
+  double ArmClearance(const kinematics::Data& at, int j) const;
+  // the cell clears the arm at the goal (goal_clearance) and at the start (start_clearance)
+  bool ClearOfCell(const kinematics::Data& goal) const;
   void DrawCrossingPath(int j, std::mt19937_64& rng);
   CellsOptions options_;
   CellKind kind_ = CellKind::kShelf;
