@@ -17,8 +17,6 @@ namespace rmpmarl::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-using internal::BaseDistance;
-using internal::CutToSpawnDisc;
 using internal::EndEffector;
 using internal::LowestMovingPoint;
 using internal::MinSelfClearance;
@@ -324,27 +322,10 @@ bool CellsScenario::ClearOfCell(const kinematics::Data& goal) const {
 }
 
 void CellsScenario::DrawCrossingPath(int j, std::mt19937_64& rng) {
-  ObstacleState& s = obstacles_[j];
-  const double r_spawn = workspace_.horizontal_reach + options_.spawn_margin;
-  for (int attempt = 0; attempt < 10000; ++attempt) {
-    const Eigen::Vector3d P = RandomWorkspacePoint(rng);
-    const double yaw = Uniform(rng, 0.0, 2.0 * M_PI);
-    const Eigen::Vector3d d(std::cos(yaw), std::sin(yaw), 0.0);
-    if (BaseDistance(P, d) < options_.min_base_distance) continue;
-    const internal::HorizontalPath path = CutToSpawnDisc(P, d, r_spawn);
-    s.p_start = path.p_start;
-    s.direction = d;
-    s.path_length = path.length;
-    s.speed = options_.crossing_speed_max > options_.crossing_speed
-                  ? Uniform(rng, options_.crossing_speed, options_.crossing_speed_max)
-                  : options_.crossing_speed;
-    s.s = 0.0;
-    s.wrap = 0.0;
-    return;
-  }
-  throw InputError(fmt::format("scenario 'cells' (robot '{}'): no crossing path passes {} m from the base through the "
-                               "workspace; expected a smaller CellsOptions.min_base_distance", robot_.name,
-                               options_.min_base_distance));
+  DrawHorizontalCrossing(j,
+                         {options_.min_base_distance, options_.spawn_margin, options_.crossing_speed,
+                          options_.crossing_speed_max, "CellsOptions.min_base_distance"},
+                         rng);
 }
 
 void CellsScenario::OnPathEnd(int j, std::mt19937_64& rng) {

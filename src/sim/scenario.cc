@@ -465,29 +465,34 @@ CrossingScenario::CrossingScenario(const kinematics::Robot& robot, const Crossin
           options.spawn_margin);
 }
 
-void CrossingScenario::DrawPath(int j, std::mt19937_64& rng) {
+void Scenario::DrawHorizontalCrossing(int j, const HorizontalCrossing& c, std::mt19937_64& rng) {
   ObstacleState& o = obstacles_[j];
-  const double r_spawn = workspace_.horizontal_reach + options_.spawn_margin;
+  const double r_spawn = workspace_.horizontal_reach + c.spawn_margin;
   for (int attempt = 0; attempt < 10000; ++attempt) {
     const Eigen::Vector3d P = RandomWorkspacePoint(rng);
     const double yaw = Uniform(rng, 0.0, 2.0 * M_PI);
     const Eigen::Vector3d d(std::cos(yaw), std::sin(yaw), 0.0);
-    if (BaseDistance(P, d) < options_.min_base_distance) continue;
+    if (BaseDistance(P, d) < c.min_base_distance) continue;
     const HorizontalPath path = CutToSpawnDisc(P, d, r_spawn);
     o.p_start = path.p_start;
     o.direction = d;
     o.path_length = path.length;
     // a speed is drawn only for a range, so fixed-speed scenes keep their random streams
-    o.speed = options_.obstacle_speed_max > options_.obstacle_speed
-                  ? Uniform(rng, options_.obstacle_speed, options_.obstacle_speed_max)
-                  : options_.obstacle_speed;
+    o.speed = c.speed_max > c.speed ? Uniform(rng, c.speed, c.speed_max) : c.speed;
     o.s = 0.0;
     o.wrap = 0.0;
     return;
   }
-  throw InputError(fmt::format("scenario 'crossing' (robot '{}'): no path passes {} m from the base through the "
-                               "workspace; expected a smaller CrossingOptions.min_base_distance", robot_.name,
-                               options_.min_base_distance));
+  throw InputError(fmt::format("scenario '{}' (robot '{}'): no path passes {} m from the base through the workspace; "
+                               "expected a smaller {}", name_, robot_.name, c.min_base_distance,
+                               c.min_base_distance_key));
+}
+
+void CrossingScenario::DrawPath(int j, std::mt19937_64& rng) {
+  DrawHorizontalCrossing(j,
+                         {options_.min_base_distance, options_.spawn_margin, options_.obstacle_speed,
+                          options_.obstacle_speed_max, "CrossingOptions.min_base_distance"},
+                         rng);
 }
 
 void CrossingScenario::Draw(std::mt19937_64& rng) {

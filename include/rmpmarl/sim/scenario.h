@@ -153,6 +153,18 @@ class Scenario : public SceneSource {
   Eigen::Vector3d RandomWorkspacePoint(std::mt19937_64& rng) const;
   /// a target starting at a random workspace point moving at `speed` in a random direction, reflected in the box.
   TargetState RandomMovingTarget(double speed, std::mt19937_64& rng) const;
+  /// A horizontal crossing path: through a random workspace point at a random heading, at least min_base_distance
+  /// from the base z axis, starting and ending spawn_margin outside the horizontal reach; the speed drawn from
+  /// [speed, speed_max] when speed_max > speed (otherwise `speed`, and no draw).
+  struct HorizontalCrossing {
+    double min_base_distance = 0.3;
+    double spawn_margin = 0.3;
+    double speed = 0.3;
+    double speed_max = 0.0;
+    const char* min_base_distance_key = "";  ///< the option named when no path passes (InputError)
+  };
+  /// draws obstacle j's next crossing path (s = 0 at its start, no wrap).
+  void DrawHorizontalCrossing(int j, const HorizontalCrossing& crossing, std::mt19937_64& rng);
   /// smallest signed distance between the robot's capsules at q and obstacle j placed at p_WO (shape from spec).
   double RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Vector3d& p_WO) const;
   /// end-effector position at q.
