@@ -87,7 +87,7 @@ double BoxClearance(const kinematics::Robot& robot, const Eigen::VectorXd& q, co
 }
 
 TEST(CellsScenarioTest, EachKindEnclosesATargetTheArmReachesClearOfTheCell) {
-  for (const std::string& name : {"panda", "ur5e", "iiwa14"}) {
+  for (const std::string name : {"panda", "ur5e", "iiwa14"}) {
     const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
     for (int kind = 0; kind < kNumCellKinds; ++kind) {
       SCOPED_TRACE(name + " " + std::string(CellKindName(static_cast<CellKind>(kind))));
