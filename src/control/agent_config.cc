@@ -273,8 +273,9 @@ void ValidateAgentConfig(const AgentConfig& c, std::string_view where) {
     check(std::isfinite(u) && std::abs(u) <= 1.0, key, "a parameter u in [-1, 1]", u);
     check(u == 0.0 || op.TargetGated(), key, "0 unless options.target_gate_clearance sets the gate", u);
   }
-  check(!op.agents_under_threat_only || op.TargetGated(), "options.agents_under_threat_only",
-        "false unless options.target_gate_clearance sets the gate", "true");
+  check(!op.agents_under_threat_only || (op.TargetGated() && op.fixed_option >= 0), "options.agents_under_threat_only",
+        "false unless options.target_gate_clearance sets the gate and options.fixed_option fixes the option (the "
+        "agents' option choice would act in every step)", "true");
   check(std::isfinite(c.direct.max_speed_fraction) && c.direct.max_speed_fraction > 0.0 &&
             c.direct.max_speed_fraction <= 1.0,
         "direct.max_speed_fraction", "a fraction in (0, 1]", c.direct.max_speed_fraction);

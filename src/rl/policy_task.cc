@@ -49,7 +49,7 @@ tasks::TaskConfig PolicyTaskConfig(const control::PolicyFile& file, const std::s
     }
     if (!tasks::IsArmTaskScene(move.scene)) {
       throw InputError(fmt::format("{}: --scenario {}: a learned controller runs in the scenes of the arm tasks: "
-                                   "crossing (reach-avoid), line-crossing, cluttered (the other scenes run "
+                                   "crossing (reach-avoid), line-crossing, cluttered, cells (the other scenes run "
                                    "RMPflow alone: `rmpmarl demo --policy rmpflow --scenario {}`)", path, move.scene,
                                    move.scene));
     }

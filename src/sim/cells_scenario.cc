@@ -26,8 +26,10 @@ using internal::Uniform;
 double Uniform(std::mt19937_64& rng, const std::array<double, 2>& range) { return Uniform(rng, range[0], range[1]); }
 
 void RequireRange(const std::array<double, 2>& r, const std::string& where, double lo, double hi) {
-  Require(std::isfinite(r[0]) && std::isfinite(r[1]) && r[0] >= lo && r[0] <= r[1] && r[1] <= hi, where,
-          fmt::format("a range [min, max] within [{}, {}]", lo, hi), r[0] > r[1] ? r[0] - r[1] + r[0] : r[1]);
+  if (!(std::isfinite(r[0]) && std::isfinite(r[1]) && r[0] >= lo && r[0] <= r[1] && r[1] <= hi)) {
+    throw InputError(fmt::format("{}: expected a range [min, max] within [{}, {}], got [{}, {}]", where, lo, hi, r[0],
+                                 r[1]));
+  }
 }
 
 // the scene: num_panels boards, num_objects cubes, the object reached for, num_crossing crossing cubes, in that order
@@ -76,10 +78,11 @@ CellsScenario::CellsScenario(const kinematics::Robot& robot, const CellsOptions&
     total += k;
   }
   Require(total > 0.0, w + ".kind_weights", "at least one weight > 0", total);
-  Require(std::isfinite(options.panel_length) && options.panel_length > 0.0 && options.panel_length <= 5.0,
-          w + ".panel_length", "a length in (0, 5] m", options.panel_length);
-  Require(std::isfinite(options.panel_width) && options.panel_width > 0.0 && options.panel_width <= options.panel_length,
-          w + ".panel_width", "a width in (0, panel_length] m", options.panel_width);
+  // the smallest sizes leave room for the target's margins inside every kind of cell (6–10 cm from its edges)
+  Require(std::isfinite(options.panel_length) && options.panel_length >= 0.21 && options.panel_length <= 5.0,
+          w + ".panel_length", "a length in [0.21, 5] m", options.panel_length);
+  Require(std::isfinite(options.panel_width) && options.panel_width >= 0.17 && options.panel_width <= options.panel_length,
+          w + ".panel_width", "a width in [0.17 m, panel_length]", options.panel_width);
   Require(std::isfinite(options.panel_thickness) && options.panel_thickness > 0.0 &&
               options.panel_thickness <= options.panel_width,
           w + ".panel_thickness", "a thickness in (0, panel_width] m", options.panel_thickness);
@@ -99,10 +102,10 @@ CellsScenario::CellsScenario(const kinematics::Robot& robot, const CellsOptions&
               options.grasp_object_half_length <= 0.5,
           w + ".grasp_object_half_length", "a half length in (0, 0.5] m", options.grasp_object_half_length);
   RequireRange(options.grasp_clearance, w + ".grasp_clearance", 0.0, 0.2);
-  RequireRange(options.opening_width, w + ".opening_width", 0.05, options.panel_length);
-  RequireRange(options.opening_height, w + ".opening_height", 0.05, options.panel_width);
+  RequireRange(options.opening_width, w + ".opening_width", 0.13, options.panel_length);
+  RequireRange(options.opening_height, w + ".opening_height", 0.09, options.panel_width);
   RequireRange(options.depth, w + ".depth", 0.1, options.panel_width);
-  RequireRange(options.box_size, w + ".box_size", 0.1, options.panel_length);
+  RequireRange(options.box_size, w + ".box_size", 0.13, std::min(options.panel_length, 2.0 * options.panel_width));
   RequireRange(options.box_height, w + ".box_height", 0.02, options.panel_width);
   RequireRange(options.table_gap, w + ".table_gap", 0.02, 2.0);
   Require(options.num_crossing >= 0 && options.num_crossing <= 16, w + ".num_crossing", "an integer in [0, 16]",
@@ -161,6 +164,7 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
   const double T = o.panel_thickness, W = o.panel_width, L = o.panel_length;
   int panel = 0, object = 0;
   double support = -kInf;  // the height of the surface the target is above (a board, the box's floor, the table)
+  double ceiling = kInf;   // the underside of a board above the target (a shelf's top, a table over it)
   auto place = [&](int j, const Eigen::Vector3d& c, const Eigen::Matrix3d& R) {
     obstacles_[j].p_start = c;
     obstacles_[j].R_WO = R;
@@ -169,8 +173,8 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
     RMPMARL_ASSERT(panel < o.num_panels, "CellsScenario: more boards than num_panels");
     place(panel++, c, BoardFrame(length, width));
   };
-  // a cube resting on a horizontal surface at height `top`, within the rectangle centre ± (hx x, hy y), clear of the
-  // target; false: no room
+  // a cube resting on the horizontal surface through `centre`, within centre ± (hx x, hy y), clear of the target and
+  // of the other cubes (none placed when 20 draws find no room)
   auto object_on = [&](const Eigen::Vector3d& centre, double hx, double hy) {
     if (object >= o.num_objects) return;
     const double half = 0.5 * o.object_side;
@@ -200,6 +204,7 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       board(O + 0.5 * W * x - 0.5 * T * z, y, x);               // bottom
       support = O.z();
       board(O + 0.5 * W * x + (h + 0.5 * T) * z, y, x);         // top
+      ceiling = O.z() + h;
       board(O + (D + 0.5 * T) * x + 0.5 * h * z, y, z);         // back
       for (double side : {-1.0, 1.0}) board(O + 0.5 * W * x + side * (0.5 * w + 0.5 * T) * y + 0.5 * h * z, z, x);
       // the next compartment's board, above or below
@@ -217,7 +222,7 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       if (!(0.5 * lx > 0.06) || !(0.5 * ly > 0.06)) return false;
       const Eigen::Vector3d C = p_E - ox * x - oy * y - v * z;  // the floor's top, middle
       if (C.z() < 0.0) return false;                             // the box stands on the base plane or above it
-      board(C - 0.5 * T * z, y, x);                              // floor
+      for (double half : {-0.5, 0.5}) board(C + half * W * x - 0.5 * T * z, y, x);  // floor: two boards side by side
       support = C.z();
       for (double side : {-1.0, 1.0}) {                          // walls, their top edge H above the floor
         board(C + side * (0.5 * lx + 0.5 * T) * x + (H - 0.5 * W) * z, y, z);
@@ -243,6 +248,7 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       const double u = Uniform(rng, -0.5 * L + 0.1, 0.5 * L - 0.1);
       const Eigen::Vector3d F = p_E - t * x - u * y;   // below the front edge's middle, at the target's height
       board(F + 0.5 * W * x + (g + 0.5 * T) * z, y, x);
+      ceiling = F.z() + g;
       if (std::bernoulli_distribution(0.5)(rng)) {  // a board below (a lower shelf) with objects on it
         const double b = Uniform(rng, 0.04, 0.2);
         if (F.z() - b < 0.0) return false;
@@ -260,20 +266,23 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       const double angle = Uniform(rng, 0.0, 2.0 * M_PI);
       dir = std::cos(angle) * x + std::sin(angle) * y;
     }
-    if (!PlaceGraspObject(data, p_E, dir, support, rng)) return false;
+    if (!PlaceGraspObject(data, p_E, dir, support, ceiling, rng)) return false;
   }
   return ClearOfCell(data);
 }
 
 bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E,
-                                     const Eigen::Vector3d& dir, double support, std::mt19937_64& rng) {
+                                     const Eigen::Vector3d& dir, double support, double ceiling,
+                                     std::mt19937_64& rng) {
   // beside the hand at a drawn clearance (bisection along `dir`, the box turned to face the way it is approached),
-  // standing on the cell's surface when the hand is within its height above it, else centred at the hand's height
+  // standing on the cell's surface when the hand is within its height above it, else centred at the hand's height;
+  // left out (parked) where it would not fit under the board above or could not come as close as drawn
   const CellsOptions& o = options_;
   const int grasp = o.num_panels + o.num_objects;
   const double hl = o.grasp_object_half_length, r = o.grasp_object_half_width;
   const double zc = p_E.z() - support < 2.0 * hl ? support + hl : p_E.z();
   const double want = Uniform(rng, o.grasp_clearance);
+  if (zc + hl > ceiling) return true;
   auto at = [&](double s) {
     const Eigen::Vector3d c = p_E + s * dir;
     obstacles_[grasp].p_start = Eigen::Vector3d(c.x(), c.y(), zc);
@@ -282,7 +291,12 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
   };
   double lo = std::sqrt(2.0) * r + 0.005, hi = 0.5;  // never around the target itself
   if (at(hi) < want) return false;
-  if (at(lo) < want) {
+  const double nearest = at(lo);
+  if (nearest > o.grasp_clearance[1]) {  // the hand keeps it farther than the clearances drawn from
+    obstacles_[grasp] = ObstacleState{};
+    return true;
+  }
+  if (nearest < want) {
     for (int it = 0; it < 30; ++it) {
       const double mid = 0.5 * (lo + hi);
       (at(mid) < want ? lo : hi) = mid;
@@ -291,6 +305,22 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
     hi = lo;
   }
   at(hi);
+  // not into a board: the capsule around its vertical axis through its top and bottom faces' centres (radius: the
+  // half diagonal of its cross-section) clear of every board
+  const double R = std::sqrt(2.0) * r;
+  const Eigen::Vector3d c = obstacles_[grasp].p_start;
+  const math::Capsule around{c - std::max(0.0, hl - R) * Eigen::Vector3d::UnitZ(),
+                             c + std::max(0.0, hl - R) * Eigen::Vector3d::UnitZ(), R};
+  for (int j = 0; j < o.num_panels; ++j) {
+    if (obstacles_[j].p_start == ParkedPose().translation()) continue;
+    Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
+    X_WO.linear() = obstacles_[j].R_WO;
+    X_WO.translation() = obstacles_[j].p_start;
+    if (rmp::CapsuleObstacleDistance(around, spec_.obstacles[j].AsRmp(X_WO)).distance < -1e-6) {
+      obstacles_[grasp] = ObstacleState{};
+      return true;
+    }
+  }
   return true;
 }
 

@@ -131,8 +131,12 @@ TEST(CellsScenarioTest, EachKindEnclosesATargetTheArmReachesClearOfTheCell) {
           EXPECT_GE(d, o.grasp_clearance[0] - 1e-3);
           EXPECT_LE(d, o.grasp_clearance[1] + 1e-3);
           EXPECT_GE(MujocoObstacleClearance(world), std::min(o.goal_clearance, o.grasp_clearance[0]) - 1e-6);
-          // beside the target, not around it
+          // beside the target, not around it, and not into a board (vertically: rays from its centre)
           EXPECT_GT((X_WG.translation() - p_T).head<2>().norm(), o.grasp_object_half_width);
+          EXPECT_GE(NearestBoard(world, scenario, X_WG.translation(), Eigen::Vector3d::UnitZ()),
+                    o.grasp_object_half_length - 1e-9);
+          EXPECT_GE(NearestBoard(world, scenario, X_WG.translation(), -Eigen::Vector3d::UnitZ()),
+                    o.grasp_object_half_length - 1e-9);
         }
         // the enclosure, seen from the target
         const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
@@ -188,16 +192,27 @@ TEST(CellsScenarioTest, DrawsEveryKindTheSameForTheSameSeedAndCrossesOnTop) {
     for (int j = 0; j < crossing; ++j) EXPECT_TRUE(scenario.obstacles()[j].v_WO().isZero(0.0));
   }
   EXPECT_EQ(kinds.size(), 4u);
+  // the same seed: the same start, goal, cell, object and crossing, after another episode
   made->Reset(5, world);
-  const Eigen::VectorXd q5 = scenario.q_goal();
-  const Eigen::Isometry3d board5 = world.ObstaclePose(2);
+  const Eigen::VectorXd q5 = scenario.q_goal(), start5 = scenario.q_start();
+  const std::vector<ObstacleState> obstacles5 = scenario.obstacles();
   made->Reset(6, world);
   made->Reset(5, world);
   EXPECT_EQ((scenario.q_goal() - q5).norm(), 0.0);
-  EXPECT_TRUE(world.ObstaclePose(2).isApprox(board5, 0.0));
+  EXPECT_EQ((scenario.q_start() - start5).norm(), 0.0);
+  for (int j = 0; j < scenario.num_obstacles(); ++j) {
+    EXPECT_EQ(scenario.obstacles()[j].p_WO(), obstacles5[j].p_WO()) << j;
+    EXPECT_EQ(scenario.obstacles()[j].R_WO, obstacles5[j].R_WO) << j;
+    EXPECT_EQ(scenario.obstacles()[j].v_WO(), obstacles5[j].v_WO()) << j;
+  }
   // the overrides: the crossing cubes' speed and count
-  const auto fixed = MakeScenario("cells", robot, {.obstacle_speed = 0.7, .num_obstacles = 2});
+  std::unique_ptr<Scenario> fixed = MakeScenario("cells", robot, {.obstacle_speed = 0.7, .num_obstacles = 2});
   EXPECT_EQ(fixed->num_obstacles(), o.num_panels + o.num_objects + 1 + 2);
+  World fixed_world(std::make_shared<const WorldModel>(robot, fixed->scene_spec()));
+  fixed->Reset(3, fixed_world);
+  for (int j = fixed->num_obstacles() - 2; j < fixed->num_obstacles(); ++j) {
+    EXPECT_NEAR(fixed->obstacles()[j].v_WO().norm(), 0.7, 1e-12);
+  }
   EXPECT_THROW(MakeScenario("cells", robot, {.target_speed = 0.1}), InputError);
 }
 
@@ -220,6 +235,13 @@ TEST(CellsScenarioTest, BadOptionsNameTheirKey) {
   CellsOptions inverted;
   inverted.opening_width = {0.6, 0.3};
   EXPECT_NE(message(inverted).find("CellsOptions.opening_width"), std::string::npos);
+  EXPECT_NE(message(inverted).find("got [0.6, 0.3]"), std::string::npos) << message(inverted);
+  CellsOptions narrow;  // too narrow for the target's margins: refused, not drawn from an empty range
+  narrow.opening_width = {0.05, 0.1};
+  EXPECT_NE(message(narrow).find("CellsOptions.opening_width"), std::string::npos);
+  CellsOptions small_boards;
+  small_boards.panel_width = 0.1;
+  EXPECT_NE(message(small_boards).find("CellsOptions.panel_width"), std::string::npos);
   CellsOptions deep;
   deep.depth = {0.3, 0.9};  // deeper than a board
   EXPECT_NE(message(deep).find("CellsOptions.depth"), std::string::npos);

@@ -41,6 +41,9 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["options.target_gate_clearance"] = c.options.target_gate_clearance;
   f["options.target_gate_clear"] = c.options.target_gate_clear;
   f["options.target_gate_threat"] = c.options.target_gate_threat;
+  f["options.collision_gate_clear"] = c.options.collision_gate_clear;
+  f["options.collision_gate_threat"] = c.options.collision_gate_threat;
+  f["options.agents_under_threat_only"] = c.options.agents_under_threat_only;
   f["direct.max_speed_fraction"] = c.direct.max_speed_fraction;
   f["observation.length_scale"] = c.observation.length_scale;
   f["observation.speed_scale"] = c.observation.speed_scale;
@@ -101,6 +104,38 @@ std::map<std::string, double> Flatten(const TaskConfig& c) {
   f["pretrain.target_clearance"] = s.target_clearance;
   f["pretrain.max_attempts"] = s.max_attempts;
   workspace("pretrain.workspace", s.workspace);
+  const sim::CellsOptions& cl = c.scenario.cells;
+  for (size_t i = 0; i < cl.kind_weights.size(); ++i) f["cells.kind_weights." + std::to_string(i)] = cl.kind_weights[i];
+  f["cells.panel_length"] = cl.panel_length;
+  f["cells.panel_width"] = cl.panel_width;
+  f["cells.panel_thickness"] = cl.panel_thickness;
+  f["cells.num_panels"] = cl.num_panels;
+  f["cells.num_objects"] = cl.num_objects;
+  f["cells.object_side"] = cl.object_side;
+  for (const auto& [key, range] : {std::pair{"opening_width", cl.opening_width}, std::pair{"opening_height", cl.opening_height},
+                                   std::pair{"depth", cl.depth}, std::pair{"box_size", cl.box_size},
+                                   std::pair{"box_height", cl.box_height}, std::pair{"table_gap", cl.table_gap},
+                                   std::pair{"grasp_clearance", cl.grasp_clearance}}) {
+    f[std::string("cells.") + key + ".min"] = range[0];
+    f[std::string("cells.") + key + ".max"] = range[1];
+  }
+  f["cells.grasp_object_probability"] = cl.grasp_object_probability;
+  f["cells.grasp_object_half_width"] = cl.grasp_object_half_width;
+  f["cells.grasp_object_half_length"] = cl.grasp_object_half_length;
+  f["cells.num_crossing"] = cl.num_crossing;
+  f["cells.crossing_side"] = cl.crossing_side;
+  f["cells.crossing_speed"] = cl.crossing_speed;
+  f["cells.crossing_speed_max"] = cl.crossing_speed_max;
+  f["cells.min_base_distance"] = cl.min_base_distance;
+  f["cells.spawn_margin"] = cl.spawn_margin;
+  f["cells.start_spread"] = cl.start_spread;
+  f["cells.limit_margin"] = cl.limit_margin;
+  f["cells.min_target_distance"] = cl.min_target_distance;
+  f["cells.goal_clearance"] = cl.goal_clearance;
+  f["cells.start_clearance"] = cl.start_clearance;
+  f["cells.joint_goal"] = cl.joint_goal;
+  f["cells.max_attempts"] = cl.max_attempts;
+  workspace("cells.workspace", cl.workspace);
   const sim::CrossingOptions& x = c.scenario.crossing;
   f["crossing.num_obstacles"] = x.num_obstacles;
   f["crossing.obstacle_side"] = x.obstacle_side;

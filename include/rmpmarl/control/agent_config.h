@@ -102,7 +102,8 @@ struct OptionConfig {
   double collision_gate_threat = 0.0;
   /// true: the agents' four parameters count only while the gate predicts a pass within target_gate_clearance of a
   /// capsule the joint moves; otherwise joint i's layer runs on the priors alone (the hand gates): the learned
-  /// residual acts where an obstacle is about to pass, and a static cell is left to the layer.
+  /// residual acts where an obstacle is about to pass, and a static cell is left to the layer. Needs the gate and a
+  /// fixed option (options.fixed_option ≥ 0).
   bool agents_under_threat_only = false;
   bool TargetGated() const { return std::isfinite(target_gate_clearance); }
 };

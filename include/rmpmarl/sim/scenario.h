@@ -369,20 +369,21 @@ struct CellsOptions {
   double panel_length = 0.8;      ///< the boards' long side [m]
   double panel_width = 0.45;      ///< their short side [m] (a shelf's depth and a box wall's height are at most this)
   double panel_thickness = 0.02;  ///< [m]
-  int num_panels = 6;             ///< boards in the scene (a shelf uses up to 6, a box 5, a table 1–2)
-  int num_objects = 2;            ///< cubes on a shelf board, in a box or on a table
+  int num_panels = 6;             ///< boards in the scene (a shelf or a box uses 6, a table 1–2)
+  int num_objects = 2;            ///< cubes: up to this many on a table, one on a shelf board, in a box or under a table
   double object_side = 0.06;      ///< [m]
   std::array<double, 2> opening_width = {0.3, 0.7};   ///< a shelf compartment's inner width [m]
   std::array<double, 2> opening_height = {0.2, 0.4};  ///< its inner height [m]
   std::array<double, 2> depth = {0.25, 0.43};         ///< its inner depth [m]
-  std::array<double, 2> box_size = {0.25, 0.55};      ///< a box's inner length and width [m]
+  std::array<double, 2> box_size = {0.25, 0.55};      ///< a box's inner length and width [m] (its floor: two boards)
   std::array<double, 2> box_height = {0.1, 0.25};     ///< its walls above its floor [m]
   std::array<double, 2> table_gap = {0.08, 0.25};     ///< under a table: its underside above the target [m]
   /// the object being reached for: an upright box (a carton; MuJoCo 2.2.2's distances to a cylinder within a contact
   /// margin are off by millimetres) placed beside the hand at the goal — ahead of it in a
   /// shelf or under a table, beside it on a table or in a box — standing on the cell's surface, its clearance from
   /// the arm at the goal drawn from grasp_clearance (as a benchmark's goals are grasps millimetres from the object);
-  /// with probability grasp_object_probability, else parked
+  /// with probability grasp_object_probability, else parked (also where it would not fit under a board above the
+  /// target, or the hand keeps it farther than grasp_clearance's maximum)
   double grasp_object_probability = 0.75;
   double grasp_object_half_width = 0.03;   ///< [m] its half side, horizontally
   double grasp_object_half_length = 0.07;  ///< [m] its half height
@@ -420,7 +421,7 @@ class CellsScenario final : public Scenario {
   bool BuildCell(CellKind kind, std::mt19937_64& rng);
   // the object reached for beside the hand (end effector p_E at the goal's kinematics) along `dir`; false: no room
   bool PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E, const Eigen::Vector3d& dir,
-                        double support, std::mt19937_64& rng);
+                        double support, double ceiling, std::mt19937_64& rng);
   // the smallest distance of the arm's capsules (kinematics `at`) from obstacle j where it is placed now
   double ArmClearance(const kinematics::Data& at, int j) const;
   // the cell clears the arm at the goal (goal_clearance) and at the start (start_clearance)
