@@ -139,14 +139,13 @@ CellsScenario::CellsScenario(const kinematics::Robot& robot, const CellsOptions&
   }
 }
 
-bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
+bool CellsScenario::BuildCell(CellKind kind, const kinematics::Data& start, const kinematics::Data& goal,
+                              std::mt19937_64& rng) {
   const CellsOptions& o = options_;
   const kinematics::Model& m = robot_.model;
-  kinematics::Data data(m);
-  kinematics::CalcForwardKinematics(m, q_goal_, &data);
-  const Eigen::Vector3d p_E = EndEffector(robot_, data);
+  const Eigen::Vector3d p_E = EndEffector(robot_, goal);
   // the way the hand comes in: from the wrist (the origin of the link the last-but-one joint moves) to the end effector
-  const Eigen::Vector3d p_wrist = data.X_WL[m.dof_link(m.nq() - 2)].translation();
+  const Eigen::Vector3d p_wrist = goal.X_WL[m.dof_link(m.nq() - 2)].translation();
   const Eigen::Vector3d approach = (p_E - p_wrist).normalized();
   const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
   const Eigen::Vector2d base_h = p_E.head<2>();
@@ -266,9 +265,9 @@ bool CellsScenario::BuildCell(CellKind kind, std::mt19937_64& rng) {
       const double angle = Uniform(rng, 0.0, 2.0 * M_PI);
       dir = std::cos(angle) * x + std::sin(angle) * y;
     }
-    if (!PlaceGraspObject(data, p_E, dir, support, ceiling, rng)) return false;
+    if (!PlaceGraspObject(goal, p_E, dir, support, ceiling, rng)) return false;
   }
-  return ClearOfCell(data);
+  return ClearOfCell(start, goal);
 }
 
 bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E,
@@ -278,7 +277,7 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
   // standing on the cell's surface when the hand is within its height above it, else centred at the hand's height;
   // left out (parked) where it would not fit under the board above or could not come as close as drawn
   const CellsOptions& o = options_;
-  const int grasp = o.num_panels + o.num_objects;
+  const int grasp = o.grasp_object_index();
   const double hl = o.grasp_object_half_length, r = o.grasp_object_half_width;
   const double zc = p_E.z() - support < 2.0 * hl ? support + hl : p_E.z();
   const double want = Uniform(rng, o.grasp_clearance);
@@ -287,7 +286,7 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
     const Eigen::Vector3d c = p_E + s * dir;
     obstacles_[grasp].p_start = Eigen::Vector3d(c.x(), c.y(), zc);
     obstacles_[grasp].R_WO = BoardFrame(dir, Eigen::Vector3d::UnitZ().cross(dir));
-    return ArmClearance(goal, grasp);
+    return RobotClearance(goal, ObstacleAsRmp(grasp));
   };
   double lo = std::sqrt(2.0) * r + 0.005, hi = 0.5;  // never around the target itself
   if (at(hi) < want) return false;
@@ -313,10 +312,7 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
                              c + std::max(0.0, hl - R) * Eigen::Vector3d::UnitZ(), R};
   for (int j = 0; j < o.num_panels; ++j) {
     if (obstacles_[j].p_start == ParkedPose().translation()) continue;
-    Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
-    X_WO.linear() = obstacles_[j].R_WO;
-    X_WO.translation() = obstacles_[j].p_start;
-    if (rmp::CapsuleObstacleDistance(around, spec_.obstacles[j].AsRmp(X_WO)).distance < -1e-6) {
+    if (rmp::CapsuleObstacleDistance(around, ObstacleAsRmp(j)).distance < -1e-6) {
       obstacles_[grasp] = ObstacleState{};
       return true;
     }
@@ -324,29 +320,15 @@ bool CellsScenario::PlaceGraspObject(const kinematics::Data& goal, const Eigen::
   return true;
 }
 
-double CellsScenario::ArmClearance(const kinematics::Data& at, int j) const {
-  Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
-  X_WO.linear() = obstacles_[j].R_WO;
-  X_WO.translation() = obstacles_[j].p_start;
-  const rmp::Obstacle ob = spec_.obstacles[j].AsRmp(X_WO);
-  double d = kInf;
-  for (const auto& c : robot_.capsules) {
-    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, at), ob).distance);
-  }
-  return d;
-}
-
-bool CellsScenario::ClearOfCell(const kinematics::Data& goal) const {
+bool CellsScenario::ClearOfCell(const kinematics::Data& start, const kinematics::Data& goal) const {
   // every placed board and object clear of the arm at the goal (the object reached for at its own clearance) and at
   // the start
   const CellsOptions& o = options_;
-  kinematics::Data start(robot_.model);
-  kinematics::CalcForwardKinematics(robot_.model, q_start_, &start);
-  const int grasp = o.num_panels + o.num_objects;
-  for (int j = 0; j < num_obstacles() - o.num_crossing; ++j) {
+  for (int j = 0; j < o.grasp_object_index() + 1; ++j) {
     if (obstacles_[j].p_start == ParkedPose().translation()) continue;
-    if (j != grasp && ArmClearance(goal, j) < o.goal_clearance) return false;
-    if (ArmClearance(start, j) < o.start_clearance) return false;
+    const rmp::Obstacle obstacle = ObstacleAsRmp(j);
+    if (j != o.grasp_object_index() && RobotClearance(goal, obstacle) < o.goal_clearance) return false;
+    if (RobotClearance(start, obstacle) < o.start_clearance) return false;
   }
   return true;
 }
@@ -359,7 +341,7 @@ void CellsScenario::DrawCrossingPath(int j, std::mt19937_64& rng) {
 }
 
 void CellsScenario::OnPathEnd(int j, std::mt19937_64& rng) {
-  if (j < num_obstacles() - options_.num_crossing) return;
+  if (j <= options_.grasp_object_index()) return;  // the cell stays
   const int paths = obstacles_[j].paths;
   DrawCrossingPath(j, rng);
   obstacles_[j].paths = paths + 1;
@@ -369,10 +351,10 @@ void CellsScenario::Draw(std::mt19937_64& rng) {
   const CellsOptions& o = options_;
   const kinematics::Model& m = robot_.model;
   const Eigen::VectorXd ready = ReadyConfiguration(robot_);
-  kinematics::Data data(m);
+  kinematics::Data start(m), goal(m);
   Eigen::Matrix3Xd J(3, m.nq());
   std::discrete_distribution<int> kinds(o.kind_weights.begin(), o.kind_weights.end());
-  const int fixed = num_obstacles() - o.num_crossing;
+  const int fixed = o.grasp_object_index() + 1;  // the cell's obstacles; the crossing cubes after them
   q_goal_.resize(m.nq());
   // the kind first, then draws until one of it fits: every kind as often as its weight says, however hard it is to fit
   kind_ = static_cast<CellKind>(kinds(rng));
@@ -384,22 +366,22 @@ void CellsScenario::Draw(std::mt19937_64& rng) {
       const auto& l = m.limits()[i];
       q_start_[i] = std::clamp(ready[i] + Uniform(rng, -o.start_spread, o.start_spread), l.lower, l.upper);
     }
-    kinematics::CalcForwardKinematics(m, q_start_, &data);
-    if (MinSelfClearance(robot_, data) < 0.01) continue;
-    const Eigen::Vector3d p_start = EndEffector(robot_, data);
+    kinematics::CalcForwardKinematics(m, q_start_, &start);
+    if (MinSelfClearance(robot_, start) < 0.01) continue;
+    const Eigen::Vector3d p_start = EndEffector(robot_, start);
     // the goal: uniform within the limits, not singular, clear of itself and above the base plane
     for (int i = 0; i < m.nq(); ++i) {
       const auto [lo, hi] = internal::SamplingRange(m.limits()[i]);
       q_goal_[i] = hi - lo > 2.0 * o.limit_margin ? Uniform(rng, lo + o.limit_margin, hi - o.limit_margin)
                                                   : 0.5 * (lo + hi);
     }
-    kinematics::CalcForwardKinematics(m, q_goal_, &data);
-    const Eigen::Vector3d p = EndEffector(robot_, data);
+    kinematics::CalcForwardKinematics(m, q_goal_, &goal);
+    const Eigen::Vector3d p = EndEffector(robot_, goal);
     if ((p - p_start).norm() < o.min_target_distance) continue;
-    if (LowestMovingPoint(robot_, data) < 0.05 || MinSelfClearance(robot_, data) < 0.01) continue;
-    kinematics::CalcPointJacobian(m, data, robot_.end_effector.link, robot_.end_effector.X_LE.translation(), J);
+    if (LowestMovingPoint(robot_, goal) < 0.05 || MinSelfClearance(robot_, goal) < 0.01) continue;
+    kinematics::CalcPointJacobian(m, goal, robot_.end_effector.link, robot_.end_effector.X_LE.translation(), J);
     if (Eigen::JacobiSVD<Eigen::MatrixXd>(Eigen::MatrixXd(J)).singularValues().minCoeff() < 0.05) continue;
-    if (!BuildCell(kind_, rng)) continue;
+    if (!BuildCell(kind_, start, goal, rng)) continue;
     target_.p_WT = p;
     target_.v_WT.setZero();
     joint_goal_ = o.joint_goal ? q_goal_ : Eigen::VectorXd();

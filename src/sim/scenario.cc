@@ -293,10 +293,13 @@ double Scenario::RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Ve
   Eigen::Isometry3d X_WO = Eigen::Isometry3d::Identity();
   X_WO.linear() = obstacles_[j].R_WO;
   X_WO.translation() = p_WO;
-  const rmp::Obstacle o = spec.AsRmp(X_WO);
+  return RobotClearance(data, spec.AsRmp(X_WO));
+}
+
+double Scenario::RobotClearance(const kinematics::Data& at, const rmp::Obstacle& obstacle) const {
   double d = kInf;
   for (const auto& c : robot_.capsules) {
-    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, data), o).distance);
+    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, at), obstacle).distance);
   }
   return d;
 }

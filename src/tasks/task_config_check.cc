@@ -35,10 +35,7 @@ int ScenarioObstacleCount(const TaskConfig& c) {
     case TaskKind::kReachAvoid: return c.scenario.crossing.num_obstacles;
     case TaskKind::kLineCrossing: return c.scenario.line_crossing.num_obstacles;
     case TaskKind::kCluttered: return c.scenario.cluttered.num_obstacles;
-    case TaskKind::kCells: {
-      const sim::CellsOptions& s = c.scenario.cells;
-      return s.num_panels + s.num_objects + 1 + s.num_crossing;
-    }
+    case TaskKind::kCells: return c.scenario.cells.obstacle_count();
   }
   return 0;
 }

@@ -167,6 +167,8 @@ class Scenario : public SceneSource {
   void DrawHorizontalCrossing(int j, const HorizontalCrossing& crossing, std::mt19937_64& rng);
   /// smallest signed distance between the robot's capsules at q and obstacle j placed at p_WO (shape from spec).
   double RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Vector3d& p_WO) const;
+  /// smallest signed distance between the robot's capsules (forward kinematics in `at`) and `obstacle`.
+  double RobotClearance(const kinematics::Data& at, const rmp::Obstacle& obstacle) const;
   /// end-effector position at q.
   Eigen::Vector3d EndEffectorAt(const Eigen::VectorXd& q) const;
 
@@ -402,6 +404,11 @@ struct CellsOptions {
   bool joint_goal = true;          ///< give the controllers the joint goal (rmp::Scene::q_T), as a benchmark does
   int max_attempts = 200000;       ///< draws before giving up (InputError)
   WorkspaceOptions workspace{};
+
+  /// the scene's obstacle index of the object reached for (after the boards and the cubes; the crossing cubes follow).
+  int grasp_object_index() const { return num_panels + num_objects; }
+  /// the scene's obstacles: boards, cubes, the object reached for, crossing cubes.
+  int obstacle_count() const { return grasp_object_index() + 1 + num_crossing; }
 };
 
 /// `cells`.
@@ -417,15 +424,14 @@ class CellsScenario final : public Scenario {
  private:
   void Draw(std::mt19937_64& rng) override;
   void OnPathEnd(int j, std::mt19937_64& rng) override;
-  // one attempt at a cell of `kind` around the end effector of q_goal_: the static obstacles' poses, or false
-  bool BuildCell(CellKind kind, std::mt19937_64& rng);
+  // one attempt at a cell of `kind` around the end effector of q_goal_ (the arm's kinematics at q_start_ and q_goal_
+  // given): the static obstacles' poses, or false
+  bool BuildCell(CellKind kind, const kinematics::Data& start, const kinematics::Data& goal, std::mt19937_64& rng);
   // the object reached for beside the hand (end effector p_E at the goal's kinematics) along `dir`; false: no room
   bool PlaceGraspObject(const kinematics::Data& goal, const Eigen::Vector3d& p_E, const Eigen::Vector3d& dir,
                         double support, double ceiling, std::mt19937_64& rng);
-  // the smallest distance of the arm's capsules (kinematics `at`) from obstacle j where it is placed now
-  double ArmClearance(const kinematics::Data& at, int j) const;
   // the cell clears the arm at the goal (goal_clearance) and at the start (start_clearance)
-  bool ClearOfCell(const kinematics::Data& goal) const;
+  bool ClearOfCell(const kinematics::Data& start, const kinematics::Data& goal) const;
   void DrawCrossingPath(int j, std::mt19937_64& rng);
   CellsOptions options_;
   CellKind kind_ = CellKind::kShelf;
