@@ -53,6 +53,59 @@ void World::Sync() {
   stale_ = false;
 }
 
+void World::SyncMovedMocap() {
+  const mjModel* m = model_->mj_model();
+  mjData* d = data_.get();
+  // Only mocap poses changed since the last mj_step1: qpos and qvel did not. Recomputed is what reads the mocap bodies'
+  // poses: the bodies' and geoms' poses and the composite inertias (mj_kinematics, mj_comPos, mj_crb), the contacts
+  // and the constraints built on them with their reference accelerations. What depends on qpos and qvel alone is
+  // still valid: the joint-space inertia's factor, the bias and passive forces, the actuators' transmissions. Sensors,
+  // tendons and the energy could read a mocap body's pose: a model with any takes the whole mj_step1.
+  if (m->nsensor > 0 || m->ntendon > 0 || (m->opt.enableflags & mjENBL_ENERGY) != 0) {
+    Sync();
+    return;
+  }
+  mj_kinematics(m, d);
+  mj_comPos(m, d);
+  mj_camlight(m, d);
+  mj_crb(m, d);
+  // no contact before and none possible now: the contacts and the constraints are what they were
+  if (d->ncon == 0 && MocapGeomsClear()) {
+    stale_ = false;
+    return;
+  }
+  mj_collision(m, d);
+  mj_makeConstraint(m, d);
+  mj_projectConstraint(m, d);
+  mj_referenceConstraint(m, d);
+  stale_ = false;
+}
+
+bool World::MocapGeomsClear() const {
+  const mjModel* m = model_->mj_model();
+  const mjData* d = data_.get();
+  const double margin = model_->max_contact_margin();
+  for (int g : model_->mocap_geoms()) {
+    const Eigen::Map<const Eigen::Vector3d> p_g(d->geom_xpos + 3 * g);
+    const double r_g = m->geom_rbound[g];
+    for (int h : model_->collidable_geoms()) {
+      if (h == g || !model_->MayCollide(g, h)) continue;
+      const Eigen::Map<const Eigen::Vector3d> p_h(d->geom_xpos + 3 * h);
+      // beyond contact distance with a relative slack far above the rounding of these few operations
+      double gap = 0.0;
+      if (m->geom_type[h] == mjGEOM_PLANE) {
+        const Eigen::Vector3d n_h(d->geom_xmat[9 * h + 2], d->geom_xmat[9 * h + 5], d->geom_xmat[9 * h + 8]);
+        gap = n_h.dot(p_g - p_h) - r_g;
+      } else if (m->geom_rbound[h] > 0.0) {
+        gap = (p_g - p_h).norm() - r_g - m->geom_rbound[h];
+      } else {
+        return false;  // no bounding sphere to test
+      }
+      if (!(gap > margin + 1e-9 * (1.0 + std::abs(gap)))) return false;
+    }
+  }
+  return true;
+}
 void World::ReadState() {
   for (int i = 0; i < model_->nq(); ++i) {
     q_[i] = data_->qpos[model_->dof_qpos_adr(i)];
@@ -220,7 +273,7 @@ StepResult World::Step(int num_steps) {
     d->warning[mjWARN_BADQPOS].number = 0;
     d->warning[mjWARN_BADQVEL].number = 0;
     d->warning[mjWARN_BADQACC].number = 0;
-    if (stale_) Sync();
+    if (stale_) SyncMovedMocap();
     // mj_step2 then mj_step1 is mj_step shifted by half a step: the position stage (kinematics, collisions) of the
     // new state is computed right away, so contacts in mjData always describe the current state.
     mj_step2(m, d);
@@ -253,7 +306,7 @@ StepResult World::Step(int num_steps) {
 }
 
 const ContactReport& World::QueryContacts() {
-  if (stale_) Sync();
+  if (stale_) SyncMovedMocap();
   const mjModel* m = model_->mj_model();
   const mjData* d = data_.get();
   ContactReport& r = report_;

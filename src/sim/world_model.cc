@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -136,11 +137,25 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
   }
   for (int g = 0; g < m->ngeom; ++g) RMPMARL_ASSERT(assigned[g], "every MuJoCo geom must have a role");
 
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+    collidable_geoms_.push_back(g);
+    if (m->body_mocapid[m->geom_bodyid[g]] >= 0) mocap_geoms_.push_back(g);
+    max_contact_margin_ = std::max(max_contact_margin_, m->geom_margin[g]);
+  }
+  for (int p = 0; p < m->npair; ++p) max_contact_margin_ = std::max(max_contact_margin_, m->pair_margin[p]);
+
   const int L = model.num_links();
   checked_link_pair_.assign(static_cast<size_t>(L) * L, 0);
   for (int i = 0; i < L; ++i) {
     for (int j = 0; j < L; ++j) checked_link_pair_[i * L + j] = (i != j && !robot_.IsExcludedPair(i, j)) ? 1 : 0;
   }
+}
+
+bool WorldModel::MayCollide(int g, int h) const {
+  const mjModel* m = mj_model_.get();
+  if (m->npair > 0) return true;
+  return (m->geom_contype[g] & m->geom_conaffinity[h]) != 0 || (m->geom_contype[h] & m->geom_conaffinity[g]) != 0;
 }
 
 }  // namespace rmpmarl::sim

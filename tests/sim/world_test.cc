@@ -2,9 +2,14 @@
 // sharing, split stepping vs mj_step, input checks and NaN reporting.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <fmt/ranges.h>
+#include <mujoco/mjxmacro.h>
 #include <mujoco/mujoco.h>
 
 #include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <type_traits>
 #include <random>
 #include <string>
 
@@ -248,6 +253,88 @@ TEST(WorldTest, SplitStepEqualsMujocosStep) {
         ASSERT_EQ(world.qd()[i], ref->qvel[wm->dof_vel_adr(i)]);
       }
     }
+  }
+}
+
+// the names of the mjData arrays whose bytes differ between a and b (MuJoCo's own list of them)
+std::vector<std::string> DifferingArrays(const mjModel* m, const mjData* a, const mjData* b) {
+  std::vector<std::string> differ;
+  MJDATA_POINTERS_PREAMBLE(m)
+#define X(type, name, nr, nc)                                                                              \
+  if (!std::is_same_v<type, mjContact> && std::memcmp(a->name, b->name, sizeof(type) * (m->nr) * (nc)) != 0) { \
+    differ.push_back(#name);                                                                                 \
+  }
+  MJDATA_POINTERS
+#undef X
+  if (a->ncon != b->ncon) differ.push_back("ncon");
+  // a contact's fields, not the struct's trailing padding (which MuJoCo leaves as it finds it)
+  constexpr size_t kContactBytes = offsetof(mjContact, efc_address) + sizeof(int);
+  for (int c = 0; c < m->nconmax; ++c) {
+    if (std::memcmp(a->contact + c, b->contact + c, kContactBytes) != 0) {
+      differ.push_back(fmt::format("contact {}", c));
+      break;
+    }
+  }
+  return differ;
+}
+
+TEST(WorldTest, AMovedObstacleGivesTheStateOfAWholeMjStep1) {
+  // World recomputes after a mocap move only what reads mocap poses; independent reference: a copy of its mjData
+  // through the whole mj_step1. Obstacles are moved onto the arm's links (contacts and constraints change) and away.
+  const kinematics::Robot robot = ArmForDynamics();
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.12), ObstacleSpec::Sphere(0.06), ObstacleSpec::Cube(0.05)};
+  for (Integrator integrator : {Integrator::kImplicit, Integrator::kEuler}) {
+    WorldOptions options;
+    options.integrator = integrator;
+    options.warning_margin = 0.0;  // contacts for touching pairs only, as in the tasks' worlds
+    auto wm = std::make_shared<const WorldModel>(robot, scene, options);
+    World world(wm);
+    const mjModel* m = wm->mj_model();
+    std::unique_ptr<mjData, void (*)(mjData*)> ref(mj_makeData(m), mj_deleteData);
+    std::mt19937_64 rng(11);
+    world.Reset(testing::RandomConfiguration(robot.model, rng));
+    std::uniform_int_distribution<int> link(1, robot.model.num_links() - 1);
+    std::uniform_real_distribution<double> offset(-0.08, 0.08);
+    int with_contacts = 0, clear_moves = 0;
+    for (int k = 0; k < 60; ++k) {
+      world.SetJointTargets(testing::RandomConfiguration(robot.model, rng));
+      ASSERT_TRUE(world.Step(3).ok);
+      for (int j = 0; j < wm->num_obstacles(); ++j) {
+        const int body = wm->link_body(link(rng));
+        const Eigen::Vector3d p(world.mj_data()->xpos[3 * body] + offset(rng),
+                                world.mj_data()->xpos[3 * body + 1] + offset(rng),
+                                world.mj_data()->xpos[3 * body + 2] + offset(rng));
+        world.SetObstaclePose(j, p, testing::RandomRotation(rng));
+      }
+      auto expect_whole_step1 = [&](const char* what) {
+        mj_copyData(ref.get(), m, world.mj_data());
+        mj_step1(m, ref.get());
+        world.QueryContacts();  // brings the world's mjData up to date
+        const std::vector<std::string> differ = DifferingArrays(m, world.mj_data(), ref.get());
+        EXPECT_TRUE(differ.empty()) << what << ", move " << k << ": " << fmt::format("{}", fmt::join(differ, ", "));
+      };
+      expect_whole_step1("onto the arm");
+      const int ncon_onto = world.mj_data()->ncon;
+      // and away again, so that the arm steps on freely
+      for (int j = 0; j < wm->num_obstacles(); ++j) world.SetObstaclePose(j, ParkedPose());
+      expect_whole_step1("parked");
+      with_contacts += ncon_onto > world.mj_data()->ncon ? 1 : 0;
+      // moved in the open, from a state without contacts (the contacts need not be computed again)
+      world.SetJointTargets(world.q());
+      ASSERT_TRUE(world.Step(1).ok);
+      if (world.QueryContacts().colliding_pairs.empty() && world.mj_data()->ncon == 0) {
+        ++clear_moves;
+        for (int j = 0; j < wm->num_obstacles(); ++j) {
+          world.SetObstaclePose(j, Eigen::Vector3d(1.5 + 0.4 * j, offset(rng), 0.5 + offset(rng)),
+                                testing::RandomRotation(rng));
+        }
+        expect_whole_step1("in the open");
+      }
+      if (HasFailure()) return;
+    }
+    EXPECT_GE(with_contacts, 20);  // the moves did put obstacles on the arm (contacts with them)
+    EXPECT_GE(clear_moves, 20);
   }
 }
 

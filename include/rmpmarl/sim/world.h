@@ -88,6 +88,14 @@ class WorldModel {
   const GeomInfo& geom_info(int g) const { return geom_info_[g]; }
   /// true when robot links i and j are checked against each other (not Robot::IsExcludedPair, i != j).
   bool IsCheckedLinkPair(int i, int j) const { return checked_link_pair_[i * robot_.model.num_links() + j] != 0; }
+  /// the geoms of mocap bodies (obstacles, target) that take part in contacts (a contype or conaffinity bit).
+  const std::vector<int>& mocap_geoms() const { return mocap_geoms_; }
+  /// every geom that takes part in contacts.
+  const std::vector<int>& collidable_geoms() const { return collidable_geoms_; }
+  /// true unless MuJoCo's contype/conaffinity filter rules the pair out (a model with explicit pairs: always true).
+  bool MayCollide(int g, int h) const;
+  /// the largest contact margin of a geom or an explicit pair: beyond it MuJoCo makes no contact.
+  double max_contact_margin() const { return max_contact_margin_; }
   /// lower/upper commanded position per dof (joint limits; ±inf for continuous joints).
   const Eigen::VectorXd& lower_limits() const { return servos_.lower; }
   const Eigen::VectorXd& upper_limits() const { return servos_.upper; }
@@ -106,6 +114,8 @@ class WorldModel {
   int target_mocap_ = -1, target_geom_ = -1, floor_geom_ = -1;
   std::vector<GeomInfo> geom_info_;
   std::vector<char> checked_link_pair_;  // num_links x num_links
+  std::vector<int> mocap_geoms_, collidable_geoms_;
+  double max_contact_margin_ = 0.0;
 };
 
 /// Numerical trouble MuJoCo detected during a step (its mjWARN_BAD* warnings).
@@ -212,6 +222,8 @@ class World {
     void operator()(mjData* d) const;
   };
   void Sync();           // mj_step1 on the current state: kinematics, contacts, velocities
+  void SyncMovedMocap();  // the same after a mocap pose changed (the joints' state did not), without the joints' part
+  bool MocapGeomsClear() const;  // no mocap body's geom within contact distance of any other geom
   void ReadState();      // qpos/qvel -> q_, qd_
   StepIssue NewIssue();  // compares MuJoCo's bad-value warning counters with the last seen ones
 
