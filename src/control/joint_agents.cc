@@ -121,6 +121,7 @@ JointAgents::JointAgents(const AgentConfig& config, const kinematics::Robot* rob
   held_parameters_.setZero(nq_, RmpActionLayout::kNumContinuous);
   parameter_age_.assign(nq_, -1);
   parameter_warning_.assign(nq_, 0);
+  scale_memo_.assign(nq_, ScaleMemo{});
   if (config_.interface == InterfaceMode::kPerJointRmp) layer_ = std::make_unique<Layer>(robot_, config_.basic_layer);
 }
 
@@ -170,13 +171,28 @@ void JointAgents::Sense(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen:
 
 void JointAgents::SenseState(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                              const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT) {
+  kinematics::CalcVelocityKinematics(robot_->model, q, qd, &kin_);
+  SenseEndEffector(q, qd, p_WT, v_WT);
+}
+
+void JointAgents::SenseState(const kinematics::Data& kin, const Eigen::Ref<const Eigen::VectorXd>& q,
+                             const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Vector3d& p_WT,
+                             const Eigen::Vector3d& v_WT) {
+  RMPMARL_ASSERT(kin.has_velocities && kin.X_WL.size() == kin_.X_WL.size(),
+                 "JointAgents::SenseState: the kinematics of another robot or without velocities");
+  kin_ = kin;
+  SenseEndEffector(q, qd, p_WT, v_WT);
+}
+
+void JointAgents::SenseEndEffector(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                   const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Vector3d& p_WT,
+                                   const Eigen::Vector3d& v_WT) {
   const kinematics::Model& m = robot_->model;
   const kinematics::EndEffector& ee = robot_->end_effector;
   q_ = q;
   qd_ = qd;
   p_WT_ = p_WT;
   v_WT_ = v_WT;
-  kinematics::CalcVelocityKinematics(m, q, qd, &kin_);
   p_WE_ = kinematics::CalcPointPosition(kin_, ee.link, ee.X_LE.translation());
   v_WE_ = kinematics::CalcPointVelocity(kin_, ee.link, ee.X_LE.translation());
   kinematics::CalcPointJacobian(m, kin_, ee.link, ee.X_LE.translation(), J_WE_);
@@ -188,32 +204,44 @@ void JointAgents::SenseContacts(std::span<const WarningContact> contacts, const 
   for (JointWarning& w : warnings_) w = JointWarning{};
   const bool all_warnings = config_.options.warnings == OptionWarnings::kAll;
   std::fill(option_warning_.begin(), option_warning_.end(), 0);
+  // a contact counts at the joints that move exactly one of its sides: the dofs of its link and of the other link
+  // (none for an obstacle or the floor) merged, those in both left out, in ascending order
+  auto observe = [&](const WarningContact& c, int i, bool moves_robot_side) {
+    // W_i of the options: what the collision RMPs act on (obstacles), or every warning (options.warnings: all)
+    if (all_warnings || c.other_kind == PartnerKind::kObstacle) option_warning_[i] = 1;
+    JointWarning& w = warnings_[i];
+    if (c.distance >= w.distance) return;
+    w.present = true;
+    w.distance = c.distance;
+    if (moves_robot_side) {
+      w.link = c.link;
+      w.p_W1 = c.p_W1;
+      w.p_W2 = c.p_W2;
+      w.n_W = c.n_W;
+      w.partner = c.other_kind;
+      w.partner_index = c.other_index;
+    } else {  // a link-link contact seen from the other link's side
+      w.link = c.other_index;
+      w.p_W1 = c.p_W2;
+      w.p_W2 = c.p_W1;
+      w.n_W = -c.n_W;
+      w.partner = PartnerKind::kLink;
+      w.partner_index = c.link;
+    }
+  };
+  static const std::vector<int> kNoDofs;
   for (const WarningContact& c : contacts) {
-    const int other_link = c.other_kind == PartnerKind::kLink ? c.other_index : -1;
-    for (int i = 0; i < nq_; ++i) {
-      const bool moves_robot_side = m.DofMovesLink(i, c.link);
-      const bool moves_other_side = other_link >= 0 && m.DofMovesLink(i, other_link);
-      if (moves_robot_side == moves_other_side) continue;  // joint i moves both rigidly, or neither
-      // W_i of the options: what the collision RMPs act on (obstacles), or every warning (options.warnings: all)
-      if (all_warnings || c.other_kind == PartnerKind::kObstacle) option_warning_[i] = 1;
-      JointWarning& w = warnings_[i];
-      if (c.distance >= w.distance) continue;
-      w.present = true;
-      w.distance = c.distance;
-      if (moves_robot_side) {
-        w.link = c.link;
-        w.p_W1 = c.p_W1;
-        w.p_W2 = c.p_W2;
-        w.n_W = c.n_W;
-        w.partner = c.other_kind;
-        w.partner_index = c.other_index;
-      } else {  // a link-link contact seen from the other link's side
-        w.link = other_link;
-        w.p_W1 = c.p_W2;
-        w.p_W2 = c.p_W1;
-        w.n_W = -c.n_W;
-        w.partner = PartnerKind::kLink;
-        w.partner_index = c.link;
+    const std::vector<int>& robot_side = m.link_dofs(c.link);
+    const std::vector<int>& other_side = c.other_kind == PartnerKind::kLink ? m.link_dofs(c.other_index) : kNoDofs;
+    auto a = robot_side.begin(), b = other_side.begin();
+    while (a != robot_side.end() || b != other_side.end()) {
+      if (b == other_side.end() || (a != robot_side.end() && *a < *b)) {
+        observe(c, *a++, /*moves_robot_side=*/true);
+      } else if (a == robot_side.end() || *b < *a) {
+        observe(c, *b++, /*moves_robot_side=*/false);
+      } else {  // moves both rigidly
+        ++a;
+        ++b;
       }
     }
   }
@@ -368,11 +396,21 @@ void JointAgents::Apply(const float* actions, float* option_started, float* para
       u_collision_accel += threat ? oc.collision_gate_threat : oc.collision_gate_clear;
       u_collision_accel = std::clamp(u_collision_accel, -1.0, 1.0);
     }
-    w.target_accel_scale = GainScale(u_target_accel, g_target);
-    w.target_metric_scale = target_weight * GainScale(u_target_metric, g_target);
-    w.collision_accel_scale = GainScale(u_collision_accel, g);
-    w.collision_metric_scale = GainScale(u_collision_metric, g);
-    w.collision_length_scale = length_exponent == 0.0 ? 1.0 : std::pow(w.collision_accel_scale, length_exponent);
+    // the scales are exponentials of the parameters, which are held for many steps: computed when they change
+    ScaleMemo& memo = scale_memo_[i];
+    const std::array<double, 4> u_now{u_target_accel, u_target_metric, u_collision_accel, u_collision_metric};
+    if (!memo.valid || u_now != memo.u) {
+      memo.u = u_now;
+      memo.scale = {GainScale(u_target_accel, g_target), GainScale(u_target_metric, g_target),
+                    GainScale(u_collision_accel, g), GainScale(u_collision_metric, g)};
+      memo.length_scale = length_exponent == 0.0 ? 1.0 : std::pow(memo.scale[2], length_exponent);
+      memo.valid = true;
+    }
+    w.target_accel_scale = memo.scale[0];
+    w.target_metric_scale = target_weight * memo.scale[1];
+    w.collision_accel_scale = memo.scale[2];
+    w.collision_metric_scale = memo.scale[3];
+    w.collision_length_scale = memo.length_scale;
     terminate_flags_[i] = a.has_termination && u[a.termination_offset()] >= 0.5f ? 1 : 0;
   }
 }

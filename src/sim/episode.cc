@@ -158,7 +158,7 @@ void EpisodeLoop::Observe(const ContactReport& report) {
 
 void EpisodeLoop::SenseState() {
   const kinematics::Robot& robot = world_->model().robot();
-  kinematics::CalcForwardKinematics(robot.model, world_->q(), &*kin_);
+  kinematics::CalcVelocityKinematics(robot.model, world_->q(), world_->qd(), &*kin_);
   const Eigen::Vector3d p_WE =
       kinematics::CalcPointPosition(*kin_, robot.end_effector.link, robot.end_effector.X_LE.translation());
   error_ = (p_WE - source_->target().p_WT).norm();

@@ -100,7 +100,9 @@ void TaskEpisode::Begin(sim::ObstacleSensor* sensor) {
 }
 
 void TaskEpisode::Sense() {
-  agents_->Sense(world_->q(), world_->qd(), p_WT_, v_WT_, loop_.warnings(), loop_.scene());
+  // the loop's kinematics of the same state, computed once per control step for its own sensing
+  agents_->SenseState(loop_.kinematics(), world_->q(), world_->qd(), p_WT_, v_WT_);
+  agents_->SenseContacts(loop_.warnings(), loop_.scene());
 }
 
 void TaskEpisode::BeginStep() {

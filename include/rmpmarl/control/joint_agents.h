@@ -5,6 +5,8 @@
 /// option machine, held RMP parameters, the hand prior and the basic layer the actions set. Sized at construction;
 /// Sense, WriteLocal, Apply and End allocate nothing.
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <span>
@@ -73,6 +75,11 @@ class JointAgents {
   /// kinematics().X_WL, for a caller that computes the warning contacts itself).
   void SenseState(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                   const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT);
+  /// the same from the kinematics of (q, q̇) a caller has computed already (kinematics::CalcVelocityKinematics on
+  /// this robot's model).
+  void SenseState(const kinematics::Data& kin, const Eigen::Ref<const Eigen::VectorXd>& q,
+                  const Eigen::Ref<const Eigen::VectorXd>& qd, const Eigen::Vector3d& p_WT,
+                  const Eigen::Vector3d& v_WT);
   /// the second half: the joints' nearest warnings and the look-ahead. \pre SenseState.
   void SenseContacts(std::span<const WarningContact> warnings, const rmp::Scene& scene);
   /// joint i's local observation after Sense, at env step `step` (the progress feature: step / episode.max_steps,
@@ -115,6 +122,9 @@ class JointAgents {
  private:
   class Layer;
   void UpdateLookahead(const rmp::Scene& scene);
+  // SenseState's end-effector part, on kin_
+  void SenseEndEffector(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
+                        const Eigen::Vector3d& p_WT, const Eigen::Vector3d& v_WT);
   /// Apply reads joint i's parameters even if no option starts: every step (parameter_period 1), at the episode's
   /// first step, when the period elapsed, or when the warning set emptied or filled since the last read
   bool ParametersDue(int i) const;
@@ -129,6 +139,13 @@ class JointAgents {
   Eigen::Vector3d p_WT_ = Eigen::Vector3d::Zero(), v_WT_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3Xd J_WE_;
   std::vector<JointWarning> warnings_;
+  // per joint: the four gain parameters Apply last turned into scales, and those scales
+  struct ScaleMemo {
+    std::array<double, 4> u{}, scale{};
+    double length_scale = 1.0;
+    bool valid = false;
+  };
+  std::vector<ScaleMemo> scale_memo_;
   std::vector<std::uint8_t> option_warning_;  // W_i ≠ ∅ for the options (options.warnings)
   std::vector<JointLookahead> lookahead_;
   std::vector<OptionMachine> options_;

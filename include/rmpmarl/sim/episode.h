@@ -128,6 +128,8 @@ class EpisodeLoop {
   const rmp::Scene& scene() const { return scene_; }
   /// the robot's warning contacts with the scene (the truth) at the current state, sensed once per control step.
   std::span<const control::WarningContact> warnings() const { return warnings_->contacts(); }
+  /// the arm's kinematics (link poses and velocities) at the current state, computed once per control step.
+  const kinematics::Data& kinematics() const { return *kin_; }
   const ContactReport& contacts() const { return *contacts_; }
   const ObstacleSensor* sensor() const { return sensor_; }
   /// ‖p_WE − p_WT‖ now [m].
@@ -140,7 +142,7 @@ class EpisodeLoop {
 
  private:
   void Observe(const ContactReport& report);
-  // the end effector's error and the warning contacts of the current state
+  // the kinematics, the end effector's error and the warning contacts of the current state
   void SenseState();
 
   World* world_ = nullptr;
