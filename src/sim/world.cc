@@ -88,6 +88,7 @@ bool World::MocapGeomsClear() const {
   for (int g : model_->mocap_geoms()) {
     const Eigen::Map<const Eigen::Vector3d> p_g(d->geom_xpos + 3 * g);
     const double r_g = m->geom_rbound[g];
+    if (!(r_g > 0.0)) return false;  // a plane (or another geom without a bounding sphere) on a mocap body
     for (int h : model_->collidable_geoms()) {
       if (h == g || !model_->MayCollide(g, h)) continue;
       const Eigen::Map<const Eigen::Vector3d> p_h(d->geom_xpos + 3 * h);
@@ -106,6 +107,7 @@ bool World::MocapGeomsClear() const {
   }
   return true;
 }
+
 void World::ReadState() {
   for (int i = 0; i < model_->nq(); ++i) {
     q_[i] = data_->qpos[model_->dof_qpos_adr(i)];

@@ -1,17 +1,17 @@
 // World behaviour: servo tracking, the servos' inverse-dynamics feed-forward against MuJoCo's forward dynamics, model
 // sharing, split stepping vs mj_step, input checks and NaN reporting.
 #include <fmt/format.h>
-#include <gtest/gtest.h>
 #include <fmt/ranges.h>
+#include <gtest/gtest.h>
 #include <mujoco/mjxmacro.h>
 #include <mujoco/mujoco.h>
 
 #include <cmath>
 #include <cstddef>
 #include <cstring>
-#include <type_traits>
 #include <random>
 #include <string>
+#include <type_traits>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/sim/world.h"
