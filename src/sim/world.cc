@@ -53,6 +53,11 @@ void World::Sync() {
   stale_ = false;
 }
 
+bool World::MocapPassReadByStep() const {
+  const mjModel* m = model_->mj_model();
+  return m->nsensor > 0 || m->ntendon > 0 || (m->opt.enableflags & mjENBL_ENERGY) != 0;
+}
+
 void World::SyncMovedMocap() {
   const mjModel* m = model_->mj_model();
   mjData* d = data_.get();
@@ -61,7 +66,7 @@ void World::SyncMovedMocap() {
   // and the constraints built on them with their reference accelerations. What depends on qpos and qvel alone is
   // still valid: the joint-space inertia's factor, the bias and passive forces, the actuators' transmissions. Sensors,
   // tendons and the energy could read a mocap body's pose: a model with any takes the whole mj_step1.
-  if (m->nsensor > 0 || m->ntendon > 0 || (m->opt.enableflags & mjENBL_ENERGY) != 0) {
+  if (MocapPassReadByStep()) {
     Sync();
     return;
   }
@@ -81,20 +86,35 @@ void World::SyncMovedMocap() {
   stale_ = false;
 }
 
+Eigen::Vector3d World::MovedGeomPosition(int g) const {
+  const mjModel* m = model_->mj_model();
+  const mjData* d = data_.get();
+  const int mocap = m->body_mocapid[m->geom_bodyid[g]];
+  if (mocap < 0) return Eigen::Map<const Eigen::Vector3d>(d->geom_xpos + 3 * g);
+  // a mocap body's pose is its mocap pose (its quaternion normalised), as mj_kinematics sets it
+  const double* q = d->mocap_quat + 4 * mocap;
+  const Eigen::Quaterniond R(q[0], q[1], q[2], q[3]);
+  return Eigen::Map<const Eigen::Vector3d>(d->mocap_pos + 3 * mocap) +
+         R.normalized() * Eigen::Map<const Eigen::Vector3d>(m->geom_pos + 3 * g);
+}
+
 bool World::MocapGeomsClear() const {
   const mjModel* m = model_->mj_model();
   const mjData* d = data_.get();
   const double margin = model_->max_contact_margin();
+  // the mocap geoms' positions from the mocap poses, so that the test holds also before mj_kinematics ran on them;
+  // the slack below covers the rounding by which this differs from MuJoCo's own
   for (int g : model_->mocap_geoms()) {
-    const Eigen::Map<const Eigen::Vector3d> p_g(d->geom_xpos + 3 * g);
+    const Eigen::Vector3d p_g = MovedGeomPosition(g);
     const double r_g = m->geom_rbound[g];
     if (!(r_g > 0.0)) return false;  // a plane (or another geom without a bounding sphere) on a mocap body
     for (int h : model_->collidable_geoms()) {
       if (h == g || !model_->MayCollide(g, h)) continue;
-      const Eigen::Map<const Eigen::Vector3d> p_h(d->geom_xpos + 3 * h);
+      const Eigen::Vector3d p_h = MovedGeomPosition(h);
       // beyond contact distance with a relative slack far above the rounding of these few operations
       double gap = 0.0;
       if (m->geom_type[h] == mjGEOM_PLANE) {
+        if (m->body_mocapid[m->geom_bodyid[h]] >= 0) return false;  // (its normal would be a stale one)
         const Eigen::Vector3d n_h(d->geom_xmat[9 * h + 2], d->geom_xmat[9 * h + 5], d->geom_xmat[9 * h + 8]);
         gap = n_h.dot(p_g - p_h) - r_g;
       } else if (m->geom_rbound[h] > 0.0) {
@@ -275,7 +295,19 @@ StepResult World::Step(int num_steps) {
     d->warning[mjWARN_BADQPOS].number = 0;
     d->warning[mjWARN_BADQVEL].number = 0;
     d->warning[mjWARN_BADQACC].number = 0;
-    if (stale_) SyncMovedMocap();
+    // After a mocap move, mj_step2 needs the pass over the moved poses only where it reads them: through contacts
+    // and constraints. With no contact before and none possible after the move, it reads none (forces, inertia and
+    // integration see the joints' bodies alone; mocap bodies carry no dof), and the mj_step1 after it computes every
+    // moved pose, contact and constraint as the pass would have.
+    if (stale_) {
+      if (MocapPassReadByStep() || m->nq != m->nv || d->ncon != 0 || !MocapGeomsClear()) {
+        SyncMovedMocap();
+      } else {
+        // what of the pass outlives the mj_step1 below: its mj_kinematics normalises the mocap quaternions in
+        // place (and would the joints' quaternions, which a model with nq == nv has none of)
+        for (int i = 0; i < m->nmocap; ++i) mju_normalize4(d->mocap_quat + 4 * i);
+      }
+    }
     // mj_step2 then mj_step1 is mj_step shifted by half a step: the position stage (kinematics, collisions) of the
     // new state is computed right away, so contacts in mjData always describe the current state.
     mj_step2(m, d);

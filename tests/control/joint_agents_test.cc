@@ -81,7 +81,9 @@ TEST(JointAgentsTest, EachJointsWarningIsTheNearestContactItMovesOneSideOf) {
         self_seen_from_other_side += e.flipped ? 1 : 0;
       }
     }
-    if (m.nq() > 1) EXPECT_GT(self_seen_from_other_side, 0) << robot.name;
+    if (m.nq() > 1) {
+      EXPECT_GT(self_seen_from_other_side, 0) << robot.name;
+    }
   }
 }
 

@@ -338,6 +338,63 @@ TEST(WorldTest, AMovedObstacleGivesTheStateOfAWholeMjStep1) {
   }
 }
 
+TEST(WorldTest, AStepAfterAnObstacleMoveIsMjStep1ThenMjStep) {
+  // World::Step skips the pass over the moved mocap poses where mj_step2 does not read them (no contact before,
+  // none possible after the move). Independent reference: a copy of the mjData before the move through the whole
+  // pipeline, mj_step1 (the pass) then mj_step2 and mj_step1. Moves in the open (the pass skipped) and onto the
+  // arm's links (the pass needed: contacts appear), both integrators.
+  const kinematics::Robot robot = ArmForDynamics();
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.12), ObstacleSpec::Sphere(0.06), ObstacleSpec::Cube(0.05)};
+  for (Integrator integrator : {Integrator::kImplicit, Integrator::kEuler}) {
+    WorldOptions options;
+    options.integrator = integrator;
+    options.warning_margin = 0.0;
+    auto wm = std::make_shared<const WorldModel>(robot, scene, options);
+    World world(wm);
+    const mjModel* m = wm->mj_model();
+    std::unique_ptr<mjData, void (*)(mjData*)> ref(mj_makeData(m), mj_deleteData);
+    std::mt19937_64 rng(17);
+    world.Reset(testing::RandomConfiguration(robot.model, rng));
+    std::uniform_int_distribution<int> link(1, robot.model.num_links() - 1);
+    std::uniform_real_distribution<double> offset(-0.08, 0.08);
+    int open_moves = 0, contact_moves = 0;
+    for (int k = 0; k < 80; ++k) {
+      world.SetJointTargets(testing::RandomConfiguration(robot.model, rng));
+      ASSERT_TRUE(world.Step(2).ok);
+      const bool onto = k % 2 == 0;
+      for (int j = 0; j < wm->num_obstacles(); ++j) {
+        if (onto) {
+          const int body = wm->link_body(link(rng));
+          const double* x = world.mj_data()->xpos + 3 * body;
+          world.SetObstaclePose(j, Eigen::Vector3d(x[0] + offset(rng), x[1] + offset(rng), x[2] + offset(rng)),
+                                testing::RandomRotation(rng));
+        } else {
+          world.SetObstaclePose(j, Eigen::Vector3d(1.5 + 0.4 * j, offset(rng), 0.5 + offset(rng)),
+                                testing::RandomRotation(rng));
+        }
+      }
+      mj_copyData(ref.get(), m, world.mj_data());  // before the move's pass: mocap poses set, the rest not
+      mj_step1(m, ref.get());
+      const int ncon_after_move = ref->ncon;
+      mj_step2(m, ref.get());
+      mj_step1(m, ref.get());
+      const bool open = world.mj_data()->ncon == 0 && ncon_after_move == 0;
+      ASSERT_TRUE(world.Step(1).ok);
+      const std::vector<std::string> differ = DifferingArrays(m, world.mj_data(), ref.get());
+      EXPECT_TRUE(differ.empty()) << (onto ? "onto the arm" : "in the open") << ", move " << k << ": "
+                                  << fmt::format("{}", fmt::join(differ, ", "));
+      open_moves += open ? 1 : 0;
+      contact_moves += ncon_after_move > 0 ? 1 : 0;
+      if (HasFailure()) return;
+      // park them again so that the arm moves on freely
+      for (int j = 0; j < wm->num_obstacles(); ++j) world.SetObstaclePose(j, ParkedPose());
+    }
+    EXPECT_GE(open_moves, 20);     // the pass was skipped
+    EXPECT_GE(contact_moves, 15);  // the pass was needed
+  }
+}
+
 TEST(WorldTest, ResetKeepsTheSceneAndSetsTheState) {
   SceneSpec scene;
   scene.obstacles = {ObstacleSpec::Sphere(0.05)};

@@ -223,7 +223,9 @@ class World {
   };
   void Sync();           // mj_step1 on the current state: kinematics, contacts, velocities
   void SyncMovedMocap();  // the same after a mocap pose changed (the joints' state did not), without the joints' part
-  bool MocapGeomsClear() const;  // no mocap body's geom within contact distance of any other geom
+  bool MocapPassReadByStep() const;  // sensors, tendons or the energy: the whole mj_step1 after a mocap move
+  bool MocapGeomsClear() const;  // no mocap body's geom within contact distance of any other geom (at the mocap poses)
+  Eigen::Vector3d MovedGeomPosition(int g) const;  // a geom's centre, a mocap body's from its mocap pose
   void ReadState();      // qpos/qvel -> q_, qd_
   StepIssue NewIssue();  // compares MuJoCo's bad-value warning counters with the last seen ones
 
