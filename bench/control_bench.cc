@@ -1,8 +1,9 @@
 // A controller's whole control step in a user's loop — control::ReactiveController::Update: the policy's sensing,
 // observations and network (the learned controller) and its acceleration policy at every integration substep — for
-// the shipped learned default and RMPflow, on the same states of the same scene. Per arm, the states are recorded
-// once from an RMPflow episode of the demo's scene (the crossing scene of the default's task, moved to the arm; seed
-// 3, 5 s, one state per control step) and replayed to each controller in order, one Update per iteration.
+// the shipped learned default and RMPflow, on the same states of the same scene. Per arm and scene, the states are
+// recorded once from an RMPflow episode (seed 3, one state per control step) and replayed to each controller in
+// order, one Update per iteration. The scenes: the demo's (the crossing scene of the default's task, moved to the
+// arm: one cube) and a work cell (the cells task: a shelf, box or table of static boxes, a cube crossing on top).
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
@@ -30,12 +31,15 @@ struct Recording {
 
 std::string DefaultPath() { return (kinematics::ModelsDirectory() / "policies" / "marl-rmp-residual.rmpp").string(); }
 
-const Recording& Record(const std::string& arm) {
+// scene "": the controller file's own (the demo's)
+const Recording& Record(const std::string& arm, const std::string& scene) {
   static std::map<std::string, Recording> cache;
-  auto it = cache.find(arm);
+  const std::string key = arm + "/" + scene;
+  auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   rl::TaskMove move;
   move.robot = arm;
+  move.scene = scene;
   tasks::TaskConfig config = rl::PolicyTaskConfig(control::LoadPolicyFile(DefaultPath()), DefaultPath(), move);
   config.randomization.variants = 1;
   const auto context = tasks::MakeTaskContext(config);
@@ -52,11 +56,11 @@ const Recording& Record(const std::string& arm) {
                      r.scenes.emplace_back();
                      f.scenario->FillScene(&r.scenes.back());
                    }});
-  return cache.emplace(arm, std::move(r)).first->second;
+  return cache.emplace(key, std::move(r)).first->second;
 }
 
-void BM_ControllerUpdate(benchmark::State& state, const std::string& arm, bool learned) {
-  const Recording& r = Record(arm);
+void BM_ControllerUpdate(benchmark::State& state, const std::string& arm, const std::string& scene, bool learned) {
+  const Recording& r = Record(arm, scene);
   const control::PolicyFile file = control::LoadPolicyFile(DefaultPath());
   const int obstacles = static_cast<int>(r.scenes.front().obstacles.size());
   std::unique_ptr<control::ReactiveController> controller;
@@ -80,17 +84,20 @@ void BM_ControllerUpdate(benchmark::State& state, const std::string& arm, bool l
       state.ResumeTiming();
     }
   }
-  state.SetLabel(fmt::format("{}, {} states, {} obstacle{}", learned ? "marl-rmp-residual" : "RMPflow", n, obstacles,
-                             obstacles == 1 ? "" : "s"));
+  state.SetLabel(fmt::format("{}, {} scene, {} states, {} obstacle{}", learned ? "marl-rmp-residual" : "RMPflow",
+                             scene.empty() ? "the demo's" : scene, n, obstacles, obstacles == 1 ? "" : "s"));
 }
 
 void Register() {
-  for (const std::string arm : {"panda", "ur5e", "xarm6"}) {
-    for (const bool learned : {true, false}) {
-      benchmark::RegisterBenchmark(
-          ("BM_ControllerUpdate/" + arm + (learned ? "/learned" : "/rmpflow")).c_str(),
-          [arm, learned](benchmark::State& s) { BM_ControllerUpdate(s, arm, learned); })
-          ->Unit(benchmark::kMicrosecond);
+  for (const std::string scene : {"", "cells"}) {
+    for (const std::string arm : {"panda", "ur5e", "xarm6"}) {
+      for (const bool learned : {true, false}) {
+        const std::string name =
+            "BM_ControllerUpdate/" + arm + (learned ? "/learned" : "/rmpflow") + (scene.empty() ? "" : "/" + scene);
+        benchmark::RegisterBenchmark(name.c_str(), [arm, scene, learned](benchmark::State& s) {
+          BM_ControllerUpdate(s, arm, scene, learned);
+        })->Unit(benchmark::kMicrosecond);
+      }
     }
   }
 }

@@ -112,14 +112,15 @@ def main():
                      f"{layer[0] / flow_same[0]:.2f}× RMPflow", "≤ 1.00×"))
 
     ctrl = medians(os.path.join(res, "control_bench.json"))
-    for arm in ("panda", "ur5e", "xarm6"):
-        learned_update, flow_update = ctrl.get(f"BM_ControllerUpdate/{arm}/learned"), ctrl.get(
-            f"BM_ControllerUpdate/{arm}/rmpflow")
-        if learned_update and flow_update:
-            rows.append((f"a user's loop: the learned default's update() (sensing, observations, network, layer), "
-                         f"{arm}, the demo's scene", f"{learned_update[0]:.1f} µs",
-                         f"RMPflow's update() on the same states {flow_update[0]:.1f} µs",
-                         f"{learned_update[0] / flow_update[0]:.2f}× RMPflow", "≤ 1.00×"))
+    for suffix, scene in (("", "the demo's scene"), ("/cells", "a work cell (the cells task)")):
+        for arm in ("panda", "ur5e", "xarm6"):
+            learned_update, flow_update = ctrl.get(f"BM_ControllerUpdate/{arm}/learned{suffix}"), ctrl.get(
+                f"BM_ControllerUpdate/{arm}/rmpflow{suffix}")
+            if learned_update and flow_update:
+                rows.append((f"a user's loop: the learned default's update() (sensing, observations, network, "
+                             f"layer), {arm}, {scene}", f"{learned_update[0]:.1f} µs",
+                             f"RMPflow's update() on the same states {flow_update[0]:.1f} µs",
+                             f"{learned_update[0] / flow_update[0]:.2f}× RMPflow", "≤ 1.00×"))
 
     flow_bench = find(rmp, "BM_RmpflowEvaluate/arm7_7caps_20boxes")
     if flow_bench:

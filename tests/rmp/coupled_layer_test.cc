@@ -107,6 +107,61 @@ TEST(CoupledLayerTest, OneSelectingJointEqualsThePerJointLayer) {
   }
 }
 
+// boards and walls (long, flat boxes, whose bounding spheres reach far beyond them) and cubes about the arm
+Scene BoardScene(std::mt19937_64& rng, int obstacles) {
+  Scene scene;
+  for (int k = 0; k < obstacles; ++k) {
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.linear() = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+    X.translation() = RandomVector3(rng, -0.6, 0.6) + Eigen::Vector3d(0, 0, 0.4);
+    const Eigen::Vector3d half = k % 2 == 0 ? Eigen::Vector3d(Uniform(rng, 0.2, 0.6), Uniform(rng, 0.2, 0.6),
+                                                              Uniform(rng, 0.005, 0.02))
+                                            : RandomVector3(rng, 0.03, 0.1);
+    scene.obstacles.push_back(Obstacle::MakeBox(X, half, RandomVector3(rng, -0.5, 0.5)));
+  }
+  scene.p_WT = RandomVector3(rng, -0.5, 0.5) + Eigen::Vector3d(0, 0, 0.4);
+  scene.v_WT = RandomVector3(rng, -0.3, 0.3);
+  return scene;
+}
+
+TEST(CoupledLayerTest, AmongBoardsOneSelectingJointEqualsThePerJointLayer) {
+  // the per-joint layer computes every pair's distance within the bounding spheres' reach (not the coupled layer's
+  // squared sphere test and vectorised leaves): a reference for the pairs the coupled layer skips and keeps
+  std::mt19937_64 rng(29);
+  const kinematics::Robot robot = testing::LoadArm();
+  const int nq = robot.model.nq();
+  kinematics::Data kin(robot.model);
+  CoupledLayerWorkspace workspace(nq);
+  const Eigen::VectorXd f0 = Eigen::VectorXd::Zero(nq);
+  const Eigen::MatrixXd M0 = Eigen::MatrixXd::Zero(nq, nq);
+  BasicRmpParams params;
+  params.collision.metric_modulation_radius = 0.4;
+  int boards_in_range = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    const Scene scene = BoardScene(rng, 6);
+    kinematics::CalcVelocityKinematics(robot.model, RandomConfiguration(robot.model, rng),
+                                       RandomVelocity(robot.model, rng), &kin);
+    for (const kinematics::LinkCapsule& lc : robot.capsules) {
+      for (int j = 0; j < static_cast<int>(scene.obstacles.size()); j += 2) {
+        const double d = CapsuleObstacleDistance(kinematics::WorldCapsule(lc, kin), scene.obstacles[j]).distance;
+        boards_in_range += d > 0.0 && d <= 0.4 ? 1 : 0;
+      }
+    }
+    const int dof = static_cast<int>(rng() % nq);
+    std::vector<JointLayerWeights> weights(nq);
+    for (JointLayerWeights& w : weights) w.use_target = w.use_collision = false;
+    JointLayerWeights& w = weights[dof];
+    w.use_target = w.use_collision = true;
+    w.collision_accel_scale = Uniform(rng, 0.25, 4.0);
+    w.collision_metric_scale = Uniform(rng, 0.25, 4.0);
+    Eigen::VectorXd qdd(nq);
+    EvaluateCoupledLayer(robot, kin, scene, params, weights, f0, M0, 1e-9, &workspace, qdd);
+    const JointLayerResult one = EvaluateJointLayer(robot, kin, dof, scene, params, w, 1e-9);
+    EXPECT_NEAR(qdd[dof], one.qdd, 1e-5 * (1.0 + std::abs(one.qdd))) << "trial " << trial;
+  }
+  EXPECT_GT(boards_in_range, 100);
+}
+
 // Hand-derived: a common metric scale on every joint cancels in the resolve (no structure), and at rest (J̇q̇ = 0)
 // a common target accel scale scales q̈ by itself.
 TEST(CoupledLayerTest, CommonScalesActAsDerived) {

@@ -327,6 +327,60 @@ TEST(TreeEvaluationTest, DistanceMapsMatchFiniteDifferences) {
   EXPECT_GT(penetrating, 10);  // the random scenes exercise the penetrating branch as well
 }
 
+TEST(TreeEvaluationTest, DistanceNodesWithinTheCutoffAreActiveAtTheirExactDistance) {
+  // every capsule against boards and walls (long, flat boxes, whose bounding spheres reach far beyond them), cubes
+  // and spheres: a node is active exactly when the exact distance is within the cutoff, and then holds that distance
+  // bit for bit; an inactive node holds a lower bound beyond the cutoff
+  const kinematics::Robot robot = LoadTreeRobot();
+  constexpr double kCutoff = 0.3;
+  std::mt19937_64 rng(31);
+  std::vector<NodeSpec> specs;
+  constexpr int kObstacles = 6;
+  for (int c = 0; c < static_cast<int>(robot.capsules.size()); ++c) {
+    for (int j = 0; j < kObstacles; ++j) {
+      specs.push_back({fmt::format("c{}o{}", c, j), "", CapsuleObstacleDistanceMap{c, j, kCutoff}});
+    }
+  }
+  const Tree tree(robot, specs);
+  TreeData data(tree);
+  int active = 0, skipped_near_box = 0;
+  for (int trial = 0; trial < 100; ++trial) {
+    Scene scene;
+    for (int j = 0; j < kObstacles; ++j) {
+      Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+      X.linear() = Eigen::Quaterniond::UnitRandom().toRotationMatrix();
+      X.translation() = RandomVector3(rng, -0.6, 0.6) + Eigen::Vector3d(0.0, 0.0, 0.5);
+      if (j % 3 == 0) {
+        scene.obstacles.push_back(Obstacle::MakeBox(
+            X, Eigen::Vector3d(Uniform(rng, 0.2, 0.6), Uniform(rng, 0.2, 0.6), Uniform(rng, 0.005, 0.02))));
+      } else if (j % 3 == 1) {
+        scene.obstacles.push_back(Obstacle::MakeBox(X, RandomVector3(rng, 0.03, 0.12)));
+      } else {
+        scene.obstacles.push_back(Obstacle::MakeSphere(X.translation(), Uniform(rng, 0.03, 0.15)));
+      }
+    }
+    const Eigen::VectorXd q = RandomConfiguration(robot.model, rng);
+    PushForward(tree, q, RandomVelocity(robot.model, rng), scene, &data);
+    for (int i = 0; i < tree.num_nodes(); ++i) {
+      const auto& map = std::get<CapsuleObstacleDistanceMap>(tree.map(i));
+      const double d = CapsuleObstacleDistance(kinematics::WorldCapsule(robot.capsules[map.capsule], data.kinematics),
+                                               scene.obstacles[map.obstacle]).distance;
+      if (d <= kCutoff) {
+        ASSERT_TRUE(data.active(i)) << "trial " << trial << ", node " << i << ", distance " << d;
+        ASSERT_EQ(data.x(i)[0], d);
+        ++active;
+      } else {
+        ASSERT_FALSE(data.active(i));
+        ASSERT_GT(data.x(i)[0], kCutoff);
+        ASSERT_LE(data.x(i)[0], d + 1e-12);
+        skipped_near_box += scene.obstacles[map.obstacle].shape == ObstacleShape::kBox && d < 2.0 * kCutoff ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(active, 200);
+  EXPECT_GT(skipped_near_box, 200);
+}
+
 TEST(TreeEvaluationTest, DistanceNodesAreInactiveForEmptySlotsAndBeyondTheCutoff) {
   const kinematics::Robot robot = kinematics::MakePlanar2();  // links along x in the z = 0 plane
   const Tree tree(robot, {{"near", "", CapsuleObstacleDistanceMap{1, 0, 0.5}},
