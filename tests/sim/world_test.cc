@@ -278,35 +278,45 @@ std::vector<std::string> DifferingArrays(const mjModel* m, const mjData* a, cons
   return differ;
 }
 
+// the arm with three obstacles (mocap bodies), contacts for touching pairs only (as in the tasks' worlds)
+std::shared_ptr<const WorldModel> ArmWithObstacles(Integrator integrator) {
+  SceneSpec scene;
+  scene.obstacles = {ObstacleSpec::Cube(0.12), ObstacleSpec::Sphere(0.06), ObstacleSpec::Cube(0.05)};
+  WorldOptions options;
+  options.integrator = integrator;
+  options.warning_margin = 0.0;
+  return std::make_shared<const WorldModel>(ArmForDynamics(), scene, options);
+}
+
+// every obstacle to within 8 cm per axis of a random link's origin, at a random rotation
+void MoveOntoRandomLinks(World& world, std::mt19937_64& rng) {
+  const WorldModel& wm = world.model();
+  std::uniform_int_distribution<int> link(1, wm.robot().model.num_links() - 1);
+  std::uniform_real_distribution<double> offset(-0.08, 0.08);
+  for (int j = 0; j < wm.num_obstacles(); ++j) {
+    const double* x = world.mj_data()->xpos + 3 * wm.link_body(link(rng));
+    world.SetObstaclePose(j, Eigen::Vector3d(x[0] + offset(rng), x[1] + offset(rng), x[2] + offset(rng)),
+                          testing::RandomRotation(rng));
+  }
+}
+
 TEST(WorldTest, AMovedObstacleGivesTheStateOfAWholeMjStep1) {
   // World recomputes after a mocap move only what reads mocap poses; independent reference: a copy of its mjData
   // through the whole mj_step1. Obstacles are moved onto the arm's links (contacts and constraints change) and away.
-  const kinematics::Robot robot = ArmForDynamics();
-  SceneSpec scene;
-  scene.obstacles = {ObstacleSpec::Cube(0.12), ObstacleSpec::Sphere(0.06), ObstacleSpec::Cube(0.05)};
   for (Integrator integrator : {Integrator::kImplicit, Integrator::kEuler}) {
-    WorldOptions options;
-    options.integrator = integrator;
-    options.warning_margin = 0.0;  // contacts for touching pairs only, as in the tasks' worlds
-    auto wm = std::make_shared<const WorldModel>(robot, scene, options);
+    const auto wm = ArmWithObstacles(integrator);
+    const kinematics::Robot& robot = wm->robot();
     World world(wm);
     const mjModel* m = wm->mj_model();
     std::unique_ptr<mjData, void (*)(mjData*)> ref(mj_makeData(m), mj_deleteData);
     std::mt19937_64 rng(11);
     world.Reset(testing::RandomConfiguration(robot.model, rng));
-    std::uniform_int_distribution<int> link(1, robot.model.num_links() - 1);
     std::uniform_real_distribution<double> offset(-0.08, 0.08);
     int with_contacts = 0, clear_moves = 0;
     for (int k = 0; k < 60; ++k) {
       world.SetJointTargets(testing::RandomConfiguration(robot.model, rng));
       ASSERT_TRUE(world.Step(3).ok);
-      for (int j = 0; j < wm->num_obstacles(); ++j) {
-        const int body = wm->link_body(link(rng));
-        const Eigen::Vector3d p(world.mj_data()->xpos[3 * body] + offset(rng),
-                                world.mj_data()->xpos[3 * body + 1] + offset(rng),
-                                world.mj_data()->xpos[3 * body + 2] + offset(rng));
-        world.SetObstaclePose(j, p, testing::RandomRotation(rng));
-      }
+      MoveOntoRandomLinks(world, rng);
       auto expect_whole_step1 = [&](const char* what) {
         mj_copyData(ref.get(), m, world.mj_data());
         mj_step1(m, ref.get());
@@ -343,33 +353,24 @@ TEST(WorldTest, AStepAfterAnObstacleMoveIsMjStep1ThenMjStep) {
   // none possible after the move). Independent reference: a copy of the mjData before the move through the whole
   // pipeline, mj_step1 (the pass) then mj_step2 and mj_step1. Moves in the open (the pass skipped) and onto the
   // arm's links (the pass needed: contacts appear), both integrators.
-  const kinematics::Robot robot = ArmForDynamics();
-  SceneSpec scene;
-  scene.obstacles = {ObstacleSpec::Cube(0.12), ObstacleSpec::Sphere(0.06), ObstacleSpec::Cube(0.05)};
   for (Integrator integrator : {Integrator::kImplicit, Integrator::kEuler}) {
-    WorldOptions options;
-    options.integrator = integrator;
-    options.warning_margin = 0.0;
-    auto wm = std::make_shared<const WorldModel>(robot, scene, options);
+    const auto wm = ArmWithObstacles(integrator);
+    const kinematics::Robot& robot = wm->robot();
     World world(wm);
     const mjModel* m = wm->mj_model();
     std::unique_ptr<mjData, void (*)(mjData*)> ref(mj_makeData(m), mj_deleteData);
     std::mt19937_64 rng(17);
     world.Reset(testing::RandomConfiguration(robot.model, rng));
-    std::uniform_int_distribution<int> link(1, robot.model.num_links() - 1);
     std::uniform_real_distribution<double> offset(-0.08, 0.08);
     int open_moves = 0, contact_moves = 0;
     for (int k = 0; k < 80; ++k) {
       world.SetJointTargets(testing::RandomConfiguration(robot.model, rng));
       ASSERT_TRUE(world.Step(2).ok);
       const bool onto = k % 2 == 0;
-      for (int j = 0; j < wm->num_obstacles(); ++j) {
-        if (onto) {
-          const int body = wm->link_body(link(rng));
-          const double* x = world.mj_data()->xpos + 3 * body;
-          world.SetObstaclePose(j, Eigen::Vector3d(x[0] + offset(rng), x[1] + offset(rng), x[2] + offset(rng)),
-                                testing::RandomRotation(rng));
-        } else {
+      if (onto) {
+        MoveOntoRandomLinks(world, rng);
+      } else {
+        for (int j = 0; j < wm->num_obstacles(); ++j) {
           world.SetObstaclePose(j, Eigen::Vector3d(1.5 + 0.4 * j, offset(rng), 0.5 + offset(rng)),
                                 testing::RandomRotation(rng));
         }
