@@ -28,6 +28,7 @@ World::World(std::shared_ptr<const WorldModel> model) : model_(std::move(model))
   // the scene's initial mocap poses (mj_makeData copied them from the model) are the authoritative copy.
   saved_mocap_pos_.assign(data_->mocap_pos, data_->mocap_pos + 3 * m->nmocap);
   saved_mocap_quat_.assign(data_->mocap_quat, data_->mocap_quat + 4 * m->nmocap);
+  mocap_moved_.assign(m->nmocap, 0);
   report_.warnings.reserve(m->nconmax);
   report_.colliding_pairs.reserve(m->nconmax);
   const Eigen::VectorXd q0 = Eigen::VectorXd::Zero(nq).cwiseMax(model_->lower_limits()).cwiseMin(model_->upper_limits());
@@ -50,10 +51,15 @@ Eigen::Vector3d World::EndEffectorPosition() const {
 
 void World::Sync() {
   mj_step1(model_->mj_model(), data_.get());
-  stale_ = false;
+  MarkSynced();
 }
 
-bool World::MocapPassReadByStep() const {
+void World::MarkSynced() {
+  stale_ = false;
+  std::fill(mocap_moved_.begin(), mocap_moved_.end(), 0);
+}
+
+bool World::NeedsWholeStep1AfterMocapMove() const {
   const mjModel* m = model_->mj_model();
   return m->nsensor > 0 || m->ntendon > 0 || (m->opt.enableflags & mjENBL_ENERGY) != 0;
 }
@@ -66,7 +72,7 @@ void World::SyncMovedMocap() {
   // and the constraints built on them with their reference accelerations. What depends on qpos and qvel alone is
   // still valid: the joint-space inertia's factor, the bias and passive forces, the actuators' transmissions. Sensors,
   // tendons and the energy could read a mocap body's pose: a model with any takes the whole mj_step1.
-  if (MocapPassReadByStep()) {
+  if (NeedsWholeStep1AfterMocapMove()) {
     Sync();
     return;
   }
@@ -75,18 +81,18 @@ void World::SyncMovedMocap() {
   mj_camlight(m, d);
   mj_crb(m, d);
   // no contact before and none possible now: the contacts and the constraints are what they were
-  if (d->ncon == 0 && MocapGeomsClear()) {
-    stale_ = false;
+  if (d->ncon == 0 && MovedGeomsClear()) {
+    MarkSynced();
     return;
   }
   mj_collision(m, d);
   mj_makeConstraint(m, d);
   mj_projectConstraint(m, d);
   mj_referenceConstraint(m, d);
-  stale_ = false;
+  MarkSynced();
 }
 
-Eigen::Vector3d World::MovedGeomPosition(int g) const {
+Eigen::Vector3d World::GeomCentreAtMocapPoses(int g) const {
   const mjModel* m = model_->mj_model();
   const mjData* d = data_.get();
   const int mocap = m->body_mocapid[m->geom_bodyid[g]];
@@ -98,19 +104,21 @@ Eigen::Vector3d World::MovedGeomPosition(int g) const {
          R.normalized() * Eigen::Map<const Eigen::Vector3d>(m->geom_pos + 3 * g);
 }
 
-bool World::MocapGeomsClear() const {
+bool World::MovedGeomsClear() const {
   const mjModel* m = model_->mj_model();
   const mjData* d = data_.get();
   const double margin = model_->max_contact_margin();
-  // the mocap geoms' positions from the mocap poses, so that the test holds also before mj_kinematics ran on them;
-  // the slack below covers the rounding by which this differs from MuJoCo's own
+  // the moved mocap geoms' positions from the mocap poses, so that the test holds also before mj_kinematics ran on
+  // them; the slack below covers the rounding by which this differs from MuJoCo's own. A geom that did not move
+  // keeps what it had: no contact where there was none.
   for (int g : model_->mocap_geoms()) {
-    const Eigen::Vector3d p_g = MovedGeomPosition(g);
+    if (!mocap_moved_[m->body_mocapid[m->geom_bodyid[g]]]) continue;
+    const Eigen::Vector3d p_g = GeomCentreAtMocapPoses(g);
     const double r_g = m->geom_rbound[g];
     if (!(r_g > 0.0)) return false;  // a plane (or another geom without a bounding sphere) on a mocap body
     for (int h : model_->collidable_geoms()) {
       if (h == g || !model_->MayCollide(g, h)) continue;
-      const Eigen::Vector3d p_h = MovedGeomPosition(h);
+      const Eigen::Vector3d p_h = GeomCentreAtMocapPoses(h);
       // beyond contact distance with a relative slack far above the rounding of these few operations
       double gap = 0.0;
       if (m->geom_type[h] == mjGEOM_PLANE) {
@@ -240,6 +248,7 @@ void World::SetObstaclePose(int j, const Eigen::Vector3d& p_WO, const Eigen::Mat
   std::copy(pos, pos + 3, data_->mocap_pos + 3 * id);
   std::copy(wxyz, wxyz + 4, data_->mocap_quat + 4 * id);
   stale_ = true;
+  mocap_moved_[id] = 1;
 }
 
 void World::SetObstaclePose(int j, const Eigen::Isometry3d& X_WO) {
@@ -274,6 +283,7 @@ void World::SetTargetPosition(const Eigen::Vector3d& p_WT) {
     data_->mocap_pos[3 * id + a] = p_WT[a];
   }
   stale_ = true;
+  mocap_moved_[id] = 1;
 }
 
 Eigen::Vector3d World::TargetPosition() const {
@@ -300,12 +310,14 @@ StepResult World::Step(int num_steps) {
     // integration see the joints' bodies alone; mocap bodies carry no dof), and the mj_step1 after it computes every
     // moved pose, contact and constraint as the pass would have.
     if (stale_) {
-      if (MocapPassReadByStep() || m->nq != m->nv || d->ncon != 0 || !MocapGeomsClear()) {
+      if (NeedsWholeStep1AfterMocapMove() || m->nq != m->nv || d->ncon != 0 || mjcb_contactfilter != nullptr ||
+          !MovedGeomsClear()) {
         SyncMovedMocap();
       } else {
         // what of the pass outlives the mj_step1 below: its mj_kinematics normalises the mocap quaternions in
         // place (and would the joints' quaternions, which a model with nq == nv has none of)
         for (int i = 0; i < m->nmocap; ++i) mju_normalize4(d->mocap_quat + 4 * i);
+        ++skipped_mocap_passes_;
       }
     }
     // mj_step2 then mj_step1 is mj_step shifted by half a step: the position stage (kinematics, collisions) of the

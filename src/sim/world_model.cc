@@ -144,6 +144,22 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
     max_contact_margin_ = std::max(max_contact_margin_, m->geom_margin[g]);
   }
   for (int p = 0; p < m->npair; ++p) max_contact_margin_ = std::max(max_contact_margin_, m->pair_margin[p]);
+  // MuJoCo's contact rules: the explicit pairs, and its dynamic filter (a contype/conaffinity match on bodies of
+  // distinct weld bodies; what its parent filter and the excluded body pairs drop is kept here: a superset)
+  ngeom_ = m->ngeom;
+  may_collide_.assign(static_cast<size_t>(ngeom_) * ngeom_, 0);
+  for (int g = 0; g < ngeom_; ++g) {
+    for (int h = 0; h < ngeom_; ++h) {
+      const bool match = (m->geom_contype[g] & m->geom_conaffinity[h]) != 0 ||
+                         (m->geom_contype[h] & m->geom_conaffinity[g]) != 0;
+      const bool welded = m->body_weldid[m->geom_bodyid[g]] == m->body_weldid[m->geom_bodyid[h]];
+      may_collide_[static_cast<size_t>(g) * ngeom_ + h] = match && !welded ? 1 : 0;
+    }
+  }
+  for (int p = 0; p < m->npair; ++p) {
+    const int g = m->pair_geom1[p], h = m->pair_geom2[p];
+    may_collide_[static_cast<size_t>(g) * ngeom_ + h] = may_collide_[static_cast<size_t>(h) * ngeom_ + g] = 1;
+  }
 
   const int L = model.num_links();
   checked_link_pair_.assign(static_cast<size_t>(L) * L, 0);
@@ -152,10 +168,5 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
   }
 }
 
-bool WorldModel::MayCollide(int g, int h) const {
-  const mjModel* m = mj_model_.get();
-  if (m->npair > 0) return true;
-  return (m->geom_contype[g] & m->geom_conaffinity[h]) != 0 || (m->geom_contype[h] & m->geom_conaffinity[g]) != 0;
-}
 
 }  // namespace rmpmarl::sim

@@ -1,7 +1,8 @@
 // The warning sensor against a brute-force reference: every capsule against every obstacle and every self pair the
-// robot checks, each distance computed exactly; the sensor's broad phase (bounding spheres) may skip only pairs beyond
-// the margin. Scenes of long, flat boxes (boards and walls, whose bounding spheres reach far beyond them), cubes,
-// spheres and cylinders around the arm.
+// robot checks, each distance computed exactly with the same distance functions (so this checks the sensor's broad
+// phase, its bounding spheres, which may skip only pairs beyond the margin, and its bookkeeping; the distance
+// functions have their own tests against independent references in tests/math). Scenes of long, flat boxes (boards
+// and walls, whose bounding spheres reach far beyond them), cubes, spheres and cylinders around the arm.
 #include "rmpmarl/control/warning.h"
 
 #include <gtest/gtest.h>
@@ -19,7 +20,9 @@ namespace {
 
 using Key = std::tuple<int, int, int, int>;  // capsule, partner kind, partner index, partner capsule
 
-Key KeyOf(const WarningContact& c) { return {c.capsule, static_cast<int>(c.other_kind), c.other_index, c.other_capsule}; }
+Key KeyOf(const WarningContact& c) {
+  return {c.capsule, static_cast<int>(c.other_kind), c.other_index, c.other_capsule};
+}
 
 rmp::Scene RandomScene(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0), thin(0.005, 0.03), long_side(0.2, 0.8), size(0.03, 0.15);
@@ -31,7 +34,8 @@ rmp::Scene RandomScene(std::mt19937_64& rng) {
     X.translation() = p;
     switch (j % 4) {
       case 0:  // a board or a wall
-        scene.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d(long_side(rng), long_side(rng), thin(rng))));
+        scene.obstacles.push_back(
+            rmp::Obstacle::MakeBox(X, Eigen::Vector3d(long_side(rng), long_side(rng), thin(rng))));
         break;
       case 1:
         scene.obstacles.push_back(rmp::Obstacle::MakeBox(X, Eigen::Vector3d::Constant(size(rng))));
@@ -75,7 +79,8 @@ TEST(WarningSensorTest, ReportsExactlyThePairsWithinTheMarginAtTheirExactDistanc
         for (int d = c + 1; d < nc; ++d) {
           const int lc = robot.capsules[c].link, ld = robot.capsules[d].link;
           if (lc == ld || robot.IsExcludedPair(lc, ld)) continue;
-          const double dist = math::CapsuleCapsuleDistance(cap, kinematics::WorldCapsule(robot.capsules[d], kin)).distance;
+          const math::Capsule other = kinematics::WorldCapsule(robot.capsules[d], kin);
+          const double dist = math::CapsuleCapsuleDistance(cap, other).distance;
           if (dist < options.margin) expected.push_back({{c, static_cast<int>(PartnerKind::kLink), ld, d}, dist});
         }
       }

@@ -343,7 +343,7 @@ TEST(TreeEvaluationTest, DistanceNodesWithinTheCutoffAreActiveAtTheirExactDistan
   }
   const Tree tree(robot, specs);
   TreeData data(tree);
-  int active = 0, skipped_near_box = 0;
+  int active = 0, skipped_near_box = 0, skipped_by_sphere = 0;
   for (int trial = 0; trial < 100; ++trial) {
     Scene scene;
     for (int j = 0; j < kObstacles; ++j) {
@@ -373,12 +373,15 @@ TEST(TreeEvaluationTest, DistanceNodesWithinTheCutoffAreActiveAtTheirExactDistan
         ASSERT_FALSE(data.active(i));
         ASSERT_GT(data.x(i)[0], kCutoff);
         ASSERT_LE(data.x(i)[0], d + 1e-12);
+        // a board's bounding sphere let the pair through to the exact distance, or skipped it with a lower bound
         skipped_near_box += scene.obstacles[map.obstacle].shape == ObstacleShape::kBox && d < 2.0 * kCutoff ? 1 : 0;
+        skipped_by_sphere += data.x(i)[0] < d ? 1 : 0;
       }
     }
   }
   EXPECT_GT(active, 200);
   EXPECT_GT(skipped_near_box, 200);
+  EXPECT_GT(skipped_by_sphere, 200);  // the broad phase skipped pairs (their x a bound below the distance)
 }
 
 TEST(TreeEvaluationTest, DistanceNodesAreInactiveForEmptySlotsAndBeyondTheCutoff) {

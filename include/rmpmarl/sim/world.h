@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <limits>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -92,8 +93,10 @@ class WorldModel {
   const std::vector<int>& mocap_geoms() const { return mocap_geoms_; }
   /// every geom that takes part in contacts.
   const std::vector<int>& collidable_geoms() const { return collidable_geoms_; }
-  /// true unless MuJoCo's contype/conaffinity filter rules the pair out (a model with explicit pairs: always true).
-  bool MayCollide(int g, int h) const;
+  /// false when MuJoCo never makes a contact between geoms g and h: no explicit pair names them and its dynamic
+  /// filter rules them out (no contype/conaffinity match, or both on one weld body — two world-welded bodies, such as
+  /// a mocap body and the world or two mocap bodies, never collide dynamically).
+  bool MayCollide(int g, int h) const { return may_collide_[static_cast<size_t>(g) * ngeom_ + h] != 0; }
   /// the largest contact margin of a geom or an explicit pair: beyond it MuJoCo makes no contact.
   double max_contact_margin() const { return max_contact_margin_; }
   /// lower/upper commanded position per dof (joint limits; ±inf for continuous joints).
@@ -115,6 +118,8 @@ class WorldModel {
   std::vector<GeomInfo> geom_info_;
   std::vector<char> checked_link_pair_;  // num_links x num_links
   std::vector<int> mocap_geoms_, collidable_geoms_;
+  std::vector<std::uint8_t> may_collide_;  // ngeom × ngeom
+  int ngeom_ = 0;
   double max_contact_margin_ = 0.0;
 };
 
@@ -213,6 +218,9 @@ class World {
   /// The returned reference stays valid until the next call; nothing is allocated.
   const ContactReport& QueryContacts();
 
+  /// how many physics steps after an obstacle or target move did without a pass over the moved poses (a
+  /// diagnostic: no contact before the move and none possible after it, see docs/sim.md).
+  long skipped_mocap_passes() const { return skipped_mocap_passes_; }
   /// the raw MuJoCo data (read it; writing it bypasses the World's bookkeeping).
   const mjData* mj_data() const { return data_.get(); }
   const mjModel* mj_model() const { return model_->mj_model(); }
@@ -223,9 +231,10 @@ class World {
   };
   void Sync();           // mj_step1 on the current state: kinematics, contacts, velocities
   void SyncMovedMocap();  // the same after a mocap pose changed (the joints' state did not), without the joints' part
-  bool MocapPassReadByStep() const;  // sensors, tendons or the energy: the whole mj_step1 after a mocap move
-  bool MocapGeomsClear() const;  // no mocap body's geom within contact distance of any other geom (at the mocap poses)
-  Eigen::Vector3d MovedGeomPosition(int g) const;  // a geom's centre, a mocap body's from its mocap pose
+  bool NeedsWholeStep1AfterMocapMove() const;  // sensors, tendons or the energy could read a mocap pose
+  bool MovedGeomsClear() const;  // no geom of a moved mocap body within contact distance of another (mocap poses)
+  Eigen::Vector3d GeomCentreAtMocapPoses(int g) const;  // a geom's centre, a mocap body's from its mocap pose
+  void MarkSynced();  // the position stage describes the mocap poses: nothing stale, nothing moved
   void ReadState();      // qpos/qvel -> q_, qd_
   StepIssue NewIssue();  // compares MuJoCo's bad-value warning counters with the last seen ones
 
@@ -236,6 +245,8 @@ class World {
   std::vector<double> saved_mocap_pos_, saved_mocap_quat_;
   int seen_bad_qpos_ = 0, seen_bad_qvel_ = 0, seen_bad_qacc_ = 0;
   bool stale_ = false;  // a mocap pose changed since the last mj_step1
+  std::vector<std::uint8_t> mocap_moved_;  // per mocap body: its pose changed since the last mj_step1
+  long skipped_mocap_passes_ = 0;
   ContactReport report_;
 };
 
