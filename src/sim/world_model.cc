@@ -168,5 +168,4 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
   }
 }
 
-
 }  // namespace rmpmarl::sim

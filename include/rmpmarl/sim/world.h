@@ -13,8 +13,8 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
