@@ -107,6 +107,8 @@ Eigen::Vector3d World::GeomCentreAtMocapPoses(int g) const {
 bool World::MovedGeomsClear() const {
   const mjModel* m = model_->mj_model();
   const mjData* d = data_.get();
+  // a user's contact filter may let pairs through that MayCollide (MuJoCo's own rules) rules out
+  if (mjcb_contactfilter != nullptr) return false;
   const double margin = model_->max_contact_margin();
   // the moved mocap geoms' positions from the mocap poses, so that the test holds also before mj_kinematics ran on
   // them; the slack below covers the rounding by which this differs from MuJoCo's own. A geom that did not move
@@ -310,8 +312,7 @@ StepResult World::Step(int num_steps) {
     // integration see the joints' bodies alone; mocap bodies carry no dof), and the mj_step1 after it computes every
     // moved pose, contact and constraint as the pass would have.
     if (stale_) {
-      if (NeedsWholeStep1AfterMocapMove() || m->nq != m->nv || d->ncon != 0 || mjcb_contactfilter != nullptr ||
-          !MovedGeomsClear()) {
+      if (NeedsWholeStep1AfterMocapMove() || m->nq != m->nv || d->ncon != 0 || !MovedGeomsClear()) {
         SyncMovedMocap();
       } else {
         // what of the pass outlives the mj_step1 below: its mj_kinematics normalises the mocap quaternions in
