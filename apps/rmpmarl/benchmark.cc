@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/experiments/mbm.h"
+#include "rmpmarl/experiments/mesh_collision.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/planning/plan_follow.h"
 
@@ -29,6 +30,8 @@ struct MbmArgs {
   std::vector<double> speed{0.5, 1.5};
   std::uint64_t crossing_seed = 1;
   bool servo_feedforward = true;
+  bool mesh_referee = true;
+  double mesh_clearance_cap = 0.15;
 };
 
 std::string CommandLine(int argc, char** argv) {
@@ -68,25 +71,46 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
   options.speed_max = args.speed.back();
   options.crossing_seed = args.crossing_seed;
   options.servo_feedforward = args.servo_feedforward;
+  // the mesh referee: the URDF's collision meshes, or why not (said on the terminal and in the report)
+  std::string referee;
+  if (args.mesh_referee) {
+    experiments::MeshCollisionOptions mesh_options;
+    mesh_options.distance_cap = args.mesh_clearance_cap;
+    for (const std::string& p : args.package_paths) mesh_options.package_paths.emplace_back(p);
+    auto meshes = std::make_shared<const experiments::MeshCollisionModel>(robot, mesh_options);
+    if (meshes->available()) {
+      options.meshes = meshes;
+      referee = fmt::format(" Mesh referee: {}, against the cell with FCL at every control step (clearances exact "
+                            "within {:g} mm).", meshes->Summary(), 1e3 * mesh_options.distance_cap);
+    } else {
+      referee = fmt::format(" Mesh referee: OFF, {}: validity and collisions are judged on the capsule model alone.",
+                            meshes->unavailable_reason());
+      fmt::print("WARNING: no mesh referee: {}\n", meshes->unavailable_reason());
+    }
+  } else {
+    referee = " Mesh referee: off (--no-mesh-referee): validity and collisions are judged on the capsule model alone.";
+  }
 
   std::vector<std::string> names;
   for (experiments::MbmMethod m : methods) names.push_back(experiments::MbmMethodName(m));
   std::ostringstream setup;
   setup << fmt::format("Robot '{}' ({} joints, {} capsules; {}). {} problems from {}. Methods: {}. {:g} s per episode; "
-                       "success: the end effector within {:g} mm of the goal's at the end and no collision event. "
+                       "success: the end effector within {:g} mm of the goal's at the end and no collision event{}. "
                        "Learned controller: {}. Planner: RRT-Connect on the capsule model with shortcutting, {:g} s "
                        "budget{}, safety margin {:g} mm, seed {} + a key of the problem (its family and index). Plan follower: "
                        "{}. Simulated servos: PD{}. Machine: {} threads.",
                        robot.name, robot.model.nq(), robot.capsules.size(),
                        robot.urdf_path.empty() ? "built in" : robot.urdf_path.filename().string(), problems.size(),
                        args.problems, fmt::join(names, ", "), options.duration, 1e3 * options.goal_tolerance,
-                       options.policy.filename().string(), options.plan.planner.planning_time_budget,
+                       options.meshes ? " on the capsules or the meshes" : "", options.policy.filename().string(),
+                       options.plan.planner.planning_time_budget,
                        args.planning_iterations > 0 ? fmt::format(" or {} iterations", args.planning_iterations) : "",
                        1e3 * options.plan.planner.safety_margin, options.seed,
                        args.follow.empty() ? "built in" : std::filesystem::path(args.follow).filename().string(),
                        options.servo_feedforward ? " with the inverse-dynamics feed-forward of the commanded acceleration"
                                                  : " alone",
                        options.jobs);
+  setup << referee;
   if (options.moving > 0) {
     setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "
                          "{:g}–{:g} m/s (crossing seed {}), each {:g} m clear of the arm at the start and the goal.",
@@ -102,9 +126,13 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
       std::fflush(stdout);
     }
   });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   experiments::WriteMbmResults(results, args.out, command, setup.str());
-  fmt::print("\n{}\nwrote {}/results.csv and {}/report.md\n", experiments::MbmSummaryTable(results), args.out,
-             args.out);
+  int episodes = 0;
+  for (const experiments::MbmResult& r : results) episodes += r.valid && !r.rejected;
+  fmt::print("\n{}\n{} episodes in {:.1f} s ({:.2f} s per episode on {} thread{})\nwrote {}/results.csv and "
+             "{}/report.md\n", experiments::MbmSummaryTable(results), episodes, seconds,
+             episodes > 0 ? seconds / episodes : 0.0, options.jobs, options.jobs == 1 ? "" : "s", args.out, args.out);
 }
 
 }  // namespace
@@ -157,6 +185,13 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_flag("--servo-feedforward,!--no-servo-feedforward", args->servo_feedforward,
                "the simulated arm's servos add the inverse-dynamics feed-forward of the commanded acceleration, as a "
                "model-based joint controller does (default on; off: the PD alone)");
+  mbm->add_flag("--mesh-referee,!--no-mesh-referee", args->mesh_referee,
+               "judge validity and collisions on the URDF's collision meshes too (FCL, package:// meshes found with "
+               "--package-path); default on, and said in the report when the URDF has no meshes to judge on");
+  mbm->add_option("--mesh-clearance-cap", args->mesh_clearance_cap,
+                  "the meshes' clearance is exact within this distance [m] (min_mesh_clearance_mm: nan beyond it); "
+                  "a smaller cap costs less")
+      ->check(CLI::Range(1e-3, 1.0));
   mbm->add_option("--out", args->out, "output folder (results.csv, report.md)");
   const std::string command = CommandLine(argc, argv);
   mbm->callback([args, command]() { RunMbm(*args, command); });

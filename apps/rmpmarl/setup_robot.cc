@@ -16,25 +16,35 @@ namespace rmpmarl::apps {
 void PrintLinkFits(const kinematics::RobotSetup& setup) {
   const kinematics::Robot& robot = setup.robot;
   const kinematics::Model& model = robot.model;
-  fmt::print("\n  {:<24} {:<9} {:<52} {}\n", "link", "capsule", "a, b [m] / radius [m]", "sticks out / from");
+  // per link: its capsules, how far they stick out beyond its geometry (the farthest point, the mean over their
+  // surface; '!' above the tolerance) and the check (the farthest surface sample outside every capsule, ≤ 0: covered)
+  fmt::print("\n  {:<24} {:<9} {:<52} {:<19} {:<10} {}\n", "link", "capsule", "a, b [m] / radius [m]",
+             "sticks out max/mean", "check", "from");
   for (const kinematics::LinkFit& fit : setup.links) {
     const std::string& name = model.link(fit.link).name;
     if (fit.capsules.empty()) {
-      fmt::print("  {:<24} {:<9} {:<52} {}\n", name, "none", "-", fit.source);
+      fmt::print("  {:<24} {:<9} {:<52} {:<19} {:<10} {}\n", name, "none", "-", "-", "-", fit.source);
       continue;
     }
-    for (int c : fit.capsules) {
-      const kinematics::LinkCapsule& cap = robot.capsules[c];
+    for (size_t i = 0; i < fit.capsules.size(); ++i) {
+      const kinematics::LinkCapsule& cap = robot.capsules[fit.capsules[i]];
       const std::string geometry =
           fmt::format("[{:6.3f} {:6.3f} {:6.3f}] [{:6.3f} {:6.3f} {:6.3f}] r={:.3f}", cap.p_LA.x(), cap.p_LA.y(),
                       cap.p_LA.z(), cap.p_LB.x(), cap.p_LB.y(), cap.p_LB.z(), cap.radius);
-      const std::string out = std::isfinite(fit.stick_out) ? fmt::format("{:5.1f} mm", 1000 * fit.stick_out)
-                                                           : std::string("    ? mm");
-      fmt::print("  {:<24} {:<9} {:<52} {}  {}\n", name, fit.fallback ? "FALLBACK" : "fitted", geometry, out,
-                 fit.source);
+      std::string out = "", check = "";
+      if (i == 0) {
+        out = std::isfinite(fit.excess) ? fmt::format("{:5.1f}{}/{:4.1f} mm", 1e3 * fit.excess,
+                                                      fit.within_tolerance ? " " : "!", 1e3 * fit.mean_excess)
+                                        : std::string("    ?/   ? mm");
+        check = std::isfinite(fit.outside) ? fmt::format("{:6.3f} mm", 1e3 * fit.outside) : std::string("     ? mm");
+      }
+      fmt::print("  {:<24} {:<9} {:<52} {:<19} {:<10} {}\n", i == 0 ? name : "", fit.fallback ? "FALLBACK" : "fitted",
+                 geometry, out, check, i == 0 ? fit.source : "");
     }
   }
-  fmt::print("  end effector: {}\n", model.link(robot.end_effector.link).name);
+  fmt::print("  end effector: {}{}\n", model.link(robot.end_effector.link).name,
+             setup.end_effector_from.empty() ? std::string() : " (" + setup.end_effector_from + ")");
+  for (const std::string& n : setup.notes) fmt::print("  {}\n", n);
   for (const std::string& w : setup.warnings) fmt::print("  WARNING: {}\n", w);
 }
 
@@ -48,8 +58,12 @@ struct SetupArgs {
   int samples = 10000;
   std::vector<double> home;
   std::string ee;
+  std::string srdf;
+  bool no_srdf = false;
   double warning_distance = 0.15;
   double home_centering = kinematics::RobotSetupOptions{}.home_centering;
+  double tolerance_mm = 1e3 * kinematics::CapsuleCoverOptions{}.tolerance;
+  int max_capsules = kinematics::CapsuleCoverOptions{}.max_capsules;
 };
 
 void RunSetup(const SetupArgs& args) {
@@ -60,7 +74,11 @@ void RunSetup(const SetupArgs& args) {
   options.samples = args.samples;
   options.warning_distance = args.warning_distance;
   options.end_effector = args.ee;
+  options.srdf = args.srdf;
+  options.use_srdf = !args.no_srdf;
   options.home_centering = args.home_centering;
+  options.cover.tolerance = 1e-3 * args.tolerance_mm;
+  options.cover.max_capsules = args.max_capsules;
   if (!args.home.empty()) options.home = Eigen::Map<const Eigen::VectorXd>(args.home.data(), args.home.size());
   const std::filesystem::path urdf(args.urdf);
   const kinematics::RobotSetup setup = kinematics::SetupRobot(urdf, options);
@@ -70,13 +88,13 @@ void RunSetup(const SetupArgs& args) {
              urdf.string(), model.num_links(), model.nq());
   PrintLinkFits(setup);
 
-  std::array<int, 5> counts{};  // per kinematics::ExclusionReason
+  std::array<int, 6> counts{};  // per kinematics::ExclusionReason
   for (const kinematics::Exclusion& e : setup.exclusions) ++counts.at(static_cast<size_t>(e.reason));
   const int parent_child = model.num_links() - 1;
   fmt::print("\n  self-collision exclusions ({} samples, seed {}): {} parent–child, {} adjacent across frame-only "
              "links, {} always in contact, {} never within {:.0f} mm, {} in contact at home, {} fingers of one "
-             "gripper\n", setup.samples, args.seed, parent_child, counts[0], counts[1], counts[2],
-             1000 * options.warning_distance, counts[3], counts[4]);
+             "gripper, {} disabled in the SRDF\n", setup.samples, args.seed, parent_child, counts[0], counts[1],
+             counts[2], 1000 * options.warning_distance, counts[3], counts[4], counts[5]);
   int mimic = 0;
   for (int k = 1; k < model.num_links(); ++k) mimic += model.link(k).mimic_dof >= 0;
   if (mimic > 0) {
@@ -127,10 +145,29 @@ void RegisterSetupRobot(CLI::App& app) {
                   "home search: weight of the distance from mid-range against log manipulability")
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
-  cmd->add_option("--ee", args.ee, "end-effector link (default: the tip of the longest revolute chain)");
+  cmd->add_option("--ee", args.ee, "end-effector link (default: the parent link of the SRDF's end effector, else "
+                                   "the tip of the longest revolute chain)");
+  auto* srdf = cmd->add_option("--srdf", args.srdf, "the robot's MoveIt SRDF: its disabled collision pairs are "
+                                                    "excluded, its end effector used (default: <stem>.srdf beside "
+                                                    "the URDF, else the only .srdf there)")
+                   ->check(CLI::Validator(
+                       [](std::string& path) {
+                         return std::filesystem::is_regular_file(path)
+                                    ? std::string()
+                                    : "expected an existing .srdf file, got '" + path + "' (no such file)";
+                       },
+                       "FILE"));
+  cmd->add_flag("--no-srdf", args.no_srdf, "use no SRDF, not even one beside the URDF")->excludes(srdf);
   cmd->add_option("--warning-distance", args.warning_distance,
                   "pairs never closer than this in any sample are excluded [m]")
       ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  cmd->add_option("--tolerance", args.tolerance_mm,
+                  "a link's capsules are split until none sticks out farther than this beyond its geometry [mm]")
+      ->check(CLI::Range(0.1, 1000.0))
+      ->capture_default_str();
+  cmd->add_option("--max-capsules", args.max_capsules, "at most this many capsules per link")
+      ->check(CLI::Range(1, 64))
       ->capture_default_str();
   cmd->callback([] { RunSetup(args); });
 }

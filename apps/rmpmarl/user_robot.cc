@@ -18,8 +18,10 @@ UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
   for (const std::string& p : package_paths) options.package_paths.emplace_back(p);
   out.robot = kinematics::LoadOrFitRobot(urdf, collision, options, &out.setup);
   if (!out.setup) return out;
-  fmt::print("{}: no collision YAML: capsules fitted in memory from the URDF's geometry, {} exclusions sampled, home "
-             "searched (rmpmarl setup-robot {} writes them to files)\n", urdf, out.setup->exclusions.size(), urdf);
+  fmt::print("{}: no collision YAML: capsules fitted in memory from the URDF's geometry, {} exclusions {}, home "
+             "searched (rmpmarl setup-robot {} writes them to files)\n", urdf, out.setup->exclusions.size(),
+             out.setup->srdf.empty() ? std::string("sampled") : "from " + out.setup->srdf.string() + " and sampled",
+             urdf);
   for (const std::string& w : out.setup->warnings) fmt::print("  WARNING: {}\n", w);
   return out;
 }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -186,9 +187,28 @@ bool Learned(MbmMethod m) { return m == MbmMethod::kLearned || m == MbmMethod::k
 // what every method of a problem runs on: its start, joint goal, obstacles and crossings, or why it is not run
 struct PreparedProblem {
   bool valid = true;
-  std::string invalid_reason;
+  bool rejected = false;  // valid on the meshes, in collision on the capsules at an end
+  std::string reason;     // why not valid or rejected
   sim::StaticSceneOptions scene;
+  // per obstacle of the episode's scene (the cell's primitives in file order, then the crossing spheres): its name
+  // in the messages — the planning scene's object id, with the primitive's number when the object has several
+  std::vector<std::string> obstacle_names;
 };
+
+// "<link> with <link or obstacle>" of a capsule pair
+std::string CapsulePairName(const kinematics::Robot& robot, const planning::ClearancePair& pair,
+                            const std::vector<std::string>& obstacle_names) {
+  const std::string link = pair.link >= 0 ? robot.model.link(pair.link).name : std::string("?");
+  switch (pair.kind) {
+    case planning::ClearancePair::Kind::kObstacle:
+      return fmt::format("{} with {}", link, obstacle_names[pair.obstacle]);
+    case planning::ClearancePair::Kind::kSelf:
+      return fmt::format("{} with {}", link, robot.model.link(pair.other_link).name);
+    case planning::ClearancePair::Kind::kFloor: return fmt::format("{} with the floor", link);
+    case planning::ClearancePair::Kind::kNone: break;
+  }
+  return "nothing";
+}
 
 PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& problem, const MbmOptions& options,
                         std::uint64_t key) {
@@ -199,23 +219,59 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   rmp::Scene rmp_scene;
   rmp_scene.obstacles = scene.Obstacles();
   rmp::ValidateScene(rmp_scene, problem.scene.string());
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const control::SceneObject& object = scene.objects[i];
+    const std::string id = object.id.empty() ? fmt::format("object {}", i + 1) : object.id;
+    for (size_t j = 0; j < object.primitives.size(); ++j) {
+      p.obstacle_names.push_back(object.primitives.size() == 1 ? id : fmt::format("{} (primitive {})", id, j + 1));
+    }
+  }
+  const std::pair<const char*, const Eigen::VectorXd*> ends[] = {{"start", &p.scene.q_start},
+                                                                 {"goal", &p.scene.q_goal}};
 
-  // valid: the capsule model is collision-free at the start and the goal (no floor: the cell's own surfaces count)
+  // valid, with the mesh referee: the collision meshes are clear of the cell at the start and the goal
+  if (options.meshes) {
+    MeshCollisionData data(*options.meshes);
+    kinematics::Data kin(robot.model);
+    for (const auto& [what, q] : ends) {
+      kinematics::CalcForwardKinematics(robot.model, *q, &kin);
+      const MeshClearance c = CalcMeshClearance(*options.meshes, kin, rmp_scene.obstacles, &data);
+      if (c.in_collision()) {
+        p.valid = false;
+        p.reason = fmt::format("{} in collision (meshes): {} with {} ({:.1f} mm deep)", what,
+                               robot.model.link(c.link).name, p.obstacle_names[c.obstacle], -1e3 * c.distance);
+        return p;
+      }
+    }
+  }
+  // the capsule model collision-free at the start and the goal (no floor: the cell's own surfaces count): without
+  // the mesh referee the problem is valid then; with it, a problem the capsules put in collision is the model's
+  // failure (rejected by the model, counted)
   planning::RrtOptions check = options.plan.planner;
   check.check_floor = false;
   check.safety_margin = 0.0;
   planning::RrtPolicy checker(robot, check);
-  for (const auto& [what, q] : {std::pair{"start", &p.scene.q_start}, std::pair{"goal", &p.scene.q_goal}}) {
-    const double clearance = checker.Clearance(*q, rmp_scene);
-    if (!(clearance > 0.0)) {
-      p.valid = false;
-      p.invalid_reason = fmt::format("{} in collision in the capsule model ({:.1f} mm)", what, 1e3 * clearance);
+  for (const auto& [what, q] : ends) {
+    const planning::ClearancePair pair = checker.ClearanceWithPair(*q, rmp_scene);
+    if (!(pair.distance > 0.0)) {
+      const std::string why = fmt::format("{} in collision in the capsule model: {} ({:.1f} mm deep)", what,
+                                          CapsulePairName(robot, pair, p.obstacle_names), -1e3 * pair.distance);
+      if (options.meshes) {
+        p.rejected = true;
+        p.reason = "rejected by the model: " + why;
+      } else {
+        p.valid = false;
+        p.reason = why;
+      }
       return p;
     }
   }
   if (options.moving > 0) {
     p.scene.moving =
         CrossingObstacles(robot, p.scene.q_start, p.scene.q_goal, rmp_scene, options, key);
+    for (size_t k = 0; k < p.scene.moving.size(); ++k) {
+      p.obstacle_names.push_back(fmt::format("crossing sphere {}", k + 1));
+    }
   }
   return p;
 }
@@ -229,8 +285,9 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   r.index = problem.index;
   r.method = MbmMethodName(method);
   r.valid = prepared.valid;
-  r.invalid_reason = prepared.invalid_reason;
-  if (!r.valid) return r;
+  r.rejected = prepared.rejected;
+  r.reason = prepared.reason;
+  if (!r.valid || r.rejected) return r;
   const sim::StaticSceneOptions& static_scene = prepared.scene;
   const int num_obstacles = static_cast<int>(static_scene.obstacles.size() + static_scene.moving.size());
   sim::StaticScenario scenario(robot, static_scene);
@@ -271,12 +328,39 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   episode.video_fps = controller_options.control_rate;  // a frame per control step: the executed path
   Eigen::VectorXd q_last = static_scene.q_start;
   double length = 0.0;
+  // the mesh referee at every control step (a frame per control step): the arm's meshes at the world's q against
+  // the obstacles where the scenario has them now
+  std::optional<MeshCollisionData> mesh_data;
+  if (options.meshes) {
+    mesh_data.emplace(*options.meshes);
+    r.mesh_collisions = 0;
+  }
+  kinematics::Data mesh_kinematics(robot.model);
+  rmp::Scene mesh_scene;
+  double mesh_seconds = 0.0;
+  int mesh_steps = 0;
   const sim::EpisodeMetrics m =
       sim::RunEpisode(episode, world, controller, scenario, [&](const sim::FrameInfo& frame) {
         length += (frame.world->q() - q_last).norm();
         q_last = frame.world->q();
+        if (!mesh_data) return;
+        const auto start = std::chrono::steady_clock::now();
+        frame.scenario->FillScene(&mesh_scene);
+        kinematics::CalcForwardKinematics(robot.model, frame.world->q(), &mesh_kinematics);
+        const MeshClearance c =
+            CalcMeshClearance(*options.meshes, mesh_kinematics, mesh_scene.obstacles, &*mesh_data);
+        mesh_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        ++mesh_steps;
+        if (c.in_collision()) ++r.mesh_collisions;
+        if (c.distance < r.min_mesh_clearance) {
+          r.min_mesh_clearance = c.distance;
+          r.min_mesh_pair =
+              fmt::format("{} with {}", robot.model.link(c.link).name, prepared.obstacle_names[c.obstacle]);
+        }
       });
-  r.success = m.success;
+  if (mesh_steps > 0) r.mesh_check_us = 1e6 * mesh_seconds / mesh_steps;
+  // success: the goal reached without a collision on the capsules and, with the mesh referee, on the meshes
+  r.success = m.success && r.mesh_collisions <= 0;
   r.reached = m.reached;
   r.collisions = m.collisions;
   r.time_to_goal = m.time_to_reach;
@@ -293,8 +377,16 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   return r;
 }
 
-// throws InputError naming the option unless `options` are valid
-void ValidateMbmOptions(const MbmOptions& options) {
+// throws InputError naming the option unless `options` are valid for `robot`
+void ValidateMbmOptions(const kinematics::Robot& robot, const MbmOptions& options) {
+  if (options.meshes && !options.meshes->available()) {
+    throw InputError("MbmOptions.meshes: expected an available mesh model, got one without collision meshes: " +
+                     options.meshes->unavailable_reason());
+  }
+  if (options.meshes && options.meshes->num_links() != robot.model.num_links()) {
+    throw InputError(fmt::format("MbmOptions.meshes: expected the mesh model of robot '{}' ({} links), got one of {} "
+                                 "links", robot.name, robot.model.num_links(), options.meshes->num_links()));
+  }
   if (!(options.duration > 0.0) || !std::isfinite(options.duration)) {
     throw InputError(fmt::format("--duration: expected a time > 0 s, got {}", options.duration));
   }
@@ -321,17 +413,18 @@ void ValidateMbmOptions(const MbmOptions& options) {
 
 sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
                                         const MbmOptions& options) {
-  ValidateMbmOptions(options);
+  ValidateMbmOptions(robot, options);
   const PreparedProblem prepared = Prepare(robot, problem, options, MbmProblemKey(problem));
-  if (!prepared.valid) {
-    throw InputError(fmt::format("{} {}: not a valid problem: {}", problem.family, problem.index,
-                                 prepared.invalid_reason));
+  if (!prepared.valid || prepared.rejected) {
+    throw InputError(fmt::format("{} {}: {}: {}", problem.family, problem.index,
+                                 prepared.valid ? "not run" : "not a valid problem", prepared.reason));
   }
   return prepared.scene;
 }
 
 MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& problem, MbmMethod method,
                         const MbmOptions& options) {
+  ValidateMbmOptions(robot, options);
   std::optional<control::PolicyFile> file;
   if (Learned(method)) file = control::LoadPolicyFile(options.policy);
   const std::uint64_t key = MbmProblemKey(problem);
@@ -342,7 +435,7 @@ MbmResult RunMbmProblem(const kinematics::Robot& robot, const MbmProblem& proble
 std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std::vector<MbmProblem>& problems,
                                        const std::vector<MbmMethod>& methods, const MbmOptions& options,
                                        const std::function<void(int)>& progress) {
-  ValidateMbmOptions(options);
+  ValidateMbmOptions(robot, options);
   // the learned controller's file read once for every problem
   std::optional<control::PolicyFile> policy_file;
   if (std::any_of(methods.begin(), methods.end(), Learned)) policy_file = control::LoadPolicyFile(options.policy);
@@ -418,29 +511,34 @@ std::string MbmSummaryTable(const std::vector<MbmResult>& results) {
   }
   families.push_back("all");
   std::string md =
-      "| family | method | valid | success [95 % CI] | with collisions | time to goal (median) | path length "
-      "(median) | first plan (median) |\n|---|---|---|---|---|---|---|---|\n";
+      "| family | method | valid | rejected by the model | success [95 % CI] | with collisions (capsules) | with "
+      "collisions (meshes) | time to goal (median) | path length (median) | first plan (median) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& family : families) {
     for (const std::string& method : methods) {
-      int valid = 0, success = 0, collided = 0, total = 0;
+      int valid = 0, rejected = 0, success = 0, collided = 0, mesh_judged = 0, mesh_collided = 0, total = 0;
       std::vector<double> times, lengths, plans;
       for (const MbmResult& r : results) {
         if (r.method != method || (family != "all" && r.family != family)) continue;
         ++total;
         if (!r.valid) continue;
         ++valid;
+        rejected += r.rejected;
         success += r.success;
         collided += r.collisions > 0;
+        mesh_judged += r.mesh_collisions >= 0;
+        mesh_collided += r.mesh_collisions > 0;
         if (r.time_to_goal >= 0.0) times.push_back(r.time_to_goal);
         if (r.success) lengths.push_back(r.path_length);
         if (r.planning_time >= 0.0) plans.push_back(1e3 * r.planning_time);
       }
       if (total == 0) continue;
       const auto [lo, hi] = Wilson(success, valid);
-      md += fmt::format("| {} | {} | {} of {} | {} % [{}, {}] | {} | {} s | {} rad | {} ms |\n", family, method, valid,
-                        total, Num(valid > 0 ? 100.0 * success / valid : std::nan(""), "{:.1f}"), Num(lo, "{:.1f}"),
-                        Num(hi, "{:.1f}"), collided, Num(Median(times), "{:.2f}"), Num(Median(lengths), "{:.2f}"),
-                        Num(Median(plans), "{:.1f}"));
+      md += fmt::format("| {} | {} | {} of {} | {} | {} % [{}, {}] | {} | {} | {} s | {} rad | {} ms |\n", family,
+                        method, valid, total, rejected,
+                        Num(valid > 0 ? 100.0 * success / valid : std::nan(""), "{:.1f}"), Num(lo, "{:.1f}"),
+                        Num(hi, "{:.1f}"), collided, mesh_judged > 0 ? std::to_string(mesh_collided) : "–",
+                        Num(Median(times), "{:.2f}"), Num(Median(lengths), "{:.2f}"), Num(Median(plans), "{:.1f}"));
     }
   }
   return md;
@@ -450,35 +548,52 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
                      const std::string& setup) {
   fs::create_directories(out);
   std::ofstream csv(out / "results.csv");
-  csv << "family,problem,method,valid,success,reached,collisions,time_to_goal_s,final_error_mm,joint_error_rad,"
-         "path_length_rad,min_clearance_mm,planning_time_ms,plans,control_us,invalid_reason\n";
+  csv << "family,problem,method,valid,rejected,success,reached,collisions,mesh_collisions,time_to_goal_s,"
+         "final_error_mm,joint_error_rad,path_length_rad,min_clearance_mm,min_mesh_clearance_mm,min_mesh_pair,"
+         "planning_time_ms,plans,control_us,mesh_check_us,reason\n";
+  // a smallest clearance "nan" where nothing came within the sensing margin, as the experiments' CSVs write it
+  auto millimetres = [](double metres) {
+    return std::isfinite(metres) ? fmt::format("{:.2f}", 1e3 * metres) : std::string("nan");
+  };
   for (const MbmResult& r : results) {
-    // the smallest clearance "nan" where nothing came within the sensing margin, as the experiments' CSVs write it
-    const std::string min_clearance =
-        std::isfinite(r.min_clearance) ? fmt::format("{:.2f}", 1e3 * r.min_clearance) : std::string("nan");
-    csv << fmt::format("{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{},{:.3f},{},{:.2f},{}\n",
-                       CsvField(r.family), r.index, r.method, r.valid ? 1 : 0, r.success ? 1 : 0, r.reached ? 1 : 0,
-                       r.collisions, r.time_to_goal, 1e3 * r.final_error, r.joint_error, r.path_length,
-                       min_clearance,
-                       r.planning_time >= 0.0 ? 1e3 * r.planning_time : -1.0, r.plans, r.control_us,
-                       CsvField(r.invalid_reason));
+    csv << fmt::format("{},{},{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{},{},{},{:.3f},{},{:.2f},{:.2f},{}\n",
+                       CsvField(r.family), r.index, r.method, r.valid ? 1 : 0, r.rejected ? 1 : 0, r.success ? 1 : 0,
+                       r.reached ? 1 : 0, r.collisions, r.mesh_collisions, r.time_to_goal, 1e3 * r.final_error,
+                       r.joint_error, r.path_length, millimetres(r.min_clearance), millimetres(r.min_mesh_clearance),
+                       CsvField(r.min_mesh_pair), r.planning_time >= 0.0 ? 1e3 * r.planning_time : -1.0, r.plans,
+                       r.control_us, r.mesh_check_us, CsvField(r.reason));
   }
   if (!csv) throw InputError(fmt::format("could not write '{}'", (out / "results.csv").string()));
   csv.close();
   const std::vector<std::string> plots = MakePlots("mbm", out);
   std::ofstream md(out / "report.md");
-  md << "# MotionBenchMaker benchmark\n\n" << "Command: `" << command << "`\n\n" << setup << "\n\n"
-     << MbmSummaryTable(results) << "\n";
+  // which referees judged: the meshes where any result was judged on them (or rejected against them)
+  const bool meshes = std::any_of(results.begin(), results.end(),
+                                  [](const MbmResult& r) { return r.mesh_collisions >= 0 || r.rejected; });
+  const std::string referees =
+      meshes ? "Referees: validity on the collision meshes (FCL: start and goal clear of the cell); collisions on "
+               "both the capsules (MuJoCo's contacts) and the meshes (FCL, every control step); success needs none "
+               "on either. A valid problem whose start or goal the capsule model puts in collision is rejected by "
+               "the model: not run, a failure of every method."
+             : "Referee: the capsule model alone (no collision meshes judged: validity and collisions on the model "
+               "under test, MuJoCo's contacts).";
+  md << "# MotionBenchMaker benchmark\n\n" << "Command: `" << command << "`\n\n" << setup << "\n\n" << referees
+     << "\n\n" << MbmSummaryTable(results) << "\n";
   for (const std::string& png : plots) md << "![" << png << "](" << png << ")\n\n";
-  std::vector<std::string> invalid;
+  std::vector<std::string> invalid, rejected;
   for (const MbmResult& r : results) {
-    if (!r.valid && r.method == results.front().method) {
-      invalid.push_back(fmt::format("{} {}: {}", r.family, r.index, r.invalid_reason));
-    }
+    if (r.method != results.front().method) continue;
+    if (!r.valid) invalid.push_back(fmt::format("{} {}: {}", r.family, r.index, r.reason));
+    if (r.rejected) rejected.push_back(fmt::format("{} {}: {}", r.family, r.index, r.reason));
   }
   if (!invalid.empty()) {
-    md << "Problems not run (" << invalid.size() << "):\n\n";
+    md << "Problems not valid, not run (" << invalid.size() << "):\n\n";
     for (const std::string& s : invalid) md << "- " << s << "\n";
+    md << "\n";
+  }
+  if (!rejected.empty()) {
+    md << "Problems rejected by the model, not run, counted as failures (" << rejected.size() << "):\n\n";
+    for (const std::string& s : rejected) md << "- " << s << "\n";
   }
   if (!md) throw InputError(fmt::format("could not write '{}'", (out / "report.md").string()));
 }

@@ -15,6 +15,7 @@
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/kinematics/capsule_fit.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/kinematics/srdf.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
 #include "rmpmarl/math/geometry.h"
 
@@ -59,56 +60,12 @@ Eigen::VectorXd RandomConfiguration(const Model& model, UniformStream& u) {
   return q;
 }
 
-// points on a Fibonacci sphere of radius r around c.
-void AppendSpherePoints(const Eigen::Vector3d& c, double r, int n, std::vector<Eigen::Vector3d>* out) {
-  const double golden = kPi * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < n; ++k) {
-    const double z = 1.0 - 2.0 * (k + 0.5) / n;
-    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
-    out->push_back(c + r * Eigen::Vector3d(rho * std::cos(golden * k), rho * std::sin(golden * k), z));
-  }
-}
-
-// points on the surface of a capsule (rings along the segment and two hemispheres), for the stick-out measure.
-std::vector<Eigen::Vector3d> CapsuleSurfacePoints(const math::Capsule& c) {
-  std::vector<Eigen::Vector3d> p;
-  const Eigen::Vector3d ab = c.p_WB - c.p_WA;
-  const double len = ab.norm();
-  const Eigen::Vector3d u = len > 1e-12 ? Eigen::Vector3d(ab / len) : Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d e1 = u.unitOrthogonal(), e2 = u.cross(e1);
-  constexpr int kAround = 24;
-  const int along = std::max(2, static_cast<int>(std::ceil(len / std::max(0.25 * c.radius, 1e-3))));
-  for (int k = 0; k <= along; ++k) {
-    for (int j = 0; j < kAround; ++j) {
-      const double a = 2.0 * kPi * j / kAround;
-      p.push_back(c.p_WA + ab * k / along + c.radius * (std::cos(a) * e1 + std::sin(a) * e2));
-    }
-  }
-  std::vector<Eigen::Vector3d> cap;
-  AppendSpherePoints(Eigen::Vector3d::Zero(), c.radius, 300, &cap);
-  for (const Eigen::Vector3d& q : cap) p.push_back((q.dot(u) >= 0.0 ? c.p_WB : c.p_WA) + q);
-  return p;
-}
-
-// distance from p_L to a primitive shape (0 inside), exact.
-double PrimitiveDistance(const LinkShape& shape, const Eigen::Vector3d& p_L) {
-  const Eigen::Vector3d p = shape.X_LG.inverse() * p_L;
-  switch (shape.kind) {
-    case ShapeKind::kSphere: return std::max(0.0, p.norm() - shape.radius);
-    case ShapeKind::kBox: return (p.cwiseAbs() - 0.5 * shape.size).cwiseMax(0.0).norm();
-    case ShapeKind::kCylinder:
-      return std::hypot(std::max(0.0, p.head<2>().norm() - shape.radius), std::max(0.0, std::abs(p.z()) - 0.5 * shape.length));
-    case ShapeKind::kMesh: break;
-  }
-  return std::numeric_limits<double>::infinity();
-}
-
-// the geometry of one link prepared for fitting: balls to cover, its primitives and points on its mesh surfaces.
+// the geometry of one link prepared for its cover: its surfaces, and the exact smallest capsule of a single
+// primitive.
 struct LinkGeometry {
-  std::vector<Ball> balls;
-  std::vector<Eigen::Vector3i> triangles;  // of the meshes, indices into balls
-  std::vector<LinkShape> primitives;    // distances to these are exact
-  std::vector<Eigen::Vector3d> surface; // mesh surface samples
+  CoverGeometry cover;   // what the capsules cover (a cylinder's circumscribed prism)
+  CoverGeometry check;   // what they are measured against (a cylinder's inscribed prism: on or inside it)
+  bool has_cylinder = false;
   std::optional<math::Capsule> closed_form;  // single primitive: its exact smallest capsule
   std::string source;
   bool missing = false;
@@ -123,34 +80,24 @@ void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetu
   const std::string element = shape.visual ? "visual" : "collision";
   switch (shape.kind) {
     case ShapeKind::kSphere: {
-      g->balls.push_back({X.translation(), shape.radius});
-      g->primitives.push_back(shape);
+      g->cover.balls.push_back({X.translation(), shape.radius});
+      g->check.balls.push_back({X.translation(), shape.radius});
       g->closed_form = Transformed(X, CapsuleCoveringSphere(shape.radius));
       g->source = fmt::format("{} sphere r={:.3f}", element, shape.radius);
       break;
     }
     case ShapeKind::kBox: {
-      const Eigen::Vector3d h = 0.5 * shape.size;
-      for (int corner = 0; corner < 8; ++corner) {
-        g->balls.push_back({X * Eigen::Vector3d((corner & 1 ? 1 : -1) * h.x(), (corner & 2 ? 1 : -1) * h.y(),
-                                                (corner & 4 ? 1 : -1) * h.z()), 0.0});
-      }
-      g->primitives.push_back(shape);
+      AppendBoxSurface(X, shape.size, &g->cover);
+      AppendBoxSurface(X, shape.size, &g->check);
       g->closed_form = Transformed(X, CapsuleCoveringBox(shape.size));
       g->source = fmt::format("{} box {:.3f} x {:.3f} x {:.3f}", element, shape.size.x(), shape.size.y(),
                               shape.size.z());
       break;
     }
     case ShapeKind::kCylinder: {
-      constexpr int kRim = 32;
-      const double r_out = shape.radius / std::cos(kPi / kRim);  // the circumscribed polygon covers the circle
-      for (int k = 0; k < kRim; ++k) {
-        const double a = 2.0 * kPi * k / kRim;
-        for (double z : {-0.5 * shape.length, 0.5 * shape.length}) {
-          g->balls.push_back({X * Eigen::Vector3d(r_out * std::cos(a), r_out * std::sin(a), z), 0.0});
-        }
-      }
-      g->primitives.push_back(shape);
+      AppendCylinderSurface(X, shape.radius, shape.length, 64, true, &g->cover);
+      AppendCylinderSurface(X, shape.radius, shape.length, 64, false, &g->check);
+      g->has_cylinder = true;
       g->closed_form = Transformed(X, CapsuleCoveringCylinder(shape.radius, shape.length));
       g->source = fmt::format("{} cylinder r={:.3f} l={:.3f}", element, shape.radius, shape.length);
       break;
@@ -175,44 +122,26 @@ void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetu
         return;
       }
       const Eigen::Matrix3Xd p_L = X * mesh.p_M;
-      const int offset = static_cast<int>(g->balls.size());
-      for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->balls.push_back({p_L.col(i), 0.0});
-      for (const Eigen::Vector3i& t : mesh.triangles) g->triangles.push_back(t + Eigen::Vector3i::Constant(offset));
-      // surface: the vertices, centroids and edge midpoints of the triangles, at most ~15000 points
-      const Eigen::Index stride = std::max<Eigen::Index>(1, p_L.cols() / 3000);
-      for (Eigen::Index i = 0; i < p_L.cols(); i += stride) g->surface.push_back(p_L.col(i));
-      const size_t tstride = std::max<size_t>(1, mesh.triangles.size() / 3000);
-      for (size_t t = 0; t < mesh.triangles.size(); t += tstride) {
-        const Eigen::Vector3i& tri = mesh.triangles[t];
-        g->surface.push_back((p_L.col(tri[0]) + p_L.col(tri[1]) + p_L.col(tri[2])) / 3.0);
-        for (int e = 0; e < 3; ++e) g->surface.push_back(0.5 * (p_L.col(tri[e]) + p_L.col(tri[(e + 1) % 3])));
+      const int offset = static_cast<int>(g->cover.vertices.size());
+      for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->cover.vertices.push_back(p_L.col(i));
+      for (const Eigen::Vector3i& t : mesh.triangles) {
+        g->cover.triangles.push_back(t + Eigen::Vector3i::Constant(offset));
+      }
+      if (mesh.triangles.empty()) {  // a point set: each vertex a ball of radius 0
+        for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->cover.balls.push_back({p_L.col(i), 0.0});
+      }
+      const int check_offset = static_cast<int>(g->check.vertices.size());
+      g->check.vertices.insert(g->check.vertices.end(), g->cover.vertices.begin() + offset, g->cover.vertices.end());
+      for (const Eigen::Vector3i& t : mesh.triangles) {
+        g->check.triangles.push_back(t + Eigen::Vector3i::Constant(check_offset));
+      }
+      if (mesh.triangles.empty()) {
+        for (Eigen::Index i = 0; i < p_L.cols(); ++i) g->check.balls.push_back({p_L.col(i), 0.0});
       }
       g->source += fmt::format(" ({} vertices)", p_L.cols());
       break;
     }
   }
-}
-
-// largest distance from the surface of the capsules' union to the link's geometry (exact for primitives, to the nearest surface
-// sample for meshes).
-double StickOut(const std::vector<math::Capsule>& capsules, const LinkGeometry& g) {
-  double worst = 0.0;
-  std::vector<Eigen::Vector3d> points;
-  for (const math::Capsule& c : capsules) {
-    for (const Eigen::Vector3d& p : CapsuleSurfacePoints(c)) {
-      // points of one capsule inside another are not on the union's surface
-      bool inside_other = false;
-      for (const math::Capsule& o : capsules) inside_other |= &o != &c && CapsuleSignedDistance(o, p) < -1e-9;
-      if (!inside_other) points.push_back(p);
-    }
-  }
-  for (const Eigen::Vector3d& p : points) {
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const LinkShape& shape : g.primitives) nearest = std::min(nearest, PrimitiveDistance(shape, p));
-    for (const Eigen::Vector3d& s : g.surface) nearest = std::min(nearest, (p - s).norm());
-    worst = std::max(worst, nearest);
-  }
-  return worst;
 }
 
 // the end-effector link: options.end_effector, else the tip of the longest revolute chain, moved on along fixed
@@ -307,6 +236,7 @@ std::string_view ExclusionReasonName(ExclusionReason reason) {
     case ExclusionReason::kNeverClose: return "never close";
     case ExclusionReason::kContactAtHome: return "in contact at home";
     case ExclusionReason::kOneGripper: return "one gripper (moved against each other by one mimic dof)";
+    case ExclusionReason::kSrdf: return "disabled in the SRDF";
   }
   return "unknown";
 }
@@ -363,22 +293,54 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       fit.fallback = true;
       fit.source = fmt::format("{}: MISSING, capsule between joint origins (r={:.3f})", sources,
                                options.fallback_radius);
-      fit.stick_out = std::numeric_limits<double>::quiet_NaN();
+      fit.excess = fit.outside = std::numeric_limits<double>::quiet_NaN();
     } else {
-      const bool closed = num_shapes == 1 && g.closed_form.has_value();
-      capsules = closed ? std::vector<math::Capsule>{*g.closed_form}
-                        : FitCapsulesToMesh(g.balls, g.primitives.empty() ? g.triangles
-                                                                           : std::vector<Eigen::Vector3i>{},
-                                            options.second_capsule_below);
-      fit.source = closed ? sources + " (closed form)"
-                          : sources + (capsules.size() == 2 ? " (two capsules: one covered poorly)" : "");
-      fit.stick_out = StickOut(capsules, g);
+      // a single primitive keeps its exact smallest capsule when that is within the tolerance; everything else is
+      // covered by as many capsules as its shape needs
+      CapsuleCover cover;
+      bool closed = false;
+      if (num_shapes == 1 && g.closed_form) {
+        cover = MeasureCapsuleCover(g.check, {*g.closed_form}, options.cover);
+        closed = cover.within_tolerance;
+      }
+      if (!closed) {
+        CapsuleCover fitted = FitCapsuleCover(g.cover, options.cover);
+        if (g.has_cylinder) fitted = MeasureCapsuleCover(g.check, fitted.capsules, options.cover);
+        if (g.closed_form && num_shapes == 1 && !(fitted.max_excess < cover.max_excess)) {
+          closed = true;  // the closed form is no worse
+        } else {
+          cover = fitted;
+        }
+      }
+      capsules = cover.capsules;
+      fit.excess = cover.max_excess;
+      fit.mean_excess = cover.mean_excess;
+      fit.outside = cover.max_outside;
+      fit.samples = cover.samples;
+      fit.within_tolerance = cover.within_tolerance;
+      fit.source = sources + (closed ? " (closed form)" : fmt::format(" ({} capsule{})", capsules.size(),
+                                                                      capsules.size() == 1 ? "" : "s"));
+      if (cover.max_outside > 1e-6) {
+        setup.warnings.push_back(fmt::format("link '{}': a sample of its geometry lies {:.3f} mm outside its "
+                                             "capsules", model.link(k).name, 1e3 * cover.max_outside));
+      }
     }
     for (const math::Capsule& capsule : capsules) {
       fit.capsules.push_back(static_cast<int>(robot.capsules.size()));
       robot.capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
     }
     setup.links.push_back(fit);
+  }
+  std::string above;
+  for (const LinkFit& fit : setup.links) {
+    if (!fit.capsules.empty() && !fit.fallback && !fit.within_tolerance) {
+      above += fmt::format("{}{} ({:.1f} mm)", above.empty() ? "" : ", ", model.link(fit.link).name, 1e3 * fit.excess);
+    }
+  }
+  if (!above.empty()) {
+    setup.notes.push_back(fmt::format("capsules sticking out more than the tolerance {:.1f} mm even with up to {} per "
+                                      "link (flat faces and sharp edges: a capsule's round surface cannot follow "
+                                      "them): {}", 1e3 * options.cover.tolerance, options.cover.max_capsules, above));
   }
   if (robot.capsules.empty()) {
     throw InputError(fmt::format("{}: no link has <collision> or <visual> geometry: nothing to fit capsules to (write "
@@ -396,7 +358,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
     const int a = NearestAncestorWithCapsule(model, capsule_count, k);
     if (a >= 0 && a != model.link(k).parent) {
       robot.excluded_pairs.emplace_back(std::min(a, k), std::max(a, k));
-      setup.exclusions.push_back({std::min(a, k), std::max(a, k), ExclusionReason::kAdjacent, 0.0, 0.0});
+      setup.exclusions.push_back({std::min(a, k), std::max(a, k), ExclusionReason::kAdjacent, 0.0, 0.0, ""});
     }
   }
   // links that only a gripper's dof moves relative to each other (the fingers of one gripper: the path between them
@@ -414,7 +376,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       }
       if (path_dofs.size() != 1 || model.dof_joint_links(*path_dofs.begin()).size() < 2) continue;
       robot.excluded_pairs.emplace_back(a, b);
-      setup.exclusions.push_back({a, b, ExclusionReason::kOneGripper, 0.0, 0.0});
+      setup.exclusions.push_back({a, b, ExclusionReason::kOneGripper, 0.0, 0.0, ""});
     }
   }
   SortUnique(&robot.excluded_pairs);
@@ -550,6 +512,108 @@ struct HomeScorer {
 
 }  // namespace
 
+namespace {
+
+// the SRDF SetupRobot uses: options.srdf, else <urdf stem>.srdf beside the URDF, else the only *.srdf there; "" when
+// none (or use_srdf is off). `how` says which; several SRDFs and none of the URDF's name is a warning.
+fs::path FindSrdf(const fs::path& urdf_path, const RobotSetupOptions& options, std::string* how,
+                  std::vector<std::string>* warnings) {
+  if (!options.use_srdf) {
+    if (!options.srdf.empty()) {
+      throw InputError(fmt::format("--srdf: expected no SRDF with --no-srdf (use_srdf false), got {}",
+                                   options.srdf.string()));
+    }
+    return {};
+  }
+  if (!options.srdf.empty()) {
+    *how = "--srdf";
+    return options.srdf;
+  }
+  const fs::path dir = urdf_path.has_parent_path() ? urdf_path.parent_path() : fs::path(".");
+  const fs::path same_name = dir / (urdf_path.stem().string() + ".srdf");
+  if (fs::is_regular_file(same_name)) {
+    *how = "beside the URDF, of the same name";
+    return same_name;
+  }
+  std::vector<fs::path> found;
+  std::error_code error;
+  for (fs::directory_iterator it(dir, error), end; !error && it != end; it.increment(error)) {
+    if (it->path().extension() == ".srdf" && fs::is_regular_file(it->path())) found.push_back(it->path());
+  }
+  std::sort(found.begin(), found.end());
+  if (found.size() == 1) {
+    *how = "the only SRDF beside the URDF";
+    return found.front();
+  }
+  if (found.size() > 1) {
+    std::string names;
+    for (const fs::path& p : found) names += (names.empty() ? "" : ", ") + p.filename().string();
+    warnings->push_back(fmt::format("{} SRDFs beside the URDF ({}) and none named {}: none used (--srdf FILE picks "
+                                    "one)", found.size(), names, same_name.filename().string()));
+  }
+  return {};
+}
+
+// the SRDF's disabled pairs not yet excluded become kSrdf exclusions, and its first end effector's parent link the
+// end effector unless options.end_effector names one; setup->notes say what was used.
+void ApplySrdf(const fs::path& urdf_path, const RobotSetupOptions& options, RobotSetup* setup) {
+  Robot& robot = setup->robot;
+  const Model& model = robot.model;
+  setup->end_effector_from = options.end_effector.empty()
+                                 ? "the tip of the longest revolute chain or a tool frame below it"
+                                 : "--ee";
+  std::string how;
+  setup->srdf = FindSrdf(urdf_path, options, &how, &setup->warnings);
+  if (setup->srdf.empty()) return;
+  const Srdf srdf = LoadSrdf(setup->srdf);
+  for (std::string& w : CheckSrdfAgainstModel(srdf, model)) setup->warnings.push_back(std::move(w));
+  int added = 0, already = 0, skipped = 0;
+  for (const SrdfDisabledPair& p : srdf.disabled_collisions) {
+    const int a = model.FindLink(p.link1), b = model.FindLink(p.link2);
+    if (a < 0 || b < 0 || a == b) {
+      ++skipped;
+      continue;
+    }
+    const std::pair<int, int> pair(std::min(a, b), std::max(a, b));
+    if (robot.IsExcludedPair(a, b)) {  // adjacent, one gripper, or listed twice
+      ++already;
+      continue;
+    }
+    setup->exclusions.push_back({pair.first, pair.second, ExclusionReason::kSrdf, 0.0, 0.0, p.reason});
+    // excluded_pairs stays sorted: IsExcludedPair searches it
+    robot.excluded_pairs.insert(std::lower_bound(robot.excluded_pairs.begin(), robot.excluded_pairs.end(), pair),
+                                pair);
+    ++added;
+  }
+  const std::string name = setup->srdf.filename().string();
+  setup->notes.push_back(fmt::format("SRDF {} ({}): {} disabled pairs: {} excluded as disabled in the SRDF, {} "
+                                     "already excluded (adjacent or one gripper), {} skipped (links not in the URDF)",
+                                     setup->srdf.string(), how, srdf.disabled_collisions.size(), added, already,
+                                     skipped));
+  if (srdf.end_effectors.empty()) return;
+  const SrdfEndEffector& ee = srdf.end_effectors.front();
+  if (!options.end_effector.empty()) {
+    setup->notes.push_back(fmt::format("end effector {} (--ee), not the parent link {} of {}'s end effector '{}'",
+                                       options.end_effector, ee.parent_link, name, ee.name));
+    return;
+  }
+  robot.end_effector.link = model.FindLink(ee.parent_link);  // CheckSrdfAgainstModel: it exists
+  robot.end_effector.X_LE.setIdentity();
+  setup->end_effector_from = fmt::format("the parent link of {}'s end effector '{}'", name, ee.name);
+  if (srdf.end_effectors.size() > 1) {
+    std::string others;
+    for (size_t i = 1; i < srdf.end_effectors.size(); ++i) {
+      others += fmt::format("{}'{}' on {}", i > 1 ? ", " : "", srdf.end_effectors[i].name,
+                            srdf.end_effectors[i].parent_link);
+    }
+    setup->notes.push_back(fmt::format("{} has {} end effectors: the first, '{}' on {}, is used (others: {}; --ee LINK "
+                                       "picks one)", name, srdf.end_effectors.size(), ee.name, ee.parent_link,
+                                       others));
+  }
+}
+
+}  // namespace
+
 RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& options) {
   RobotSetup setup = FitRobot(urdf_path, options);
   Robot& robot = setup.robot;
@@ -574,14 +638,18 @@ RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& option
     }
   }
 
+  // the robot's own SRDF first: sampling then judges only the pairs its authors left enabled, and the home search
+  // uses its end effector
+  ApplySrdf(urdf_path, options, &setup);
+
   // sampled exclusions
   const std::vector<PairStatistics> stats = SampleSelfCollision(robot, options);
   for (const PairStatistics& p : stats) {
     const double share = static_cast<double>(p.contacts) / options.samples;
     if (share >= options.always_in_contact) {
-      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kAlwaysInContact, share, p.min_distance});
+      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kAlwaysInContact, share, p.min_distance, ""});
     } else if (p.min_distance > options.warning_distance) {
-      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kNeverClose, share, p.min_distance});
+      setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kNeverClose, share, p.min_distance, ""});
     }
   }
   for (const Exclusion& e : setup.exclusions) robot.excluded_pairs.emplace_back(e.link_a, e.link_b);
@@ -634,7 +702,7 @@ RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& option
   }
   // pairs in contact at home are excluded (only possible with --home or when the search failed)
   for (const ClosestPair& p : SelfCollisionPairsWithin(robot, setup.home, 0.0)) {
-    setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kContactAtHome, 0.0, p.distance});
+    setup.exclusions.push_back({p.link_a, p.link_b, ExclusionReason::kContactAtHome, 0.0, p.distance, ""});
     robot.excluded_pairs.emplace_back(p.link_a, p.link_b);
   }
   SortUnique(&robot.excluded_pairs);

@@ -113,11 +113,13 @@ struct RrtPolicy::Impl {
   // smallest signed distance at q over the obstacles (and, unless obstacles_only, the floor and checked capsule
   // pairs); returns early, with a value <= stop_below, once one distance is that small. Exact for stop_below = −inf;
   // otherwise a value <= stop_below exactly when the clearance is (pairs that cannot come within stop_below are
-  // skipped: a validity check needs no more).
-  double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below);
+  // skipped: a validity check needs no more). `pair` (optional) receives the pair attaining the value returned.
+  double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only, double stop_below,
+                   ClearancePair* pair = nullptr);
   // the floor and self-collision part of Clearance on the capsules it placed last, continuing from its distance d so
-  // far (+inf: that part alone), with the same early return
-  double SelfClearance(double stop_below, double d = kInf) const;
+  // far (+inf: that part alone), with the same early return; `pair` as in Clearance, left as it is unless a pair
+  // here comes closer than d
+  double SelfClearance(double stop_below, double d = kInf, ClearancePair* pair = nullptr) const;
   // q valid for a PlanPath search: its obstacle distances beyond MarginAt(q), its floor and self distances beyond
   // self_margin (an arm that always keeps two of its links close, inside the margin, can still move)
   bool ValidRelaxed(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
@@ -217,7 +219,7 @@ struct RrtPolicy::Impl {
 };
 
 double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only,
-                                  double stop_below) {
+                                  double stop_below, ClearancePair* pair) {
   kinematics::CalcForwardKinematics(robot.model, q, &kin);
   for (size_t c = 0; c < robot.capsules.size(); ++c) {
     capsule_W[c] = kinematics::WorldCapsule(robot.capsules[c], kin);
@@ -229,7 +231,8 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
   auto bounded_out = [&d, stop_below](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
     return SpheresCannotMatter(a, centre, radius, d, stop_below);
   };
-  for (const rmp::Obstacle& o : obstacles) {
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    const rmp::Obstacle& o = obstacles[k];
     const Eigen::Vector3d centre = rmp::Centre(o);
     const double radius = rmp::BoundingRadius(o);
     // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
@@ -251,20 +254,29 @@ double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bo
           cannot_matter(math::CapsuleBoxDistance(capsule_W[c], box).distance)) {
         continue;
       }
-      d = std::min(d, rmp::CapsuleObstacleDistance(capsule_W[c], o).distance);
+      const double distance = rmp::CapsuleObstacleDistance(capsule_W[c], o).distance;
+      if (distance < d) {
+        d = distance;
+        if (pair != nullptr) {
+          *pair = {d, ClearancePair::Kind::kObstacle, robot.capsules[c].link, -1, static_cast<int>(k)};
+        }
+      }
       if (d <= stop_below) return d;
     }
   }
   if (obstacles_only) return d;
-  return SelfClearance(stop_below, d);
+  return SelfClearance(stop_below, d, pair);
 }
 
-double RrtPolicy::Impl::SelfClearance(double stop_below, double d) const {
+double RrtPolicy::Impl::SelfClearance(double stop_below, double d, ClearancePair* pair) const {
   if (options.check_floor) {
     for (size_t c = 0; c < capsule_W.size(); ++c) {
       if (!floor_checked[c]) continue;
       const double z = std::min(capsule_W[c].p_WA.z(), capsule_W[c].p_WB.z()) - capsule_W[c].radius;
-      d = std::min(d, z - options.floor_height);
+      if (z - options.floor_height < d) {
+        d = z - options.floor_height;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kFloor, robot.capsules[c].link, -1, -1};
+      }
       if (d <= stop_below) return d;
     }
   }
@@ -272,7 +284,13 @@ double RrtPolicy::Impl::SelfClearance(double stop_below, double d) const {
     if (SpheresCannotMatter(capsule_sphere[a], capsule_sphere[b].head<3>(), capsule_sphere[b][3], d, stop_below)) {
       continue;
     }
-    d = std::min(d, math::CapsuleCapsuleDistance(capsule_W[a], capsule_W[b]).distance);
+    const double distance = math::CapsuleCapsuleDistance(capsule_W[a], capsule_W[b]).distance;
+    if (distance < d) {
+      d = distance;
+      if (pair != nullptr) {
+        *pair = {d, ClearancePair::Kind::kSelf, robot.capsules[a].link, robot.capsules[b].link, -1};
+      }
+    }
     if (d <= stop_below) return d;
   }
   return d;
@@ -717,6 +735,14 @@ double RrtPolicy::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
   kinematics::CheckJointVector(impl_->robot.model, q, "q");
   impl_->SetObstacles(scene);
   return impl_->Clearance(q, false, -kInf);
+}
+
+ClearancePair RrtPolicy::ClearanceWithPair(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  kinematics::CheckJointVector(impl_->robot.model, q, "q");
+  impl_->SetObstacles(scene);
+  ClearancePair pair;
+  impl_->Clearance(q, false, -kInf, &pair);
+  return pair;
 }
 
 bool RrtPolicy::IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {

@@ -137,4 +137,40 @@ TEST(SetupRobotCli, DemoRunsAUrdfWithMimicJoints) {
   EXPECT_NE(r.output.find("0 (0 self)"), std::string::npos) << r.output;
 }
 
+// the robot's MoveIt SRDF beside the URDF: its disabled pairs are excluded and listed with their reason, its end
+// effector used; --no-srdf turns it off, --srdf names one
+TEST(SetupRobotCli, SetupRobotUsesTheSrdfBesideTheUrdf) {
+  const fs::path urdf = WriteArm("srdf");
+  std::ofstream(urdf.parent_path() / "arm.srdf") << R"(<?xml version="1.0"?>
+<robot name="arm">
+  <end_effector name="tool" parent_link="link3" group="gripper"/>
+  <disable_collisions link1="base_link" link2="link2" reason="Never"/>
+  <disable_collisions link1="link1" link2="link3" reason="Never"/>
+</robot>
+)";
+  const fs::path out = urdf.parent_path() / "description";
+  const CommandResult r = RunCli(fmt::format("setup-robot {} --out {} --samples 300", urdf.string(), out.string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("end effector: link3 (the parent link of arm.srdf's end effector 'tool')"),
+            std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("2 disabled in the SRDF"), std::string::npos) << r.output;
+  std::stringstream yaml;
+  yaml << std::ifstream(out / "arm.collision.yaml").rdbuf();
+  EXPECT_NE(yaml.str().find("- [link1, link3]   # disabled in the SRDF (Never)"), std::string::npos) << yaml.str();
+
+  const CommandResult off = RunCli(fmt::format("setup-robot {} --out {} --samples 300 --no-srdf", urdf.string(),
+                                               out.string()));
+  ASSERT_EQ(off.exit_code, 0) << off.output;
+  EXPECT_NE(off.output.find("0 disabled in the SRDF"), std::string::npos) << off.output;
+  EXPECT_NE(off.output.find("end effector: tool0"), std::string::npos) << off.output;
+
+  const CommandResult missing = RunCli(fmt::format("setup-robot {} --srdf {}", urdf.string(),
+                                                   (urdf.parent_path() / "absent.srdf").string()));
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("expected an existing .srdf file"), std::string::npos) << missing.output;
+  const CommandResult both = RunCli(fmt::format("setup-robot {} --srdf {} --no-srdf", urdf.string(),
+                                                (urdf.parent_path() / "arm.srdf").string()));
+  EXPECT_NE(both.exit_code, 0) << both.output;
+}
+
 }  // namespace

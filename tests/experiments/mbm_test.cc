@@ -1,6 +1,9 @@
 // The MotionBenchMaker benchmark (experiments/mbm.h): problems found on disk by family, a hand-made problem (a wall
 // across the Panda's way to a joint goal) run by every method, an invalid problem reported with its reason, the
-// results files; and, where the set is present, problems of MotionBenchMaker's own Panda set with its robot model.
+// results files and their columns for both referees; and, where the set is present, problems of MotionBenchMaker's
+// own Panda set with its robot model and collision meshes: the validity rule of the mesh referee (a box touching the
+// start's meshes: not valid; a box only the capsules touch: rejected by the model, counted) and a problem judged on
+// the meshes at every control step.
 #include "rmpmarl/experiments/mbm.h"
 
 #include <fmt/format.h>
@@ -12,10 +15,15 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <sstream>
+#include <tuple>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/experiments/mesh_collision.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/kinematics/urdf_geometry.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::experiments {
@@ -125,12 +133,16 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   ASSERT_EQ(results.size(), 2u * AllMbmMethods().size());
   for (const MbmResult& r : results) {
     SCOPED_TRACE(fmt::format("{} {} {}", r.family, r.index, r.method));
+    // no mesh referee: judged on the capsules alone, as the results say
+    EXPECT_EQ(r.mesh_collisions, -1);
+    EXPECT_FALSE(r.rejected);
     if (r.index == 2) {
       EXPECT_FALSE(r.valid);
-      EXPECT_NE(r.invalid_reason.find("start in collision"), std::string::npos) << r.invalid_reason;
+      EXPECT_NE(r.reason.find("start in collision in the capsule model: "), std::string::npos) << r.reason;
+      EXPECT_NE(r.reason.find(" with wall ("), std::string::npos) << r.reason;
       continue;
     }
-    ASSERT_TRUE(r.valid) << r.invalid_reason;
+    ASSERT_TRUE(r.valid) << r.reason;
     std::printf("[ wall     ] %-13s success %d, %d collisions, final error %.1f mm, joint error %.3f rad, path %.2f "
                 "rad, first plan %.1f ms, %d plans\n", r.method.c_str(), r.success, r.collisions, 1e3 * r.final_error,
                 r.joint_error, r.path_length, 1e3 * r.planning_time, r.plans);
@@ -213,15 +225,75 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   std::ifstream csv(out / "results.csv");
   std::string header;
   std::getline(csv, header);
-  EXPECT_EQ(header.rfind("family,problem,method,valid,success,", 0), 0u);
+  EXPECT_EQ(header.rfind("family,problem,method,valid,rejected,success,", 0), 0u);
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, static_cast<int>(results.size()));
   std::stringstream report;
   report << std::ifstream(out / "report.md").rdbuf();
-  EXPECT_NE(report.str().find("| wall | plan+rmpflow | 1 of 2 | 100.0 %"), std::string::npos) << report.str();
+  EXPECT_NE(report.str().find("| wall | plan+rmpflow | 1 of 2 | 0 | 100.0 %"), std::string::npos) << report.str();
   EXPECT_NE(report.str().find("wall 2: start in collision"), std::string::npos);
+  EXPECT_NE(report.str().find("Referee: the capsule model alone"), std::string::npos);
+
+  // a mesh referee without meshes (the shipped Panda's URDF has none) is refused with its reason
+  MbmOptions unavailable = options;
+  unavailable.meshes = std::make_shared<const MeshCollisionModel>(panda);
+  try {
+    RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, unavailable);
+    ADD_FAILURE() << "ran with a mesh model that has no meshes";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no <collision> element"), std::string::npos) << e.what();
+  }
   fs::remove_all(dir);
+}
+
+// results.csv and report.md of hand-made results: a problem not valid on the meshes, one rejected by the model, and
+// one run with collisions on the capsules and the meshes
+TEST(MbmBenchmarkTest, ResultsFilesCountBothReferees) {
+  std::vector<MbmResult> results(3);
+  for (int i = 0; i < 3; ++i) {
+    results[i].family = "shelf";
+    results[i].index = i + 1;
+    results[i].method = "rmpflow";
+  }
+  results[0].valid = false;
+  results[0].reason = "start in collision (meshes): panda_hand with board (1.5 mm deep)";
+  results[1].rejected = true;
+  results[1].reason = "rejected by the model: goal in collision in the capsule model: panda_link7 with board (2.0 mm "
+                      "deep)";
+  results[2].collisions = 2;
+  results[2].mesh_collisions = 7;
+  results[2].min_mesh_clearance = -0.0031;
+  results[2].min_mesh_pair = "panda_leftfinger with board";
+  results[2].mesh_check_us = 12.5;
+  const fs::path out = TempDir("columns");
+  WriteMbmResults(results, out, "rmpmarl benchmark mbm", "setup");
+  std::ifstream csv(out / "results.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "family,problem,method,valid,rejected,success,reached,collisions,mesh_collisions,time_to_goal_s,"
+                    "final_error_mm,joint_error_rad,path_length_rad,min_clearance_mm,min_mesh_clearance_mm,"
+                    "min_mesh_pair,planning_time_ms,plans,control_us,mesh_check_us,reason");
+  std::vector<std::string> rows;
+  while (std::getline(csv, line)) rows.push_back(line);
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].rfind("shelf,1,rmpflow,0,0,0,0,0,-1,", 0), 0u) << rows[0];
+  EXPECT_EQ(rows[1].rfind("shelf,2,rmpflow,1,1,0,0,0,-1,", 0), 0u) << rows[1];
+  EXPECT_EQ(rows[2].rfind("shelf,3,rmpflow,1,0,0,0,2,7,", 0), 0u) << rows[2];
+  EXPECT_NE(rows[2].find(",nan,-3.10,panda_leftfinger with board,"), std::string::npos) << rows[2];
+  EXPECT_NE(rows[2].find(",12.50,"), std::string::npos) << rows[2];
+  std::stringstream report;
+  report << std::ifstream(out / "report.md").rdbuf();
+  // 2 valid of 3 (the rejected one counts), no success, 1 rejected, 1 with collisions on each referee
+  EXPECT_NE(report.str().find("with collisions (capsules) | with collisions (meshes)"), std::string::npos);
+  EXPECT_NE(report.str().find("| shelf | rmpflow | 2 of 3 | 1 | 0.0 % [0.0, 65.8] | 1 | 1 |"), std::string::npos)
+      << report.str();
+  EXPECT_NE(report.str().find("Referees: validity on the collision meshes"), std::string::npos);
+  EXPECT_NE(report.str().find("Problems not valid, not run (1):\n\n- shelf 1: start in collision (meshes)"),
+            std::string::npos) << report.str();
+  EXPECT_NE(report.str().find("counted as failures (1):\n\n- shelf 2: rejected by the model: goal"),
+            std::string::npos) << report.str();
+  fs::remove_all(out);
 }
 
 // MotionBenchMaker's own problems with the robot model they were made with (hand and fingers): RRT-Connect and the
@@ -234,12 +306,147 @@ TEST(MbmBenchmarkTest, MotionBenchMakerPandaBookshelf) {
                               "mbm-panda.collision.yaml");
   const std::vector<MbmProblem> problems = FindMbmProblems(problems_dir, {"bookshelf_small"}, 1);
   for (MbmMethod method : {MbmMethod::kRrtConnect, MbmMethod::kPlanRmpflow}) {
-    const MbmResult r = RunMbmProblem(panda, problems[0], method, IterationBudget());
+    MbmOptions options = IterationBudget();
+    options.meshes = std::make_shared<const MeshCollisionModel>(panda, MeshCollisionOptions{.package_paths = {set}});
+    ASSERT_TRUE(options.meshes->available()) << options.meshes->unavailable_reason();
+    const MbmResult r = RunMbmProblem(panda, problems[0], method, options);
     SCOPED_TRACE(r.method);
-    EXPECT_TRUE(r.valid) << r.invalid_reason;
+    EXPECT_TRUE(r.valid) << r.reason;
+    EXPECT_FALSE(r.rejected) << r.reason;
     EXPECT_TRUE(r.success) << "final error " << r.final_error << " m";
     EXPECT_EQ(r.collisions, 0);
+    // judged on the meshes at every control step: clear, and close to the shelf at the grasp
+    EXPECT_EQ(r.mesh_collisions, 0);
+    EXPECT_GT(r.min_mesh_clearance, 0.0);
+    EXPECT_LT(r.min_mesh_clearance, 0.05);
+    EXPECT_FALSE(r.min_mesh_pair.empty());
+    EXPECT_GT(r.mesh_check_us, 0.0);
+    std::printf("[ meshes   ] %-13s closest %.1f mm (%s), mesh check %.1f µs per control step, capsules' closest "
+                "%.1f mm\n", r.method.c_str(), 1e3 * r.min_mesh_clearance, r.min_mesh_pair.c_str(), r.mesh_check_us,
+                1e3 * r.min_clearance);
   }
+}
+
+// a MoveIt scene of boxes (id, pose, half sizes) and a request from q_start to q_goal, for MotionBenchMaker's Panda
+void WriteProblem(const fs::path& folder, int index,
+                  const std::vector<std::tuple<std::string, Eigen::Isometry3d, Eigen::Vector3d>>& boxes,
+                  const Eigen::VectorXd& q_start, const Eigen::VectorXd& q_goal) {
+  std::string objects;
+  for (const auto& [id, X_WB, half] : boxes) {
+    const Eigen::Quaterniond quaternion(X_WB.linear());
+    objects += fmt::format("    - id: {}\n      primitive_poses:\n        - position: [{:.17g}, {:.17g}, {:.17g}]\n"
+                           "          orientation: [{:.17g}, {:.17g}, {:.17g}, {:.17g}]\n      primitives:\n"
+                           "        - type: box\n          dimensions: [{:.17g}, {:.17g}, {:.17g}]\n",
+                           id, X_WB.translation().x(), X_WB.translation().y(), X_WB.translation().z(), quaternion.x(),
+                           quaternion.y(), quaternion.z(), quaternion.w(), 2 * half.x(), 2 * half.y(), 2 * half.z());
+  }
+  Write(folder / fmt::format("scene{:04d}.yaml", index), "world:\n  collision_objects:\n" + objects);
+  std::string names, start, goal;
+  for (int i = 0; i < q_start.size(); ++i) {
+    names += fmt::format("{}panda_joint{}", i == 0 ? "" : ", ", i + 1);
+    start += fmt::format("{}{:.17g}", i == 0 ? "" : ", ", q_start[i]);
+    goal += fmt::format("      - {{joint_name: panda_joint{}, position: {:.17g}}}\n", i + 1, q_goal[i]);
+  }
+  Write(folder / fmt::format("request{:04d}.yaml", index),
+        fmt::format("start_state:\n  joint_state:\n    name: [{}]\n    position: [{}]\ngoal_constraints:\n"
+                    "  - joint_constraints:\n{}", names, start, goal));
+}
+
+// The validity rule on MotionBenchMaker's Panda at its ready posture. Its meshes' vertices are posed here; for a
+// direction u the vertex farthest along u bounds every mesh point's u-coordinate, so a box with a face normal to u
+// set g beyond that plane is at least g from the meshes, and one set 5 mm inside it touches them. Problem 1: a box
+// touching the start's meshes — not valid, the pair and depth named, out of the denominator. Problem 2: a box the
+// meshes clear by 3 mm and the capsules (fatter) enter — valid, rejected by the model, a failure of every method, in
+// the denominator; without the mesh referee the capsules decide and it is not valid.
+TEST(MbmBenchmarkTest, MeshValidityAndProblemsRejectedByTheCapsuleModel) {
+  const fs::path set = RMPMARL_MBM_PANDA;
+  if (!fs::is_regular_file(set / "panda.urdf")) GTEST_SKIP() << "MotionBenchMaker's Panda set is absent: " << set;
+  if (!kinematics::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
+  const kinematics::Robot panda = kinematics::LoadRobot(
+      set / "panda.urdf", fs::path(RMPMARL_TEST_DATA_DIR).parent_path().parent_path() / "configs" / "benchmarks" /
+                              "mbm-panda.collision.yaml");
+  auto meshes = std::make_shared<const MeshCollisionModel>(panda, MeshCollisionOptions{.package_paths = {set}});
+  ASSERT_TRUE(meshes->available()) << meshes->unavailable_reason();
+  const Eigen::VectorXd q = sim::ReadyConfiguration(panda);
+  kinematics::Data kin(panda.model);
+  kinematics::CalcForwardKinematics(panda.model, q, &kin);
+  std::stringstream xml;
+  xml << std::ifstream(set / "panda.urdf").rdbuf();
+  std::vector<Eigen::Vector3d> vertices;
+  for (const kinematics::LinkShape& s : kinematics::ParseUrdfShapes(xml.str(), panda.model, "panda.urdf")) {
+    if (s.visual) continue;
+    const kinematics::TriangleMesh mesh =
+        kinematics::ReadMesh(kinematics::ResolveMeshUri(s.mesh_uri, set / "panda.urdf", {set}), s.mesh_scale);
+    for (Eigen::Index i = 0; i < mesh.p_M.cols(); ++i) {
+      vertices.push_back(kin.X_WL[s.link] * s.X_LG * Eigen::Vector3d(mesh.p_M.col(i)));
+    }
+  }
+  // a box of half sizes (2, 2, 1) cm with its z face normal to u, its near face `gap` beyond the meshes' extreme
+  // plane along u
+  const Eigen::Vector3d half(0.02, 0.02, 0.01);
+  auto box_beyond = [&](const Eigen::Vector3d& u, double gap) {
+    const Eigen::Vector3d* extreme = &vertices.front();
+    for (const Eigen::Vector3d& v : vertices) {
+      if (u.dot(v) > u.dot(*extreme)) extreme = &v;
+    }
+    Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+    X_WB.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u).toRotationMatrix();
+    X_WB.translation() = *extreme + (gap + half.z()) * u;
+    return X_WB;
+  };
+  // the first of some directions in which a box 3 mm clear of the meshes enters the capsules
+  planning::RrtPolicy capsules(panda, {.check_floor = false, .safety_margin = 0.0});
+  MeshCollisionData data(*meshes);
+  std::optional<Eigen::Isometry3d> capsule_only;
+  for (const Eigen::Vector3d& direction :
+       {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(0, 0, 1),
+        Eigen::Vector3d(1, 0, 1), Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(1, -1, 0), Eigen::Vector3d(-1, 0, 1)}) {
+    const Eigen::Isometry3d X_WB = box_beyond(direction.normalized(), 0.003);
+    rmp::Scene scene;
+    scene.obstacles.push_back(rmp::Obstacle::MakeBox(X_WB, half));
+    const MeshClearance mesh = CalcMeshClearance(*meshes, kin, scene.obstacles, &data);
+    EXPECT_GE(mesh.distance, 0.003 - 1e-6);
+    if (capsules.Clearance(q, scene) < -0.001) {
+      capsule_only = X_WB;
+      break;
+    }
+  }
+  ASSERT_TRUE(capsule_only) << "no direction in which the capsules reach 3 mm beyond the meshes";
+  const fs::path dir = TempDir("referee");
+  WriteProblem(dir / "rule_panda", 1, {{"touching_box", box_beyond(Eigen::Vector3d::UnitZ(), -0.005), half}}, q, q);
+  WriteProblem(dir / "rule_panda", 2, {{"capsule_only_box", *capsule_only, half}}, q, q);
+  const std::vector<MbmProblem> problems = FindMbmProblems(dir);
+  MbmOptions options = IterationBudget();
+  options.meshes = meshes;
+  const std::vector<MbmMethod> methods = {MbmMethod::kRrtConnect, MbmMethod::kRmpflow};
+  const std::vector<MbmResult> results = RunMbmBenchmark(panda, problems, methods, options);
+  ASSERT_EQ(results.size(), 4u);
+  for (const MbmResult& r : results) {
+    SCOPED_TRACE(fmt::format("problem {} {}", r.index, r.method));
+    EXPECT_FALSE(r.success);
+    if (r.index == 1) {
+      EXPECT_FALSE(r.valid);
+      EXPECT_EQ(r.reason.rfind("start in collision (meshes): ", 0), 0u) << r.reason;
+      EXPECT_NE(r.reason.find(" with touching_box ("), std::string::npos) << r.reason;
+      EXPECT_NE(r.reason.find(" mm deep)"), std::string::npos) << r.reason;
+    } else {
+      EXPECT_TRUE(r.valid);
+      EXPECT_TRUE(r.rejected);
+      EXPECT_EQ(r.reason.rfind("rejected by the model: start in collision in the capsule model: panda_", 0), 0u)
+          << r.reason;
+      EXPECT_NE(r.reason.find(" with capsule_only_box ("), std::string::npos) << r.reason;
+    }
+  }
+  // in the denominator: 1 valid of 2, rejected, no success
+  const std::string table = MbmSummaryTable(results);
+  EXPECT_NE(table.find("| rule | rmpflow | 1 of 2 | 1 | 0.0 % [0.0, 79.3] |"), std::string::npos) << table;
+  // the capsules alone: the second problem not valid
+  options.meshes = nullptr;
+  const std::vector<MbmResult> capsule_judged = RunMbmBenchmark(panda, {problems[1]}, {MbmMethod::kRmpflow}, options);
+  EXPECT_FALSE(capsule_judged[0].valid);
+  EXPECT_EQ(capsule_judged[0].reason.rfind("start in collision in the capsule model: ", 0), 0u)
+      << capsule_judged[0].reason;
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -172,47 +172,6 @@ TEST(CapsuleFit, BallsAreCoveredWithTheirRadius) {
   EXPECT_LT(c.radius, 0.06);
 }
 
-// a closed box mesh (8 vertices, 12 triangles) of full sizes `size` centred at `c`, appended to balls/triangles.
-void AppendBoxMesh(const Eigen::Vector3d& size, const Eigen::Vector3d& c, std::vector<Ball>* balls,
-                   std::vector<Eigen::Vector3i>* triangles) {
-  const int o = static_cast<int>(balls->size());
-  for (int i = 0; i < 8; ++i) {
-    balls->push_back({c + 0.5 * Eigen::Vector3d(i & 1 ? size.x() : -size.x(), i & 2 ? size.y() : -size.y(),
-                                                i & 4 ? size.z() : -size.z()), 0.0});
-  }
-  const int faces[6][4] = {{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}};
-  for (const auto& f : faces) {
-    triangles->emplace_back(o + f[0], o + f[1], o + f[2]);
-    triangles->emplace_back(o + f[0], o + f[2], o + f[3]);
-  }
-}
-
-TEST(CapsuleFit, AnLShapedMeshGetsTwoCapsulesThatCoverItAndAreSmaller) {
-  // an L of two bars: 0.4 m along x and 0.3 m along z, 6 cm square sections
-  const Eigen::Vector3d size_x(0.4, 0.06, 0.06), centre_x(0.2, 0, 0), size_z(0.06, 0.06, 0.3), centre_z(0, 0, 0.15);
-  std::vector<Ball> balls;
-  std::vector<Eigen::Vector3i> triangles;
-  AppendBoxMesh(size_x, centre_x, &balls, &triangles);
-  AppendBoxMesh(size_z, centre_z, &balls, &triangles);
-  const std::vector<math::Capsule> caps = FitCapsulesToMesh(balls, triangles);
-  ASSERT_EQ(caps.size(), 2u);
-  // dense samples of both bars' surfaces lie in the union
-  for (const auto& [size, centre] : {std::pair{size_x, centre_x}, std::pair{size_z, centre_z}}) {
-    Eigen::Matrix3Xd p = SampleBox(size, 30);
-    p.colwise() += centre;
-    for (Eigen::Index i = 0; i < p.cols(); ++i) {
-      EXPECT_LE(std::min(CapsuleSignedDistance(caps[0], p.col(i)), CapsuleSignedDistance(caps[1], p.col(i))), 1e-9);
-    }
-  }
-  const double one = CapsuleVolume(FitCapsuleToBalls(balls));
-  EXPECT_LT(CapsuleVolume(caps[0]) + CapsuleVolume(caps[1]), 0.7 * one);
-  // a straight bar, even with its vertices only at the ends, stays one capsule that covers it
-  std::vector<Ball> bar;
-  std::vector<Eigen::Vector3i> bar_triangles;
-  AppendBoxMesh(size_x, centre_x, &bar, &bar_triangles);
-  EXPECT_EQ(FitCapsulesToMesh(bar, bar_triangles).size(), 1u);
-}
-
 TEST(CapsuleFit, RejectsEmptyAndNonFiniteInput) {
   EXPECT_THROW(FitCapsuleToBalls({}), InputError);
   EXPECT_THROW(FitCapsuleToBalls({{Eigen::Vector3d(NAN, 0, 0), 0.0}}), InputError);

@@ -112,7 +112,9 @@ TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
   EXPECT_NEAR(mesh.p_M.row(2).maxCoeff(), 0.3, 1e-9);
 
   const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
-  const RobotSetup setup = FitRobot(urdf, Options(dir));
+  RobotSetupOptions options = Options(dir);
+  options.cover.tolerance = 0.05;  // one capsule: compared with the box's closed form below
+  const RobotSetup setup = FitRobot(urdf, options);
   EXPECT_TRUE(setup.warnings.empty()) << setup.warnings.front();
   const LinkFit& fit = FitOf(setup, "link2");
   ASSERT_EQ(fit.capsules.size(), 1u);
@@ -142,8 +144,17 @@ TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
   EXPECT_LE(worst, 1e-9);
   EXPECT_GE(worst, -0.01 * cap.radius) << "not tight";
   EXPECT_LE(CapsuleVolume(c), 1.01 * CapsuleVolume(CapsuleCoveringBox(kMeshSize)));
-  EXPECT_GT(fit.stick_out, 0.0);
-  EXPECT_LT(fit.stick_out, 0.06);
+  // the capsule's surface beside the middle of the box's wide face (3 cm from the axis) is radius − 3 cm from it
+  EXPECT_GE(fit.excess, cap.radius - 0.03 - 0.002);
+  EXPECT_LT(fit.excess, cap.radius);
+  EXPECT_LE(fit.outside, 1e-9);
+  EXPECT_TRUE(fit.within_tolerance);
+  // at the default tolerance (1 cm) the same box is split until no capsule sticks out more than 1 cm, still covered
+  const RobotSetup tight = FitRobot(urdf, Options(dir));
+  const LinkFit& split = FitOf(tight, "link2");
+  EXPECT_GT(split.capsules.size(), 1u);
+  EXPECT_LT(split.excess, fit.excess);
+  EXPECT_LE(split.outside, 1e-9);
 }
 
 TEST(RobotSetup, ReadsObjAndColladaWithItsUnitAndWithoutItsUpAxis) {
@@ -192,12 +203,25 @@ TEST(RobotSetup, PrimitivesFrameOnlyLinksAndVisualFallback) {
   EXPECT_NE(FitOf(setup, "link3").source.find("visual cylinder"), std::string::npos);
   const LinkCapsule& sphere = setup.robot.capsules[FitOf(setup, "link4").capsules[0]];
   EXPECT_DOUBLE_EQ(sphere.radius, 0.05);
-  EXPECT_NEAR(FitOf(setup, "link4").stick_out, 0.0, 1e-9);
-  // the cylinder's closed form, moved by the <origin>
-  const LinkCapsule& base = setup.robot.capsules[FitOf(setup, "base_link").capsules[0]];
-  const math::Capsule expected = CapsuleCoveringCylinder(0.08, 0.1);
-  EXPECT_NEAR(base.radius, expected.radius, 1e-12);
-  EXPECT_NEAR(base.p_LA.z(), expected.p_WA.z() + 0.05, 1e-12);
+  EXPECT_NEAR(FitOf(setup, "link4").excess, 0.0, 0.002);  // on its own surface, to the samples' spacing
+  // the squat cylinder (r 8 cm, 10 cm long, moved 5 cm up by its <origin>): its closed-form capsule sticks out more
+  // than the tolerance, so it is covered instead, no worse than the closed form
+  const LinkFit& base_fit = FitOf(setup, "base_link");
+  Eigen::Isometry3d X_LG = Eigen::Isometry3d::Identity();
+  X_LG.translation().z() = 0.05;
+  CoverGeometry cylinder;
+  AppendCylinderSurface(X_LG, 0.08, 0.1, 64, false, &cylinder);
+  const CapsuleCover closed = MeasureCapsuleCover(cylinder, {[&] {
+                                                    math::Capsule c = CapsuleCoveringCylinder(0.08, 0.1);
+                                                    c.p_WA.z() += 0.05;
+                                                    c.p_WB.z() += 0.05;
+                                                    return c;
+                                                  }()});
+  EXPECT_GT(closed.max_excess, 0.01);
+  EXPECT_LE(base_fit.excess, closed.max_excess + 1e-9);
+  EXPECT_LE(base_fit.outside, 1e-9);
+  // a sphere keeps its closed form (itself)
+  EXPECT_NE(FitOf(setup, "link4").source.find("closed form"), std::string::npos) << FitOf(setup, "link4").source;
   EXPECT_EQ(setup.robot.model.link(setup.robot.end_effector.link).name, "tool0");
 }
 

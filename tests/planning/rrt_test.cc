@@ -189,6 +189,60 @@ TEST(RrtValidityTest, AgreesWithBruteForceSampling) {
   EXPECT_GT(invalid, 40);
 }
 
+// ClearanceWithPair: the same distance as Clearance, and the pair attaining it — an obstacle by its index, the floor,
+// or two links — recomputed here from the capsules of the links it names
+TEST(RrtValidityTest, ClearanceWithPairNamesWhatAttainsIt) {
+  const kinematics::Robot panda = Panda();
+  const VectorXd ready = sim::ReadyConfiguration(panda);
+  kinematics::Data data(panda.model);
+  kinematics::CalcForwardKinematics(panda.model, ready, &data);
+  auto capsules_of = [&](int link) {
+    std::vector<math::Capsule> out;
+    for (const kinematics::LinkCapsule& c : panda.capsules) {
+      if (c.link == link) out.push_back(kinematics::WorldCapsule(c, data));
+    }
+    return out;
+  };
+  // a far sphere (0) and a box whose top is 1 cm below the end effector (1)
+  const Vector3d p_WE = EndEffector(panda, ready);
+  rmp::Scene scene;
+  scene.obstacles.push_back(rmp::Obstacle::MakeSphere(Vector3d(-1.0, -1.0, 1.0), 0.1));
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.translation() = p_WE - Vector3d(0.0, 0.0, 0.06);
+  scene.obstacles.push_back(rmp::Obstacle::MakeBox(X_WB, Vector3d(0.1, 0.1, 0.05)));
+  RrtPolicy policy(panda, {.check_floor = false});
+  ClearancePair pair = policy.ClearanceWithPair(ready, scene);
+  EXPECT_EQ(pair.distance, policy.Clearance(ready, scene));
+  ASSERT_EQ(pair.kind, ClearancePair::Kind::kObstacle);
+  EXPECT_EQ(pair.obstacle, 1);
+  double d = INFINITY;
+  for (const math::Capsule& c : capsules_of(pair.link)) {
+    d = std::min(d, rmp::CapsuleObstacleDistance(c, scene.obstacles[1]).distance);
+  }
+  EXPECT_DOUBLE_EQ(d, pair.distance);
+  // no obstacle: two links of the arm (the nearest checked pair)
+  pair = policy.ClearanceWithPair(ready, {});
+  ASSERT_EQ(pair.kind, ClearancePair::Kind::kSelf);
+  EXPECT_FALSE(panda.IsExcludedPair(pair.link, pair.other_link));
+  d = INFINITY;
+  for (const math::Capsule& a : capsules_of(pair.link)) {
+    for (const math::Capsule& b : capsules_of(pair.other_link)) {
+      d = std::min(d, math::CapsuleCapsuleDistance(a, b).distance);
+    }
+  }
+  EXPECT_DOUBLE_EQ(d, pair.distance);
+  EXPECT_EQ(pair.distance, policy.Clearance(ready, {}));
+  // the wrist below the mounting plane: the floor
+  VectorXd down = ready;
+  down[1] = 1.7;
+  down[3] = -0.3;
+  RrtPolicy floor(panda);
+  pair = floor.ClearanceWithPair(down, {});
+  EXPECT_EQ(pair.kind, ClearancePair::Kind::kFloor);
+  EXPECT_LT(pair.distance, 0.0);
+  EXPECT_EQ(pair.distance, floor.Clearance(down, {}));
+}
+
 TEST(RrtValidityTest, FloorChecksMovingLinksOnly) {
   const kinematics::Robot panda = Panda();
   RrtPolicy policy(panda);

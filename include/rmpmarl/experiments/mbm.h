@@ -6,16 +6,26 @@
 /// plan followed by RMPflow or by the learned controller (planning::PlanFollowPolicy). Every controller is given the
 /// joint goal (rmp::Scene::q_T) and its end effector as the target (p_WT).
 ///
-/// A problem is valid when the robot's capsule model is collision-free (against the scene and itself) at its start
-/// and goal; an invalid one is reported, not run. Success: the end effector within goal_tolerance of the goal's at the
-/// end, and no collision event (a capsule entering a primitive, or two checked links) during the episode.
+/// Two referees judge collisions. The capsules: MuJoCo's contacts of the capsule model the controllers run on (a
+/// capsule entering a primitive, or two checked links). The meshes (MbmOptions::meshes): the robot's URDF collision
+/// meshes against the scene's primitives with FCL (MeshCollisionModel), at every control step — the field's referee
+/// (MotionBenchMaker, MoveIt, VAMP judge on the meshes), independent of the model under test.
+///
+/// Validity, with the mesh referee: a problem is valid when the meshes are clear of the scene at its start and goal;
+/// an invalid one is reported with the pair and depth, not run, and leaves the denominator. A valid problem whose start
+/// or goal the capsule model puts in collision (with the scene or itself) is "rejected by the model": not run, a
+/// failure of every method, counted in the denominator. Without the mesh referee the capsule model decides validity
+/// (and the report says so). Success: the end effector within goal_tolerance of the goal's at the end, no collision
+/// event on the capsules and, with the mesh referee, no control step with a mesh in collision.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "rmpmarl/experiments/mesh_collision.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/sim/scenario.h"
@@ -70,6 +80,10 @@ struct MbmOptions {
   double moving_radius = 0.05;              ///< [m]
   double crossing_clearance = 0.02;         ///< [m], >= 0
   std::uint64_t crossing_seed = 1;
+  /// the mesh referee: the robot's collision meshes, checked against the cell (and the crossing spheres) at the start
+  /// and goal of every problem and at every control step; it must be available() and of the benchmark's robot. Null:
+  /// the capsules alone judge validity and collisions.
+  std::shared_ptr<const MeshCollisionModel> meshes;
 };
 
 /// What one method did on one problem.
@@ -78,10 +92,21 @@ struct MbmResult {
   int index = 0;
   std::string method;
   bool valid = true;
-  std::string invalid_reason;     ///< why not valid ("" when valid)
+  /// valid, but the capsule model puts the start or the goal in collision: not run, a failure (mesh referee only)
+  bool rejected = false;
+  /// why not valid, or why rejected by the model ("" when run): the ends in collision, the pair and the depth
+  std::string reason;
   bool success = false;
   bool reached = false;           ///< the end effector within goal_tolerance at the end
-  int collisions = 0;             ///< collision events
+  int collisions = 0;             ///< collision events on the capsules (MuJoCo's contacts)
+  /// control steps at which a collision mesh was in collision with the cell or a crossing sphere (FCL; the start's
+  /// state included); −1: not judged on the meshes (no mesh referee)
+  int mesh_collisions = -1;
+  /// the meshes' smallest signed distance to the cell or a crossing sphere over the control steps [m], negative in
+  /// penetration (+inf: never within MeshCollisionOptions::distance_cap, or not judged on the meshes)
+  double min_mesh_clearance = std::numeric_limits<double>::infinity();
+  std::string min_mesh_pair;      ///< where min_mesh_clearance was attained: "<link> – <obstacle>" ("" when none)
+  double mesh_check_us = 0.0;     ///< mean wall time of the mesh referee per control step [µs]
   double time_to_goal = -1.0;     ///< first time the end effector was within goal_tolerance [s]; −1: never
   double final_error = 0.0;       ///< end-effector distance to the goal's at the end [m]
   double joint_error = 0.0;       ///< max_i |q_i − q_goal,i| at the end [rad or m]
@@ -99,8 +124,8 @@ struct MbmResult {
 std::uint64_t MbmProblemKey(const MbmProblem& problem);
 
 /// the set-up every method of `problem` runs on: its start, joint goal and cell, and the dynamic variant's crossing
-/// spheres (options.moving). Throws InputError for options out of range, or when the problem is not valid (start or
-/// goal in collision), with why.
+/// spheres (options.moving). Throws InputError for options out of range, or when the problem is not run (not valid,
+/// or rejected by the model), with why.
 sim::StaticSceneOptions MbmProblemScene(const kinematics::Robot& robot, const MbmProblem& problem,
                                         const MbmOptions& options);
 
@@ -114,12 +139,14 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
                                        const std::vector<MbmMethod>& methods, const MbmOptions& options,
                                        const std::function<void(int)>& progress = {});
 
-/// results.csv (one line per problem × method) and report.md (per family and method: success, collisions, time to
-/// the goal, path length, planning time) in `out`; `command` and `setup` head the report.
+/// results.csv (one line per problem × method) and report.md (per family and method: success, collisions on either
+/// referee, time to the goal, path length, planning time; the problems not run and why) in `out`; `command` and
+/// `setup` head the report, then which referees judged.
 void WriteMbmResults(const std::vector<MbmResult>& results, const std::filesystem::path& out,
                      const std::string& command, const std::string& setup);
 
-/// the per family × method table of report.md (markdown).
+/// the per family × method table of report.md (markdown): valid problems, the successes among them, those rejected
+/// by the model, the episodes with collisions on the capsules and on the meshes.
 std::string MbmSummaryTable(const std::vector<MbmResult>& results);
 
 }  // namespace rmpmarl::experiments

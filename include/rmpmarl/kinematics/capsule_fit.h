@@ -59,15 +59,6 @@ struct CapsuleFitOptions {
 /// Throws InputError for an empty set or non-finite input.
 math::Capsule FitCapsuleToBalls(const std::vector<Ball>& balls, const CapsuleFitOptions& options = {});
 
-/// one capsule, or two where one covers poorly, for a triangle mesh given as its vertices (`balls`, radius 0) and
-/// triangles (indices into `balls`): the mesh is cut by a plane across one of its principal axes (9 positions per
-/// axis), each side — its vertices plus the points where triangle edges cross the plane, so that each side's part of
-/// every triangle is covered — gets its own FitCapsuleToBalls, and the cut with the smallest total volume is kept
-/// when that total is below `keep_below` times the single capsule's volume. Without triangles: one capsule.
-std::vector<math::Capsule> FitCapsulesToMesh(const std::vector<Ball>& balls,
-                                             const std::vector<Eigen::Vector3i>& triangles, double keep_below = 0.7,
-                                             const CapsuleFitOptions& options = {});
-
 /// the same for points (balls of radius 0), one per column.
 math::Capsule FitCapsuleToPoints(const Eigen::Matrix3Xd& p_F, const CapsuleFitOptions& options = {});
 

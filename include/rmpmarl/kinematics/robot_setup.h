@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/kinematics/capsule_cover.h"
 #include "rmpmarl/kinematics/robot.h"
 
 namespace rmpmarl::kinematics {
@@ -23,12 +24,18 @@ struct RobotSetupOptions {
   double warning_distance = 0.15;
   double always_in_contact = 0.99;  ///< pairs in contact in at least this share of samples are excluded
   double fallback_radius = 0.04;    ///< capsule radius between joint origins when a mesh is missing [m]
-  /// a mesh link gets a second capsule when two cover it with less than this share of one's volume
-  double second_capsule_below = 0.7;
+  /// each link's cover: its tolerance on how far a capsule may stick out beyond the link's geometry, the most
+  /// capsules per link, the spacing of the surface samples that check it (capsule_cover.h)
+  CapsuleCoverOptions cover;
   /// the home search maximises log √det(J Jᵀ) − home_centering · mean_i ((q_i − mid_i) / half range_i)²
   double home_centering = 2.0;
   std::optional<Eigen::VectorXd> home;  ///< the home posture to use instead of searching for one
   std::string end_effector;             ///< end-effector link; "" picks the tip of the longest revolute chain
+  /// the robot's MoveIt SRDF (srdf.h): its <disable_collisions> pairs are excluded beside the sampled ones and its
+  /// first end effector's parent_link is the end effector when `end_effector` is "". "" looks for <urdf stem>.srdf
+  /// beside the URDF, else the only *.srdf there.
+  std::filesystem::path srdf;
+  bool use_srdf = true;                 ///< false: no SRDF, not even one beside the URDF (`srdf` must be "")
 };
 
 /// What was done for one link.
@@ -36,13 +43,21 @@ struct LinkFit {
   int link = -1;
   std::string source;              ///< e.g. "collision mesh meshes/link1.stl (1204 vertices)", "frame only"
   std::vector<int> capsules;       ///< indices into Robot::capsules
-  double stick_out = 0.0;          ///< largest distance from the capsule surface to the link's geometry [m]
+  /// largest distance from the surface of the link's capsules to its geometry [m] (CapsuleCover::max_excess)
+  double excess = 0.0;
+  double mean_excess = 0.0;        ///< the mean over the capsules' surface [m] (CapsuleCover::mean_excess)
+  /// the check: largest distance of a sample of the link's geometry outside every capsule of the link [m]; ≤ 0 when
+  /// the capsules cover it (NaN for a fallback)
+  double outside = 0.0;
+  int samples = 0;                 ///< surface samples of the check
+  bool within_tolerance = true;    ///< excess ≤ the cover's tolerance
   bool fallback = false;           ///< geometry missing: a capsule between the joint origins
 };
 
 /// Why a link pair is excluded from self-collision checks.
 /// kOneGripper: links only one dof with mimic followers moves against each other (the fingers of a gripper).
-enum class ExclusionReason { kAdjacent, kAlwaysInContact, kNeverClose, kContactAtHome, kOneGripper };
+/// kSrdf: a <disable_collisions> pair of the robot's SRDF not already excluded as adjacent or one gripper.
+enum class ExclusionReason { kAdjacent, kAlwaysInContact, kNeverClose, kContactAtHome, kOneGripper, kSrdf };
 
 /// name as written in the collision YAML comments ("adjacent", "always in contact", ...).
 std::string_view ExclusionReasonName(ExclusionReason reason);
@@ -53,6 +68,7 @@ struct Exclusion {
   ExclusionReason reason = ExclusionReason::kAdjacent;
   double contact_share = 0.0;      ///< share of samples in which the capsules overlap
   double min_distance = 0.0;       ///< smallest capsule distance over the samples [m] (negative: overlap)
+  std::string srdf_reason;         ///< kSrdf: the SRDF's reason attribute ("Never", "Adjacent", ...; "" when none)
 };
 
 /// Self-collision statistics of every pair of links with capsules over seeded configuration samples.
@@ -72,6 +88,13 @@ struct RobotSetup {
   double home_manipulability = 0.0;   ///< √det(J Jᵀ) of the end effector's 6-D Jacobian at home
   double home_min_distance = 0.0;     ///< smallest capsule distance of non-excluded pairs at home [m]
   int samples = 0;
+  /// the SRDF whose disabled pairs and end effector SetupRobot used ("" when none), and what was read from it and
+  /// chosen, for the user ("SRDF: panda.srdf (beside the URDF): 34 disabled pairs, ...")
+  std::filesystem::path srdf;
+  std::vector<std::string> notes;
+  /// where the end effector came from: "options.end_effector", "the SRDF's end effector 'hand' (its parent_link)",
+  /// "the tip of the longest revolute chain or a tool frame below it"
+  std::string end_effector_from;
 };
 
 /// capsules fitted to every link's <collision> (else <visual>) geometry and the end effector; no sampling.
@@ -82,9 +105,10 @@ RobotSetup FitRobot(const std::filesystem::path& urdf_path, const RobotSetupOpti
 /// uniformly within the joint limits from options.seed (continuous joints in [−π, π]); identical for a seed.
 std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotSetupOptions& options);
 
-/// FitRobot, then exclusions from SampleSelfCollision (always in contact, never within warning_distance), the home
-/// posture (options.home, else the best-conditioned collision-free sample near mid-range, refined locally) and the
-/// pairs touching at home. Throws InputError when options.home is invalid.
+/// FitRobot, then the SRDF's disabled pairs and end effector (options.srdf), exclusions from SampleSelfCollision over
+/// the remaining pairs (always in contact, never within warning_distance), the home posture (options.home, else the
+/// best-conditioned collision-free sample near mid-range, refined locally) and the pairs touching at home. Throws
+/// InputError when options.home is invalid or the SRDF cannot be read or names links the URDF lacks (srdf.h).
 RobotSetup SetupRobot(const std::filesystem::path& urdf_path, const RobotSetupOptions& options = {});
 
 /// √det(J Jᵀ) of the 6 x nq end-effector Jacobian (√det(Jᵀ J) when nq < 6) at q.

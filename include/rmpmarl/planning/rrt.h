@@ -40,6 +40,7 @@
 /// RrtPolicy raises OMPL's process-wide log level to warnings (OMPL logs every plan at info level).
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -120,6 +121,22 @@ struct IkResult {
   double error = 0.0;        ///< its end-effector distance to the target [m]
 };
 
+/// The pair of shapes that attains a configuration's clearance (RrtPolicy::ClearanceWithPair): which capsule came
+/// closest to what.
+struct ClearancePair {
+  enum class Kind {
+    kNone,      ///< nothing was checked (a robot without capsules, a scene without obstacles and self pairs)
+    kObstacle,  ///< a capsule of `link` and scene.obstacles[obstacle]
+    kFloor,     ///< a capsule of `link` and the floor plane
+    kSelf,      ///< a capsule of `link` and one of `other_link`
+  };
+  double distance = std::numeric_limits<double>::infinity();  ///< the clearance [m], as RrtPolicy::Clearance
+  Kind kind = Kind::kNone;
+  int link = -1;        ///< the link of the capsule attaining it (-1 for kNone)
+  int other_link = -1;  ///< kSelf: the other capsule's link
+  int obstacle = -1;    ///< kObstacle: its index in the scene's obstacles
+};
+
 /// The timing of a joint path as the RRT baseline executes it: each straight segment at constant joint velocity, as
 /// fast as the slowest joint allows at `speeds` (per dof, > 0; path_speed_fraction × the velocity limits): the arrival
 /// time at each waypoint from the path's start [s] (each segment at least 1 µs).
@@ -174,6 +191,9 @@ class RrtPolicy final : public control::AccelerationPolicy {
 
   /// smallest signed distance [m] at q over the capsule–obstacle, capsule–floor and checked capsule–capsule pairs.
   double Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
+  /// the same clearance with the pair attaining it (the first pair found at that distance), for messages that say
+  /// what touches what.
+  ClearancePair ClearanceWithPair(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   /// Clearance(q, scene) > safety_margin, and q within the joint limits.
   bool IsStateValid(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   /// the same with another margin (e.g. last_plan_margin(), to check a path against what it was planned with).
