@@ -82,6 +82,10 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
       options.meshes = meshes;
       referee = fmt::format(" Mesh referee: {}, against the cell with FCL at every control step (clearances exact "
                             "within {:g} mm).", meshes->Summary(), 1e3 * mesh_options.distance_cap);
+    } else if (meshes->geometry_missing()) {
+      throw InputError(fmt::format("--mesh-referee: {} (the URDF's collision meshes judge the benchmark: give their "
+                                   "packages' folder with --package-path, or --no-mesh-referee to judge on the "
+                                   "capsules alone)", meshes->unavailable_reason()));
     } else {
       referee = fmt::format(" Mesh referee: OFF, {}: validity and collisions are judged on the capsule model alone.",
                             meshes->unavailable_reason());

@@ -387,6 +387,13 @@ void ValidateMbmOptions(const kinematics::Robot& robot, const MbmOptions& option
     throw InputError(fmt::format("MbmOptions.meshes: expected the mesh model of robot '{}' ({} links), got one of {} "
                                  "links", robot.name, robot.model.num_links(), options.meshes->num_links()));
   }
+  for (int k = 0; options.meshes && k < robot.model.num_links(); ++k) {
+    if (options.meshes->link_name(k) != robot.model.link(k).name) {
+      throw InputError(fmt::format("MbmOptions.meshes: expected the mesh model of robot '{}' (link {} '{}'), got one "
+                                   "whose link {} is '{}'", robot.name, k, robot.model.link(k).name, k,
+                                   options.meshes->link_name(k)));
+    }
+  }
   if (!(options.duration > 0.0) || !std::isfinite(options.duration)) {
     throw InputError(fmt::format("--duration: expected a time > 0 s, got {}", options.duration));
   }

@@ -135,6 +135,7 @@ struct MeshCollisionModel::Impl {
   std::vector<Geometry> geometries;
   std::vector<std::string> link_names;
   std::string unavailable_reason;
+  bool geometry_missing = false;  // the URDF has <collision> geometry that could not be read
   std::string summary;
 };
 
@@ -224,6 +225,7 @@ void MeshCollisionModel::Impl::Read(const kinematics::Robot& robot) {
         break;
       case kinematics::ShapeKind::kMesh: {
         if (!kinematics::MeshReadingAvailable()) {
+          geometry_missing = true;
           return unavailable(fmt::format("link '{}': mesh '{}' cannot be read: rmpmarl was built without assimp", link,
                                          shape.mesh_uri));
         }
@@ -231,6 +233,7 @@ void MeshCollisionModel::Impl::Read(const kinematics::Robot& robot) {
         const fs::path path = kinematics::ResolveMeshUri(shape.mesh_uri, robot.urdf_path, options.package_paths,
                                                          &tried);
         if (path.empty()) {
+          geometry_missing = true;
           return unavailable(fmt::format("link '{}': collision mesh '{}' not found (looked in {}; give its package's "
                                          "folder with --package-path)", link, shape.mesh_uri, tried));
         }
@@ -242,9 +245,11 @@ void MeshCollisionModel::Impl::Read(const kinematics::Robot& robot) {
           try {
             read = kinematics::ReadMesh(path, shape.mesh_scale);
           } catch (const InputError& e) {
+            geometry_missing = true;
             return unavailable(fmt::format("link '{}': {}", link, e.what()));
           }
           if (read.triangles.empty()) {
+            geometry_missing = true;
             return unavailable(fmt::format("link '{}': collision mesh '{}' has no triangles", link, path.string()));
           }
           std::vector<fcl::Vector3d> vertices(read.p_M.cols());
@@ -287,6 +292,7 @@ MeshCollisionModel::MeshCollisionModel(const MeshCollisionModel&) = default;
 MeshCollisionModel& MeshCollisionModel::operator=(const MeshCollisionModel&) = default;
 
 bool MeshCollisionModel::available() const { return impl_->unavailable_reason.empty(); }
+bool MeshCollisionModel::geometry_missing() const { return impl_->geometry_missing; }
 const std::string& MeshCollisionModel::unavailable_reason() const { return impl_->unavailable_reason; }
 std::string MeshCollisionModel::Summary() const {
   return available() ? impl_->summary : "no collision meshes: " + impl_->unavailable_reason;
@@ -325,6 +331,13 @@ MeshClearance CalcMeshClearance(const MeshCollisionModel& model, const kinematic
   MeshCollisionData::Impl& d = *data->impl_;
   for (size_t g = 0; g < m.geometries.size(); ++g) {
     const MeshCollisionModel::Impl::Geometry& geometry = m.geometries[g];
+    if (!kinematics.X_WL[geometry.link].matrix().allFinite()) {
+      // a diverged state: no clearance, and counted as a collision (MeshClearance::in_collision)
+      MeshClearance nan;
+      nan.distance = std::numeric_limits<double>::quiet_NaN();
+      nan.link = geometry.link;
+      return nan;
+    }
     d.X_WG[g] = kinematics.X_WL[geometry.link] * geometry.X_LG;
     d.geometry_box[g] = BoundBox(d.X_WG[g], geometry.p_GC, geometry.half);
     d.geometry_sphere[g] << d.geometry_box[g].centre, geometry.half.norm();

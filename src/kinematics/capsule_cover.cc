@@ -3,7 +3,6 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -35,9 +34,14 @@ void CheckInput(const CoverGeometry& g, const CapsuleCoverOptions& options) {
   if (options.max_capsules < 1 || options.max_capsules > 64) {
     throw InputError(fmt::format("capsule cover: max_capsules: expected 1 to 64, got {}", options.max_capsules));
   }
-  if (!(options.sample_spacing > 0.0) || !std::isfinite(options.sample_spacing)) {
-    throw InputError(fmt::format("capsule cover: sample_spacing: expected a finite value > 0 m, got {}",
+  if (!(options.sample_spacing >= 1e-5) || !std::isfinite(options.sample_spacing)) {
+    throw InputError(fmt::format("capsule cover: sample_spacing: expected a finite value >= 1e-5 m, got {}",
                                  options.sample_spacing));
+  }
+  if (!(options.fit.angle_step > 0.0 && options.fit.angle_step < 1.0) || options.fit.refine_rounds < 0 ||
+      options.fit.refine_rounds > 20) {
+    throw InputError(fmt::format("capsule cover: fit: expected 0 < angle_step < 1 rad and 0 to 20 refine_rounds, got "
+                                 "{} and {}", options.fit.angle_step, options.fit.refine_rounds));
   }
   if (g.triangles.empty() && g.balls.empty()) {
     throw InputError("capsule cover: expected at least one triangle or ball, got none");
@@ -57,7 +61,8 @@ void CheckInput(const CoverGeometry& g, const CapsuleCoverOptions& options) {
   }
   for (size_t i = 0; i < g.balls.size(); ++i) {
     if (!g.balls[i].p_F.allFinite() || !std::isfinite(g.balls[i].radius) || g.balls[i].radius < 0.0) {
-      throw InputError(fmt::format("capsule cover: ball {}: expected a finite centre and radius >= 0, got r={}", i,
+      throw InputError(fmt::format("capsule cover: ball {}: expected a finite centre and radius >= 0, got [{} {} {}] "
+                                   "r={}", i, g.balls[i].p_F.x(), g.balls[i].p_F.y(), g.balls[i].p_F.z(),
                                    g.balls[i].radius));
     }
   }
@@ -97,7 +102,9 @@ TriangleGrid GridOf(const Eigen::Vector3d& p0, const Eigen::Vector3d& p1, const 
   g.ab = g.b - g.a;
   g.ac = *p[(corner + 2) % 3] - g.a;
   g.bc = *p[(corner + 2) % 3] - g.b;
-  auto steps = [&](const Eigen::Vector3d& e) { return std::max(1, static_cast<int>(std::ceil(e.norm() / spacing))); };
+  auto steps = [&](const Eigen::Vector3d& e) {
+    return static_cast<int>(std::clamp(std::ceil(e.norm() / spacing), 1.0, 1e6));
+  };
   g.na = steps(g.ab);
   g.nb = steps(g.ac);
   g.nc = steps(g.bc);
@@ -117,23 +124,35 @@ void ForEachGridPoint(const TriangleGrid& g, F&& f) {
   for (int k = 1; k < g.nc; ++k) f(g.b + (static_cast<double>(k) / g.nc) * g.bc);
 }
 
-double GridCount(const TriangleGrid& g) { return 0.5 * (g.na + 1.0) * (g.nb + 2.0) + g.nc; }
+// at least the number of points ForEachGridPoint gives (the rows of the grid hold at most nb + 1 points each).
+double GridCount(const TriangleGrid& g) { return 0.5 * (g.na + 1.0) * (g.nb + 2.0) + (g.nc - 1.0); }
 
+// Fibonacci points on a ball: by area, at least 32; a ball of radius 0 (a point) is its centre alone.
 int SphereSamples(double radius, double spacing) {
-  return std::clamp(static_cast<int>(std::ceil(4.0 * kPi * radius * radius / (spacing * spacing))), 32, 20000);
+  if (radius <= 0.0) return 1;
+  const double n = std::ceil(4.0 * kPi * radius * radius / (spacing * spacing));
+  return static_cast<int>(std::clamp(n, 32.0, 20000.0));
 }
 
 // samples of the geometry's surface: a grid on every triangle (its corners and edges included) no coarser than
-// `spacing`, and Fibonacci points on every ball; the spacing grows until there are at most kMaxSamples.
+// `spacing`, and Fibonacci points on every ball; the spacing grows until there are at most kMaxSamples, or until it
+// is the size of the whole geometry (then every corner, at least, is a sample: a mesh of very many triangles).
 std::vector<Eigen::Vector3d> SurfaceSamples(const CoverGeometry& g, double* spacing) {
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& v : g.vertices) box.extend(v);
+  for (const Ball& b : g.balls) {
+    box.extend(b.p_F - Eigen::Vector3d::Constant(b.radius));
+    box.extend(b.p_F + Eigen::Vector3d::Constant(b.radius));
+  }
+  const double size = std::max(box.diagonal().norm(), 1e-9);
   for (;;) {
     double count = 0.0;
     for (const Eigen::Vector3i& t : g.triangles) {
       count += GridCount(GridOf(g.vertices[t[0]], g.vertices[t[1]], g.vertices[t[2]], *spacing));
     }
     for (const Ball& b : g.balls) count += SphereSamples(b.radius, *spacing);
-    if (count <= kMaxSamples) break;
-    *spacing *= std::max(1.1, std::sqrt(count / kMaxSamples));
+    if (count <= kMaxSamples || *spacing >= size) break;
+    *spacing = std::min(size, *spacing * std::max(1.1, std::sqrt(count / kMaxSamples)));
   }
   std::vector<Eigen::Vector3d> p;
   for (const Eigen::Vector3i& t : g.triangles) {
@@ -259,14 +278,9 @@ std::optional<CutResult> BestCut(const std::vector<Part>& parts, const std::vect
   const Part& part = parts[k];
   const std::vector<Ball> balls = PartBalls(part);
   if (balls.size() < 2) return std::nullopt;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const Ball& b : balls) mean += b.p_F;
-  mean /= static_cast<double>(balls.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Ball& b : balls) cov += (b.p_F - mean) * (b.p_F - mean).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  std::vector<Eigen::Vector3d> axes = {eig.eigenvectors().col(2), eig.eigenvectors().col(1), eig.eigenvectors().col(0),
-                                       Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()};
+  const Eigen::Matrix3d principal = PrincipalAxes(balls);
+  const std::vector<Eigen::Vector3d> axes = {principal.col(2), principal.col(1), principal.col(0),
+                                             Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ()};
   CapsuleFitOptions quick;
   quick.refine_axis = false;
   std::vector<math::Capsule> trial = capsules;
@@ -310,10 +324,19 @@ std::optional<CutResult> BestCut(const std::vector<Part>& parts, const std::vect
   return best;
 }
 
+// a capsule whose segment is shorter than 1 µm as the sphere around it (simulators refuse a degenerate segment).
+math::Capsule SphereIfShort(const math::Capsule& c) {
+  const double length = (c.p_WB - c.p_WA).norm();
+  if (length >= 1e-6) return c;
+  const Eigen::Vector3d centre = 0.5 * (c.p_WA + c.p_WB);
+  return {centre, centre, c.radius + 0.5 * length};
+}
+
 CapsuleCover Measure(std::vector<math::Capsule> capsules, const std::vector<Eigen::Vector3d>& samples,
                      const math::PointCloudIndex& index, double spacing, double tolerance) {
   CapsuleCover cover;
   cover.capsules = std::move(capsules);
+  for (math::Capsule& c : cover.capsules) c = SphereIfShort(c);
   cover.samples = static_cast<int>(samples.size());
   cover.sample_spacing = spacing;
   ExcessStats all;
@@ -330,7 +353,7 @@ CapsuleCover Measure(std::vector<math::Capsule> capsules, const std::vector<Eige
     for (const math::Capsule& c : cover.capsules) nearest = std::min(nearest, CapsuleSignedDistance(c, p));
     cover.max_outside = std::max(cover.max_outside, nearest);
   }
-  cover.within_tolerance = cover.max_excess <= tolerance;
+  cover.within_tolerance = cover.max_excess <= tolerance && cover.max_outside <= 1e-9;
   return cover;
 }
 
@@ -345,6 +368,14 @@ Eigen::Matrix3Xd AsMatrix(const std::vector<Eigen::Vector3d>& p) {
 CapsuleCover MeasureCapsuleCover(const CoverGeometry& geometry, std::vector<math::Capsule> capsules,
                                  const CapsuleCoverOptions& options) {
   CheckInput(geometry, options);
+  if (capsules.empty()) throw InputError("capsule cover: measure: expected at least one capsule, got none");
+  for (size_t k = 0; k < capsules.size(); ++k) {
+    const math::Capsule& c = capsules[k];
+    if (!c.p_WA.allFinite() || !c.p_WB.allFinite() || !std::isfinite(c.radius) || c.radius < 0.0) {
+      throw InputError(fmt::format("capsule cover: measure: capsule {}: expected finite end points and a radius >= 0, "
+                                   "got r={}", k, c.radius));
+    }
+  }
   double spacing = options.sample_spacing;
   const std::vector<Eigen::Vector3d> samples = SurfaceSamples(geometry, &spacing);
   const math::PointCloudIndex index(AsMatrix(samples));
@@ -364,8 +395,12 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
   parts[0].balls = geometry.balls;
   std::vector<math::Capsule> capsules = {FitCapsuleToBalls(PartBalls(parts[0]), options.fit)};
   std::vector<bool> settled = {false};  // no cut of this part helps
+  bool reached_max = false;
   for (;;) {
-    if (static_cast<int>(parts.size()) >= options.max_capsules) break;
+    if (static_cast<int>(parts.size()) >= options.max_capsules) {
+      reached_max = true;
+      break;
+    }
     // the capsule that sticks out farthest beyond the tolerance and can still be cut
     int worst = -1;
     ExcessStats worst_excess;
@@ -381,7 +416,7 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
     if (worst < 0) break;
     std::optional<CutResult> cut = BestCut(parts, capsules, worst, index, options.fit);
     // a cut is kept when its two capsules stick out less than the one they replace: at their farthest point (by
-    // 0.5 mm at least) or on average over their surfaces (by 15 % at least: a bent link's one fat capsule is replaced
+    // 0.5 mm at least) or on average over their surfaces (by 5 % at least: a bent link's one fat capsule is replaced
     // by two slim ones whose farthest point, often a cap over a flat end, stays where it was)
     if (!cut || !(cut->excess.max < worst_excess.max - 5e-4 || cut->excess.mean() < 0.95 * worst_excess.mean())) {
       settled[worst] = true;
@@ -394,7 +429,9 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
     settled[worst] = false;
     settled.push_back(false);
   }
-  return Measure(std::move(capsules), samples, index, spacing, options.tolerance);
+  CapsuleCover cover = Measure(std::move(capsules), samples, index, spacing, options.tolerance);
+  cover.reached_max_capsules = reached_max && !cover.within_tolerance;
+  return cover;
 }
 
 void AppendBoxSurface(const Eigen::Isometry3d& X_FG, const Eigen::Vector3d& size, CoverGeometry* g) {

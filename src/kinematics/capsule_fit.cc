@@ -208,19 +208,23 @@ math::Capsule FitCapsuleAlongAxis(const std::vector<Ball>& balls, const Eigen::V
   return c;
 }
 
+Eigen::Matrix3d PrincipalAxes(const std::vector<Ball>& balls) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Ball& b : balls) mean += b.p_F;
+  mean /= static_cast<double>(std::max<size_t>(balls.size(), 1));
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Ball& b : balls) cov += (b.p_F - mean) * (b.p_F - mean).transpose();
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors();
+}
+
 math::Capsule FitCapsuleToBalls(const std::vector<Ball>& balls, const CapsuleFitOptions& options) {
   CheckBalls(balls);
   const std::vector<Ball> search = SearchSubset(balls, 3000);
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const Ball& b : search) mean += b.p_F;
-  mean /= static_cast<double>(search.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Ball& b : search) cov += (b.p_F - mean) * (b.p_F - mean).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  Eigen::Vector3d best_axis = eig.eigenvectors().col(2);
+  const Eigen::Matrix3d axes = PrincipalAxes(search);
+  Eigen::Vector3d best_axis = axes.col(2);
   double best_volume = std::numeric_limits<double>::infinity();
   for (int k = 2; k >= 0; --k) {  // largest variance first
-    const Eigen::Vector3d u = eig.eigenvectors().col(k);
+    const Eigen::Vector3d u = axes.col(k);
     const double v = CapsuleVolume(FitCapsuleAlongAxis(search, u));
     if (v < best_volume * (1.0 - 1e-9)) {
       best_volume = v;

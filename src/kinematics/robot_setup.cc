@@ -6,9 +6,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <set>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
@@ -144,6 +144,8 @@ void AddShape(const LinkShape& shape, const fs::path& urdf_path, const RobotSetu
   }
 }
 
+int ToolFrameAtOrBelow(const Model& model, int tip);
+
 // the end-effector link: options.end_effector, else the tip of the longest revolute chain, moved on along fixed
 // joints to a tool frame when one is named like one (tcp, tool0, ee, flange, hand).
 int PickEndEffector(const Model& model, const std::string& requested) {
@@ -168,7 +170,11 @@ int PickEndEffector(const Model& model, const std::string& requested) {
                                                                             revolute_count(tip)) {
     tip = model.link(tip).parent;
   }
-  // fixed descendants of the tip, best tool-frame name first
+  return ToolFrameAtOrBelow(model, tip);
+}
+
+// link `tip`, or the link fixed below it (through fixed joints only) named like a tool frame, best name first.
+int ToolFrameAtOrBelow(const Model& model, int tip) {
   std::vector<int> fixed_below = {tip};
   for (int k = tip + 1; k < model.num_links(); ++k) {
     const int p = model.link(k).parent;
@@ -318,6 +324,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       fit.outside = cover.max_outside;
       fit.samples = cover.samples;
       fit.within_tolerance = cover.within_tolerance;
+      fit.reached_max_capsules = cover.reached_max_capsules;
       fit.source = sources + (closed ? " (closed form)" : fmt::format(" ({} capsule{})", capsules.size(),
                                                                       capsules.size() == 1 ? "" : "s"));
       if (cover.max_outside > 1e-6) {
@@ -334,13 +341,15 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
   std::string above;
   for (const LinkFit& fit : setup.links) {
     if (!fit.capsules.empty() && !fit.fallback && !fit.within_tolerance) {
-      above += fmt::format("{}{} ({:.1f} mm)", above.empty() ? "" : ", ", model.link(fit.link).name, 1e3 * fit.excess);
+      above += fmt::format("{}{} ({:.1f} mm, {} capsule{}{})", above.empty() ? "" : ", ", model.link(fit.link).name,
+                           1e3 * fit.excess, fit.capsules.size(), fit.capsules.size() == 1 ? "" : "s",
+                           fit.reached_max_capsules ? ", the most allowed" : ", no cut made them stick out less");
     }
   }
   if (!above.empty()) {
-    setup.notes.push_back(fmt::format("capsules sticking out more than the tolerance {:.1f} mm even with up to {} per "
-                                      "link (flat faces and sharp edges: a capsule's round surface cannot follow "
-                                      "them): {}", 1e3 * options.cover.tolerance, options.cover.max_capsules, above));
+    setup.notes.push_back(fmt::format("capsules sticking out more than the tolerance {:.1f} mm somewhere (mostly caps "
+                                      "over flat faces, which a round capsule cannot follow): {}",
+                                      1e3 * options.cover.tolerance, above));
   }
   if (robot.capsules.empty()) {
     throw InputError(fmt::format("{}: no link has <collision> or <visual> geometry: nothing to fit capsules to (write "
@@ -565,8 +574,20 @@ void ApplySrdf(const fs::path& urdf_path, const RobotSetupOptions& options, Robo
   std::string how;
   setup->srdf = FindSrdf(urdf_path, options, &how, &setup->warnings);
   if (setup->srdf.empty()) return;
-  const Srdf srdf = LoadSrdf(setup->srdf);
-  for (std::string& w : CheckSrdfAgainstModel(srdf, model)) setup->warnings.push_back(std::move(w));
+  Srdf srdf;
+  std::vector<std::string> srdf_warnings;
+  try {
+    srdf = LoadSrdf(setup->srdf);
+    srdf_warnings = CheckSrdfAgainstModel(srdf, model);
+  } catch (const InputError& e) {
+    // an SRDF given or named like the URDF must be this robot's; the only SRDF found beside it may be another's
+    if (how != "the only SRDF beside the URDF") throw;
+    setup->warnings.push_back(fmt::format("{} (the only SRDF beside the URDF) is not used: {}", setup->srdf.string(),
+                                          e.what()));
+    setup->srdf.clear();
+    return;
+  }
+  for (std::string& w : srdf_warnings) setup->warnings.push_back(std::move(w));
   int added = 0, already = 0, skipped = 0;
   for (const SrdfDisabledPair& p : srdf.disabled_collisions) {
     const int a = model.FindLink(p.link1), b = model.FindLink(p.link2);
@@ -597,9 +618,15 @@ void ApplySrdf(const fs::path& urdf_path, const RobotSetupOptions& options, Robo
                                        options.end_effector, ee.parent_link, name, ee.name));
     return;
   }
-  robot.end_effector.link = model.FindLink(ee.parent_link);  // CheckSrdfAgainstModel: it exists
+  // the link the end effector is attached to (CheckSrdfAgainstModel: it exists), or a tool frame fixed below it
+  const int parent = model.FindLink(ee.parent_link);
+  robot.end_effector.link = ToolFrameAtOrBelow(model, parent);
   robot.end_effector.X_LE.setIdentity();
-  setup->end_effector_from = fmt::format("the parent link of {}'s end effector '{}'", name, ee.name);
+  setup->end_effector_from =
+      robot.end_effector.link == parent
+          ? fmt::format("the parent link of {}'s end effector '{}'", name, ee.name)
+          : fmt::format("the tool frame fixed below {}, the parent link of {}'s end effector '{}'", ee.parent_link,
+                        name, ee.name);
   if (srdf.end_effectors.size() > 1) {
     std::string others;
     for (size_t i = 1; i < srdf.end_effectors.size(); ++i) {

@@ -23,8 +23,8 @@ constexpr int kRobotConaffinity = 1;
 constexpr int kSceneContype = 2;
 constexpr int kSceneConaffinity = 1;
 
-// a capsule shorter than this is written as a sphere (MuJoCo rejects a degenerate fromto).
-constexpr double kMinCapsuleLength = 1e-9;
+// a capsule shorter than this is written as a sphere around it (MuJoCo rejects a fromto shorter than √mjEPS = 1e-7).
+constexpr double kMinCapsuleLength = 1e-6;
 
 std::string Num(double x) { return fmt::format("{:.17g}", x); }
 
@@ -119,14 +119,16 @@ void WriteBody(const Robot& robot, const WorldOptions& options, const ServoGains
   }
   for (int c : link_capsules[k]) {
     const kinematics::LinkCapsule& cap = robot.capsules[c];
+    const double length = (cap.p_LB - cap.p_LA).norm();
+    const bool sphere = length < kMinCapsuleLength;
     const std::string common = fmt::format(
         "size=\"{}\" density=\"{}\" contype=\"{}\" conaffinity=\"{}\" condim=\"1\" margin=\"{}\" gap=\"{}\" "
         "group=\"1\" rgba=\"0.7 0.7 0.75 1\"",
-        Num(cap.radius), Num(options.link_density), kRobotContype, kRobotConaffinity, Num(options.warning_margin),
-        Num(options.warning_margin));
-    if ((cap.p_LB - cap.p_LA).norm() < kMinCapsuleLength) {
+        Num(sphere ? cap.radius + 0.5 * length : cap.radius), Num(options.link_density), kRobotContype,
+        kRobotConaffinity, Num(options.warning_margin), Num(options.warning_margin));
+    if (sphere) {
       *out += fmt::format("{}  <geom name=\"{}\" type=\"sphere\" pos=\"{}\" {}/>\n", pad,
-                          Xml(MjcfNames::CapsuleGeom(robot, c)), Vec(cap.p_LA), common);
+                          Xml(MjcfNames::CapsuleGeom(robot, c)), Vec(0.5 * (cap.p_LA + cap.p_LB)), common);
     } else {
       *out += fmt::format("{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" {}/>\n", pad,
                           Xml(MjcfNames::CapsuleGeom(robot, c)), Vec(cap.p_LA), Vec(cap.p_LB), common);

@@ -290,6 +290,40 @@ TEST(Srdf, EndEffectorOptionWinsAndNoSrdfTurnsItOff) {
 }
 
 // MotionBenchMaker's Panda with the SRDF it was made with: every disabled pair is excluded.
+TEST(Srdf, TheToolFrameFixedBelowTheEndEffectorsParentLinkIsTheEndEffector) {
+  const fs::path dir = TempDir("tool");
+  Write(dir / "arm.urdf", kArmUrdf);
+  std::string srdf = kArmSrdf;
+  const std::string from = "parent_link=\"link3\"";
+  srdf.replace(srdf.find(from), from.size(), "parent_link=\"link4\"");
+  Write(dir / "arm.srdf", srdf);
+  const RobotSetup setup = SetupRobot(dir / "arm.urdf", FewSamples());
+  EXPECT_EQ(setup.robot.model.link(setup.robot.end_effector.link).name, "tool0");  // link4 → flange → tool0, fixed
+  EXPECT_NE(setup.end_effector_from.find("the tool frame fixed below link4"), std::string::npos)
+      << setup.end_effector_from;
+}
+
+TEST(Srdf, AnotherRobotsSrdfFoundBesideTheUrdfIsNotUsedAndSaysWhy) {
+  const fs::path dir = TempDir("other");
+  Write(dir / "arm.urdf", kArmUrdf);
+  Write(dir / "moveit.srdf", R"(<?xml version="1.0"?>
+<robot name="other"><end_effector name="hand" parent_link="panda_link8" group="hand"/></robot>
+)");
+  const RobotSetup setup = SetupRobot(dir / "arm.urdf", FewSamples());
+  EXPECT_TRUE(setup.srdf.empty());
+  EXPECT_TRUE(PairsFor(setup, ExclusionReason::kSrdf).empty());
+  bool said = false;
+  for (const std::string& w : setup.warnings) {
+    said |= w.find("moveit.srdf (the only SRDF beside the URDF) is not used") != std::string::npos &&
+            w.find("panda_link8") != std::string::npos;
+  }
+  EXPECT_TRUE(said);
+  // the same file given with --srdf is this robot's by the user's word: an error naming the link
+  RobotSetupOptions options = FewSamples();
+  options.srdf = dir / "moveit.srdf";
+  EXPECT_THROW(SetupRobot(dir / "arm.urdf", options), InputError);
+}
+
 TEST(Srdf, EveryDisabledPairOfTheMbmPandaSrdfIsExcluded) {
 #ifdef RMPMARL_MBM_PANDA_DIR
   const fs::path set = RMPMARL_MBM_PANDA_DIR;
@@ -310,7 +344,9 @@ TEST(Srdf, EveryDisabledPairOfTheMbmPandaSrdfIsExcluded) {
   for (const SrdfDisabledPair& p : srdf.disabled_collisions) {
     EXPECT_TRUE(setup.robot.IsExcludedPair(m.LinkIndex(p.link1), m.LinkIndex(p.link2))) << p.link1 << " " << p.link2;
   }
-  EXPECT_EQ(m.link(setup.robot.end_effector.link).name, "panda_link8");
+  // the SRDF's end effector hangs on panda_link8; the hand is the tool frame fixed below it
+  EXPECT_EQ(m.link(setup.robot.end_effector.link).name, "panda_hand");
+  EXPECT_NE(setup.end_effector_from.find("fixed below panda_link8"), std::string::npos) << setup.end_effector_from;
 }
 
 }  // namespace

@@ -136,6 +136,20 @@ TEST(MjcfTest, ServoGainsAreCriticallyDampedForTheReferenceInertia) {
   }
 }
 
+TEST(MjcfTest, ACapsuleTooShortForMujocoIsTheSphereAroundIt) {
+  // MuJoCo refuses a capsule whose end points are closer than 1e-7 m; a fitted cover can give one
+  kinematics::Robot robot = testing::AllSimTestRobots().front();
+  kinematics::LinkCapsule& cap = robot.capsules.front();
+  const Eigen::Vector3d mid = 0.5 * (cap.p_LA + cap.p_LB);
+  cap.p_LA = mid - Eigen::Vector3d(2.5e-8, 0, 0);
+  cap.p_LB = mid + Eigen::Vector3d(2.5e-8, 0, 0);
+  const WorldModel world_model(robot);
+  const mjModel* m = world_model.mj_model();
+  const int g = world_model.capsule_geom(0);
+  EXPECT_EQ(m->geom_type[g], mjGEOM_SPHERE);
+  EXPECT_DOUBLE_EQ(m->geom_size[3 * g], cap.radius + 2.5e-8);  // it holds the whole capsule
+}
+
 TEST(MjcfTest, CompileErrorsReportMujocosMessage) {
   try {
     CompileMjcf("<mujoco><worldbody><geom type=\"capsule\" size=\"-1\"/></worldbody></mujoco>", "bad model");

@@ -57,7 +57,8 @@ struct MeshClearance {
   int link = -1;        ///< the link attaining it (-1: nothing within the cap)
   int obstacle = -1;    ///< its obstacle's index in the list (-1: nothing within the cap)
   int exact_pairs = 0;  ///< pairs given to FCL (the others were ruled out by the lower bounds): the query's cost
-  bool in_collision() const { return distance <= 0.0; }
+  /// touching or inside, or a non-finite state (NaN distance: nothing can be said to be clear)
+  bool in_collision() const { return !(distance > 0.0); }
 };
 
 class MeshCollisionModel;
@@ -87,6 +88,9 @@ class MeshCollisionModel {
   bool available() const;
   /// why the model is not available ("" when it is).
   const std::string& unavailable_reason() const;
+  /// true when the URDF has <collision> geometry that could not be read (a mesh not found or unreadable), as opposed to
+  /// a URDF without any: the robot is then not what its URDF says, and a caller should not judge it on less.
+  bool geometry_missing() const;
   /// one line on what the model holds, e.g. "11 collision meshes (9530 triangles) on 11 links of panda.urdf".
   std::string Summary() const;
   const MeshCollisionOptions& options() const;

@@ -6,11 +6,12 @@
 /// The geometry is a set of triangles (meshes; boxes and cylinders as their triangulated surfaces, a cylinder by a
 /// circumscribed prism) and balls (spheres, covered whole). The cover starts from the one smallest capsule
 /// (FitCapsuleToBalls) and splits, greedily, the capsule that sticks out farthest: its part of the geometry is cut by
-/// a plane across one of that part's principal axes, and each side gets its own smallest capsule. A triangle crossing
-/// the plane is clipped: each side keeps its convex piece, whose corners (the triangle's corners on that side and the
-/// points where its edges cross the plane) are covered, so the convex capsule covers the whole piece and the two
-/// sides' capsules overlap along the cut. Of the candidate cuts (three axes, seven positions each) the one with the
-/// smallest total volume is kept.
+/// a plane, and each side gets its own smallest capsule. A triangle crossing the plane is clipped: each side keeps its
+/// convex piece, whose corners (the triangle's corners on that side and the points where its edges cross the plane)
+/// are covered, so the convex capsule covers the whole piece and the two sides' capsules overlap along the cut. Of the
+/// candidate cuts (seven positions across each of the part's three principal axes and the frame's three axes) the one
+/// whose two capsules lie closest to the geometry on average is tried; it is kept when they stick out less than the
+/// capsule they replace (at their farthest point by 0.5 mm, or on average by 5 %), otherwise that part stays whole.
 ///
 /// The excess of a capsule is the largest distance from a point of its surface that lies outside every other capsule
 /// of the cover to the nearest sample of the geometry's surface; the check is the largest signed distance from any
@@ -49,15 +50,20 @@ struct CapsuleCover {
   double max_outside = 0.0;
   int samples = 0;                  ///< surface samples of the check and the excess
   double sample_spacing = 0.0;      ///< their spacing [m]
-  bool within_tolerance = false;    ///< max_excess ≤ options.tolerance
+  bool within_tolerance = false;    ///< max_excess ≤ options.tolerance and every sample inside
+  /// the cover stopped at options.max_capsules with a capsule still above the tolerance (otherwise, when not within
+  /// it, no cut of those capsules' parts made them stick out less)
+  bool reached_max_capsules = false;
 };
 
 /// covers `geometry` (see the file comment). Throws InputError for empty or non-finite geometry, triangle indices
-/// outside the vertices, or options out of range (tolerance > 0, max_capsules ≥ 1, sample_spacing > 0).
+/// outside the vertices, or options out of range (tolerance > 0, max_capsules 1 to 64, sample_spacing ≥ 10 µm, the fit's
+/// angle_step and refine_rounds).
 CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOptions& options = {});
 
 /// the same measures (excess, check) of given capsules over `geometry`, e.g. of a closed-form capsule or a
-/// hand-written set; `options` gives the sample spacing and the tolerance.
+/// hand-written set; `options` gives the sample spacing and the tolerance. Throws InputError as FitCapsuleCover, and
+/// for no capsule or a non-finite one.
 CapsuleCover MeasureCapsuleCover(const CoverGeometry& geometry, std::vector<math::Capsule> capsules,
                                  const CapsuleCoverOptions& options = {});
 

@@ -59,6 +59,10 @@ struct CapsuleFitOptions {
 /// Throws InputError for an empty set or non-finite input.
 math::Capsule FitCapsuleToBalls(const std::vector<Ball>& balls, const CapsuleFitOptions& options = {});
 
+/// the principal axes of the balls' centres, one per column, by increasing variance (the eigenvectors of their
+/// covariance).
+Eigen::Matrix3d PrincipalAxes(const std::vector<Ball>& balls);
+
 /// the same for points (balls of radius 0), one per column.
 math::Capsule FitCapsuleToPoints(const Eigen::Matrix3Xd& p_F, const CapsuleFitOptions& options = {});
 

@@ -51,6 +51,7 @@ struct LinkFit {
   double outside = 0.0;
   int samples = 0;                 ///< surface samples of the check
   bool within_tolerance = true;    ///< excess ≤ the cover's tolerance
+  bool reached_max_capsules = false;  ///< not within it and stopped at the most capsules per link
   bool fallback = false;           ///< geometry missing: a capsule between the joint origins
 };
 
