@@ -328,15 +328,13 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
   episode.video_fps = controller_options.control_rate;  // a frame per control step: the executed path
   Eigen::VectorXd q_last = static_scene.q_start;
   double length = 0.0;
-  // the mesh referee at every control step (a frame per control step): the arm's meshes at the world's q against
-  // the obstacles where the scenario has them now
+  // the mesh referee at every control step (a frame per control step): the arm's meshes at the loop's kinematics of
+  // the world's state against the obstacles where the loop's scene has them now
   std::optional<MeshCollisionData> mesh_data;
   if (options.meshes) {
     mesh_data.emplace(*options.meshes);
     r.mesh_collisions = 0;
   }
-  kinematics::Data mesh_kinematics(robot.model);
-  rmp::Scene mesh_scene;
   double mesh_seconds = 0.0;
   int mesh_steps = 0;
   const sim::EpisodeMetrics m =
@@ -345,10 +343,8 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
         q_last = frame.world->q();
         if (!mesh_data) return;
         const auto start = std::chrono::steady_clock::now();
-        frame.scenario->FillScene(&mesh_scene);
-        kinematics::CalcForwardKinematics(robot.model, frame.world->q(), &mesh_kinematics);
         const MeshClearance c =
-            CalcMeshClearance(*options.meshes, mesh_kinematics, mesh_scene.obstacles, &*mesh_data);
+            CalcMeshClearance(*options.meshes, *frame.kinematics, frame.scene->obstacles, &*mesh_data);
         mesh_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         ++mesh_steps;
         if (c.in_collision()) ++r.mesh_collisions;

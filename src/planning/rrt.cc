@@ -781,9 +781,7 @@ void RrtPolicy::set_seed(std::uint64_t seed) { impl_->seed = seed; }
 const std::vector<Eigen::VectorXd>& RrtPolicy::path() const { return impl_->path; }
 
 double RrtPolicy::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
-  kinematics::CheckJointVector(impl_->robot.model, q, "q");
-  impl_->SetObstacles(scene);
-  return impl_->Clearance(q, false, -kInf);
+  return ClearanceWithPair(q, scene).distance;
 }
 
 ClearancePair RrtPolicy::ClearanceWithPair(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {

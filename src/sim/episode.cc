@@ -270,7 +270,7 @@ EpisodeMetrics EpisodeLoop::Metrics() const {
 void MaybeFrame(const EpisodeLoop& loop, double fps, int* next_frame, const FrameCallback& on_frame) {
   if (!(fps > 0.0) || !on_frame || loop.time() + 1e-9 < *next_frame / fps) return;
   on_frame(FrameInfo{*next_frame, loop.time(), &loop.world(), loop.scenario_or_null(), &loop.contacts(),
-                     loop.tracking_error(), loop.sensor(), loop.warnings()});
+                     loop.tracking_error(), loop.sensor(), loop.warnings(), &loop.kinematics(), &loop.scene()});
   ++*next_frame;
 }
 

@@ -195,6 +195,8 @@ struct FrameInfo {
   double tracking_error = 0.0;         ///< ‖p_WE − p_WT‖ [m]
   const ObstacleSensor* sensor = nullptr;
   std::span<const control::WarningContact> warnings{};  ///< the robot's warning contacts (EpisodeLoop::warnings)
+  const kinematics::Data* kinematics = nullptr;  ///< the arm's link poses at this state (EpisodeLoop::kinematics)
+  const rmp::Scene* scene = nullptr;             ///< the source's scene at this state, the truth (EpisodeLoop::scene)
 };
 
 /// Called at EpisodeOptions::video_fps (first frame at t = 0), at control-period boundaries.
