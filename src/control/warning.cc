@@ -11,7 +11,7 @@
 
 namespace rmpmarl::control {
 WarningSensor::WarningSensor(const kinematics::Robot& robot, const WarningSensorOptions& options)
-    : robot_(&robot), options_(options) {
+    : robot_(&robot), options_(options), checker_(robot, {/*check_floor=*/false, 0.0}), placed_(checker_) {
   if (!std::isfinite(options.margin) || !(options.margin > 0.0)) {
     throw InputError(fmt::format("WarningSensorOptions.margin: expected a finite distance > 0 m, got {}",
                                  options.margin));
@@ -19,22 +19,13 @@ WarningSensor::WarningSensor(const kinematics::Robot& robot, const WarningSensor
   if (options.max_obstacles < 0) {
     throw InputError(fmt::format("WarningSensorOptions.max_obstacles: expected >= 0, got {}", options.max_obstacles));
   }
-  // the pairs the simulated worlds check: capsules of distinct, non-excluded links
   const int nc = static_cast<int>(robot.capsules.size());
-  for (int c = 0; c < nc; ++c) {
-    for (int d = c + 1; d < nc; ++d) {
-      const int lc = robot.capsules[c].link, ld = robot.capsules[d].link;
-      if (lc != ld && !robot.IsExcludedPair(lc, ld)) self_pairs_.emplace_back(c, d);
-    }
-  }
   const int nq = robot.model.nq();
   on_moving_link_.assign(nc, 0);
   for (int c = 0; c < nc; ++c) {
     for (int i = 0; i < nq; ++i) on_moving_link_[c] |= robot.model.DofMovesLink(i, robot.capsules[c].link) ? 1 : 0;
   }
-  contacts_.reserve(static_cast<size_t>(nc) * (options.max_obstacles + 1) + self_pairs_.size());
-  world_capsules_.resize(nc);
-  spheres_.resize(nc);
+  contacts_.reserve(static_cast<size_t>(nc) * (options.max_obstacles + 1) + checker_.self_pairs().size());
 }
 
 void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) {
@@ -61,18 +52,16 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
     double& slot = kind == PartnerKind::kLink ? min_self_clearance_ : min_clearance_;
     slot = std::min(slot, r.distance);
   };
+  collision::PlaceRobot(checker_, kin, &placed_);
+  const std::vector<math::Capsule>& world_capsules = placed_.capsule_W;
+  const std::vector<Eigen::Vector4d>& spheres = placed_.capsule_sphere;
   const int nc = static_cast<int>(robot.capsules.size());
-  for (int c = 0; c < nc; ++c) {
-    world_capsules_[c] = kinematics::WorldCapsule(robot.capsules[c], kin);
-    const math::Capsule& cap = world_capsules_[c];
-    spheres_[c] << 0.5 * (cap.p_WA + cap.p_WB), 0.5 * (cap.p_WB - cap.p_WA).norm() + cap.radius;
-  }
   const int no = static_cast<int>(scene.obstacles.size());
   for (int c = 0; c < nc; ++c) {
-    const math::Capsule& cap = world_capsules_[c];
+    const math::Capsule& cap = world_capsules[c];
     for (int j = 0; j < no; ++j) {
       const Eigen::Vector4d obstacle = rmp::BoundingSphere(scene.obstacles[j]);
-      if ((spheres_[c].head<3>() - obstacle.head<3>()).norm() - spheres_[c][3] - obstacle[3] >= reach) continue;
+      if ((spheres[c].head<3>() - obstacle.head<3>()).norm() - spheres[c][3] - obstacle[3] >= reach) continue;
       add(c, PartnerKind::kObstacle, j, -1, rmp::CapsuleObstacleDistance(cap, scene.obstacles[j]));
     }
     if (std::isfinite(options_.floor_height) && on_moving_link_[c]) {
@@ -87,10 +76,10 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
       add(c, PartnerKind::kFloor, -1, -1, r);
     }
   }
-  for (const auto& [c, d] : self_pairs_) {
-    if ((spheres_[c].head<3>() - spheres_[d].head<3>()).norm() - spheres_[c][3] - spheres_[d][3] >= reach) continue;
+  for (const auto& [c, d] : checker_.self_pairs()) {
+    if ((spheres[c].head<3>() - spheres[d].head<3>()).norm() - spheres[c][3] - spheres[d][3] >= reach) continue;
     add(c, PartnerKind::kLink, robot.capsules[d].link, d,
-        math::CapsuleCapsuleDistance(world_capsules_[c], world_capsules_[d]));
+        math::CapsuleCapsuleDistance(world_capsules[c], world_capsules[d]));
   }
 }
 

@@ -20,6 +20,7 @@
 
 #include "report.h"
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/collision/checker.h"
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/planning_scene.h"
@@ -247,12 +248,11 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   // the capsule model collision-free at the start and the goal (no floor: the cell's own surfaces count): without
   // the mesh referee the problem is valid then; with it, a problem the capsules put in collision is the model's
   // failure (rejected by the model, counted)
-  planning::RrtOptions check = options.plan.planner;
-  check.check_floor = false;
-  check.safety_margin = 0.0;
-  planning::RrtPolicy checker(robot, check);
+  const collision::RobotCollisionModel checker(robot, {/*check_floor=*/false, 0.0});
+  collision::RobotCollisionData placed(checker);
   for (const auto& [what, q] : ends) {
-    const planning::ClearancePair pair = checker.ClearanceWithPair(*q, rmp_scene);
+    kinematics::CheckJointVector(robot.model, *q, what);
+    const collision::ClearancePair pair = collision::CalcRobotClearance(checker, *q, rmp_scene.obstacles, &placed);
     if (!(pair.distance > 0.0)) {
       const std::string why = fmt::format("{} in collision in the capsule model: {} ({:.1f} mm deep)", what,
                                           CapsulePairName(robot, pair, p.obstacle_names), -1e3 * pair.distance);

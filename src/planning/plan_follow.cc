@@ -45,7 +45,7 @@ PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
                                    std::unique_ptr<control::AccelerationPolicy> reactive,
                                    const PlanFollowOptions& options)
     : robot_(robot), reactive_(std::move(reactive)), options_(options), planner_(robot, options.planner),
-      kin_(robot.model) {
+      kin_(robot.model), checker_(robot, {options.planner.check_floor, options.planner.floor_height}), placed_(checker_) {
   ValidatePlanFollowOptions(options_);
   if (reactive_ == nullptr) options_.replan = false;  // open loop: planned once
   const int nq = robot_.model.nq();
@@ -307,16 +307,16 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
 
 double PlanFollowPolicy::MovingClearance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
   double d = std::numeric_limits<double>::infinity();
-  bool kinematics_done = false;
-  for (const rmp::Obstacle& obstacle : scene.obstacles) {
+  bool placed = false;
+  for (size_t k = 0; k < scene.obstacles.size(); ++k) {
+    const rmp::Obstacle& obstacle = scene.obstacles[k];
     if (obstacle.v_WO.isZero()) continue;
-    if (!kinematics_done) {
-      kinematics::CalcForwardKinematics(robot_.model, q, &kin_);
-      kinematics_done = true;
+    if (!placed) {
+      collision::PlaceRobot(checker_, q, &placed_);
+      placed = true;
     }
-    for (const kinematics::LinkCapsule& lc : robot_.capsules) {
-      d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(lc, kin_), obstacle).distance);
-    }
+    d = collision::CalcObstacleClearance(checker_, placed_, obstacle, static_cast<int>(k),
+                                         -std::numeric_limits<double>::infinity(), d);
   }
   return d;
 }

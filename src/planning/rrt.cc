@@ -65,18 +65,6 @@ bool SameObstacle(const rmp::Obstacle& a, const rmp::Obstacle& b) {
   return a.box.X_WB.matrix() == b.box.X_WB.matrix() && a.box.half_size == b.box.half_size;
 }
 
-// a pair whose distance is bounded below by `lower_bound` cannot lower the smallest distance d found so far, nor, in a
-// validity check (a finite stop_below), make the answer <= stop_below when the bound exceeds stop_below
-bool CannotMatter(double lower_bound, double d, double stop_below) {
-  return lower_bound >= d || (std::isfinite(stop_below) && lower_bound > stop_below);
-}
-
-// the same for the pair of a bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
-bool SpheresCannotMatter(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius, double d,
-                         double stop_below) {
-  return CannotMatter((a.head<3>() - centre).norm() - a[3] - radius, d, stop_below);
-}
-
 }  // namespace
 
 void ValidateRrtOptions(const RrtOptions& o) {
@@ -108,7 +96,8 @@ void ValidateRrtOptions(const RrtOptions& o) {
 }
 
 struct RrtPolicy::Impl {
-  Impl(const kinematics::Robot& r, const RrtOptions& o) : robot(r), options(o), kin(robot.model) {}
+  Impl(const kinematics::Robot& r, const RrtOptions& o)
+      : robot(r), options(o), kin(robot.model), checker(robot, {o.check_floor, o.floor_height}), placed(checker) {}
 
   // smallest signed distance at q over the obstacles (and, unless obstacles_only, the floor and checked capsule
   // pairs); returns early, with a value <= stop_below, once one distance is that small. Exact for stop_below = −inf;
@@ -170,19 +159,8 @@ struct RrtPolicy::Impl {
   Eigen::VectorXd lower, upper;              // bounds of the current plan
   Eigen::VectorXd v_path;                    // path_speed_fraction × velocity limits
   std::vector<char> continuous;
-  std::vector<char> floor_checked;           // per capsule
-  std::vector<std::pair<int, int>> self_pairs;  // capsule pairs, grouped by their links' pair (self_link_pairs)
-  // the broad phase per link: the capsules of each link with capsules (a link's cover can hold many), and its pairs of
-  // links to check, each with its range in self_pairs
-  struct LinkPair {
-    int group_a = 0, group_b = 0;
-    size_t begin = 0, end = 0;
-  };
-  std::vector<std::vector<int>> link_groups;     // capsule indices per link with capsules
-  std::vector<LinkPair> self_link_pairs;
-  std::vector<math::Capsule> capsule_W;
-  std::vector<Eigen::Vector4d> capsule_sphere;  // bounding sphere (centre, radius) per capsule
-  std::vector<Eigen::Vector4d> group_sphere;    // a sphere around every capsule sphere of a link, per link group
+  collision::RobotCollisionModel checker;    // the robot's capsules, their link groups and checked pairs
+  collision::RobotCollisionData placed;      // the capsules at the configuration checked last
   std::vector<rmp::Obstacle> obstacles;         // the snapshot planning and path checks use
   double margin = 0.0;                          // validity margin in use (safety_margin, or less from a tight start)
   // a PlanPath search with end_margin_distance > 0 from or to an end inside the safety margin: the obstacles' margin
@@ -229,103 +207,14 @@ struct RrtPolicy::Impl {
 
 double RrtPolicy::Impl::Clearance(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only,
                                   double stop_below, ClearancePair* pair) {
-  kinematics::CalcForwardKinematics(robot.model, q, &kin);
-  for (size_t c = 0; c < robot.capsules.size(); ++c) {
-    capsule_W[c] = kinematics::WorldCapsule(robot.capsules[c], kin);
-    capsule_sphere[c] << 0.5 * (capsule_W[c].p_WA + capsule_W[c].p_WB),
-        0.5 * (capsule_W[c].p_WB - capsule_W[c].p_WA).norm() + capsule_W[c].radius;
-  }
-  for (size_t g = 0; g < link_groups.size(); ++g) {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (int c : link_groups[g]) centre += capsule_sphere[c].head<3>();
-    centre /= static_cast<double>(link_groups[g].size());
-    double radius = 0.0;
-    for (int c : link_groups[g]) {
-      radius = std::max(radius, (capsule_sphere[c].head<3>() - centre).norm() + capsule_sphere[c][3]);
-    }
-    group_sphere[g] << centre, radius;
-  }
-  double d = kInf;
-  auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
-  auto bounded_out = [&d, stop_below](const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
-    return SpheresCannotMatter(a, centre, radius, d, stop_below);
-  };
-  for (size_t k = 0; k < obstacles.size(); ++k) {
-    const rmp::Obstacle& o = obstacles[k];
-    const Eigen::Vector3d centre = rmp::Centre(o);
-    const double radius = rmp::BoundingRadius(o);
-    // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
-    // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
-    const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
-    math::Box box = o.box;
-    if (o.shape == rmp::ObstacleShape::kCylinder) {
-      box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
-    }
-    const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
-    // a sphere (centre, radius) that cannot come closer to the obstacle than what was found
-    auto sphere_out = [&](const Eigen::Vector4d& sphere) {
-      if (bounded_out(sphere, centre, radius)) return true;
-      if (!boxed) return false;
-      // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
-      const Eigen::Vector3d p = (X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
-      return cannot_matter(p.cwiseMax(0.0).norm() + std::min(p.maxCoeff(), 0.0) - sphere[3]);
-    };
-    for (size_t g = 0; g < link_groups.size(); ++g) {
-      if (sphere_out(group_sphere[g])) continue;
-      for (int c : link_groups[g]) {
-        if (sphere_out(capsule_sphere[c])) continue;
-        if (o.shape == rmp::ObstacleShape::kCylinder &&
-            cannot_matter(math::CapsuleBoxDistance(capsule_W[c], box).distance)) {
-          continue;
-        }
-        const double distance = rmp::CapsuleObstacleDistance(capsule_W[c], o).distance;
-        if (distance < d) {
-          d = distance;
-          if (pair != nullptr) {
-            *pair = {d, ClearancePair::Kind::kObstacle, robot.capsules[c].link, -1, static_cast<int>(k)};
-          }
-        }
-        if (d <= stop_below) return d;
-      }
-    }
-  }
-  if (obstacles_only) return d;
+  collision::PlaceRobot(checker, q, &placed);
+  const double d = collision::CalcObstacleClearance(checker, placed, obstacles, stop_below, kInf, pair);
+  if (obstacles_only || d <= stop_below) return d;
   return SelfClearance(stop_below, d, pair);
 }
 
 double RrtPolicy::Impl::SelfClearance(double stop_below, double d, ClearancePair* pair) const {
-  if (options.check_floor) {
-    for (size_t c = 0; c < capsule_W.size(); ++c) {
-      if (!floor_checked[c]) continue;
-      const double z = std::min(capsule_W[c].p_WA.z(), capsule_W[c].p_WB.z()) - capsule_W[c].radius;
-      if (z - options.floor_height < d) {
-        d = z - options.floor_height;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kFloor, robot.capsules[c].link, -1, -1};
-      }
-      if (d <= stop_below) return d;
-    }
-  }
-  for (const LinkPair& links : self_link_pairs) {
-    if (SpheresCannotMatter(group_sphere[links.group_a], group_sphere[links.group_b].head<3>(),
-                            group_sphere[links.group_b][3], d, stop_below)) {
-      continue;
-    }
-    for (size_t i = links.begin; i < links.end; ++i) {
-      const auto [a, b] = self_pairs[i];
-      if (SpheresCannotMatter(capsule_sphere[a], capsule_sphere[b].head<3>(), capsule_sphere[b][3], d, stop_below)) {
-        continue;
-      }
-      const double distance = math::CapsuleCapsuleDistance(capsule_W[a], capsule_W[b]).distance;
-      if (distance < d) {
-        d = distance;
-        if (pair != nullptr) {
-          *pair = {d, ClearancePair::Kind::kSelf, robot.capsules[a].link, robot.capsules[b].link, -1};
-        }
-      }
-      if (d <= stop_below) return d;
-    }
-  }
-  return d;
+  return collision::CalcSelfClearance(checker, placed, stop_below, d, pair);
 }
 
 bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only,
@@ -684,46 +573,6 @@ RrtPolicy::RrtPolicy(const kinematics::Robot& robot, const RrtOptions& options) 
     m.v_path[i] = options.path_speed_fraction * v;
     m.continuous[i] = !std::isfinite(m.limit_lower[i]) || !std::isfinite(m.limit_upper[i]);
   }
-  // a capsule's height is fixed when every dof moving its link is a revolute joint about a vertical axis whose parent
-  // link is fixed to the base (axes taken at q = 0; they cannot move since the parent does not)
-  kinematics::CalcForwardKinematics(model, Eigen::VectorXd::Zero(m.nq), &m.kin);
-  for (const kinematics::LinkCapsule& c : m.robot.capsules) {
-    bool fixed_height = true;
-    for (int i : model.link_dofs(c.link)) {
-      const kinematics::Link& joint_link = model.link(model.dof_link(i));
-      const bool revolute = joint_link.joint_type != kinematics::JointType::kPrismatic;
-      const bool parent_fixed = model.link_dofs(joint_link.parent).empty();
-      const bool vertical = std::abs(std::abs(m.kin.axis_W.col(i).z()) - 1.0) < 1e-9;
-      fixed_height = fixed_height && revolute && parent_fixed && vertical;
-    }
-    m.floor_checked.push_back(fixed_height ? 0 : 1);
-  }
-  const int num_capsules = static_cast<int>(m.robot.capsules.size());
-  std::vector<int> group_of_link(model.num_links(), -1);
-  for (int c = 0; c < num_capsules; ++c) {
-    const int link = m.robot.capsules[c].link;
-    if (group_of_link[link] < 0) {
-      group_of_link[link] = static_cast<int>(m.link_groups.size());
-      m.link_groups.emplace_back();
-    }
-    m.link_groups[group_of_link[link]].push_back(c);
-  }
-  const int num_groups = static_cast<int>(m.link_groups.size());
-  for (int ga = 0; ga < num_groups; ++ga) {
-    for (int gb = ga + 1; gb < num_groups; ++gb) {
-      const int la = m.robot.capsules[m.link_groups[ga][0]].link, lb = m.robot.capsules[m.link_groups[gb][0]].link;
-      if (m.robot.IsExcludedPair(la, lb)) continue;
-      Impl::LinkPair pair{ga, gb, m.self_pairs.size(), 0};
-      for (int a : m.link_groups[ga]) {
-        for (int b : m.link_groups[gb]) m.self_pairs.emplace_back(a, b);
-      }
-      pair.end = m.self_pairs.size();
-      m.self_link_pairs.push_back(pair);
-    }
-  }
-  m.capsule_W.resize(num_capsules);
-  m.capsule_sphere.resize(num_capsules);
-  m.group_sphere.resize(num_groups);
   m.obstacles.reserve(64);
   m.q_d.setZero(m.nq);
   m.qd_d.setZero(m.nq);

@@ -367,7 +367,7 @@ void CellsScenario::Draw(std::mt19937_64& rng) {
       q_start_[i] = std::clamp(ready[i] + Uniform(rng, -o.start_spread, o.start_spread), l.lower, l.upper);
     }
     kinematics::CalcForwardKinematics(m, q_start_, &start);
-    if (MinSelfClearance(robot_, start) < 0.01) continue;
+    if (MinSelfClearance(checker_, start) < 0.01) continue;
     const Eigen::Vector3d p_start = EndEffector(robot_, start);
     // the goal: uniform within the limits, not singular, clear of itself and above the base plane
     for (int i = 0; i < m.nq(); ++i) {
@@ -378,7 +378,7 @@ void CellsScenario::Draw(std::mt19937_64& rng) {
     kinematics::CalcForwardKinematics(m, q_goal_, &goal);
     const Eigen::Vector3d p = EndEffector(robot_, goal);
     if ((p - p_start).norm() < o.min_target_distance) continue;
-    if (LowestMovingPoint(robot_, goal) < 0.05 || MinSelfClearance(robot_, goal) < 0.01) continue;
+    if (LowestMovingPoint(robot_, goal) < 0.05 || MinSelfClearance(checker_, goal) < 0.01) continue;
     kinematics::CalcPointJacobian(m, goal, robot_.end_effector.link, robot_.end_effector.X_LE.translation(), J);
     if (Eigen::JacobiSVD<Eigen::MatrixXd>(Eigen::MatrixXd(J)).singularValues().minCoeff() < 0.05) continue;
     if (!BuildCell(kind_, start, goal, rng)) continue;

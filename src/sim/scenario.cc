@@ -137,6 +137,7 @@ Scenario::Scenario(std::string name, const kinematics::Robot& robot, SceneSpec s
                    const WorkspaceOptions& workspace, const Eigen::VectorXd& q_start)
     : name_(std::move(name)),
       robot_(robot),
+      checker_(robot_),
       spec_(std::move(spec)),
       default_duration_(default_duration),
       q_start_(q_start.size() == 0 ? ReadyConfiguration(robot) : q_start) {
@@ -297,11 +298,9 @@ double Scenario::RobotClearance(const Eigen::VectorXd& q, int j, const Eigen::Ve
 }
 
 double Scenario::RobotClearance(const kinematics::Data& at, const rmp::Obstacle& obstacle) const {
-  double d = kInf;
-  for (const auto& c : robot_.capsules) {
-    d = std::min(d, rmp::CapsuleObstacleDistance(kinematics::WorldCapsule(c, at), obstacle).distance);
-  }
-  return d;
+  collision::RobotCollisionData placed(checker_);
+  collision::PlaceRobot(checker_, at, &placed);
+  return collision::CalcObstacleClearance(checker_, placed, obstacle);
 }
 
 Eigen::Vector3d Scenario::EndEffectorAt(const Eigen::VectorXd& q) const {
@@ -368,7 +367,7 @@ void StaticReachScenario::Draw(std::mt19937_64& rng) {
     const Eigen::MatrixXd J_used = workspace_.planar ? Eigen::MatrixXd(J.topRows(2)) : Eigen::MatrixXd(J);
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J_used);
     if (svd.singularValues().minCoeff() < options_.min_singular_value) continue;
-    if (MinSelfClearance(robot_, data) < options_.min_self_clearance) continue;
+    if (MinSelfClearance(checker_, data) < options_.min_self_clearance) continue;
     if (!workspace_.planar && LowestMovingPoint(robot_, data) < options_.min_height) continue;
     if (options_.obstacle_on_path) {
       const Eigen::Vector3d mid = 0.5 * (p_start + p);

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <utility>
 
+#include "rmpmarl/collision/checker.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
@@ -36,18 +37,10 @@ inline Eigen::Vector3d EndEffector(const kinematics::Robot& robot, const kinemat
 }
 
 // smallest distance between capsules of checked link pairs (different links, not excluded) at the FK in data.
-inline double MinSelfClearance(const kinematics::Robot& robot, const kinematics::Data& data) {
-  double d = std::numeric_limits<double>::infinity();
-  for (size_t a = 0; a < robot.capsules.size(); ++a) {
-    for (size_t b = a + 1; b < robot.capsules.size(); ++b) {
-      const auto& ca = robot.capsules[a];
-      const auto& cb = robot.capsules[b];
-      if (ca.link == cb.link || robot.IsExcludedPair(ca.link, cb.link)) continue;
-      d = std::min(d, math::CapsuleCapsuleDistance(kinematics::WorldCapsule(ca, data),
-                                                   kinematics::WorldCapsule(cb, data)).distance);
-    }
-  }
-  return d;
+inline double MinSelfClearance(const collision::RobotCollisionModel& checker, const kinematics::Data& data) {
+  collision::RobotCollisionData placed(checker);
+  collision::PlaceRobot(checker, data, &placed);
+  return collision::CalcSelfCapsuleClearance(checker, placed);
 }
 
 // lowest point of the capsules on links moved by two or more dofs (an arm's first joint only spins its column).

@@ -52,7 +52,7 @@ Eigen::VectorXd InertiaDiagonal(const kinematics::Robot& robot, const mjModel* m
 }  // namespace
 
 WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions options)
-    : robot_(std::move(robot)), scene_(std::move(scene)), options_(std::move(options)) {
+    : robot_(std::move(robot)), collision_(robot_), scene_(std::move(scene)), options_(std::move(options)) {
   CheckWorldInputs(robot_, scene_, options_);
   const kinematics::Model& model = robot_.model;
   const int nq = model.nq();

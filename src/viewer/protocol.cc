@@ -466,17 +466,21 @@ void EncodeFrame(const FrameView& frame, std::string* out_string) {
 }
 
 double Clearance(const sim::World& world, std::span<const ObstacleView> obstacles) {
-  const kinematics::Robot& robot = world.model().robot();
+  // the capsules where the simulator has their links' bodies
+  const collision::RobotCollisionModel& checker = world.model().collision();
   const mjData* d = world.mj_data();
+  std::vector<Eigen::Isometry3d> X_WL(world.model().robot().model.num_links(), Eigen::Isometry3d::Identity());
+  for (const collision::RobotCollisionModel::LinkGroup& group : checker.link_groups()) {
+    const int b = world.model().link_body(group.link);
+    X_WL[group.link].linear() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(d->xmat + 9 * b);
+    X_WL[group.link].translation() = Eigen::Map<const Eigen::Vector3d>(d->xpos + 3 * b);
+  }
+  collision::RobotCollisionData placed(checker);
+  collision::PlaceRobot(checker, X_WL, &placed);
   double clearance = std::numeric_limits<double>::infinity();
-  for (const kinematics::LinkCapsule& c : robot.capsules) {
-    const int b = world.model().link_body(c.link);
-    const Eigen::Map<const Eigen::Vector3d> p_WL(d->xpos + 3 * b);
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R_WL(d->xmat + 9 * b);
-    const math::Capsule capsule{p_WL + R_WL * c.p_LA, p_WL + R_WL * c.p_LB, c.radius};
-    for (const ObstacleView& o : obstacles) {
-      clearance = std::min(clearance, rmp::CapsuleObstacleDistance(capsule, o.obstacle).distance);
-    }
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    clearance = collision::CalcObstacleClearance(checker, placed, obstacles[k].obstacle, static_cast<int>(k),
+                                                 -std::numeric_limits<double>::infinity(), clearance);
   }
   return clearance;
 }

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "rmpmarl/collision/checker.h"
 #include "rmpmarl/kinematics/model.h"
 #include "rmpmarl/math/geometry.h"
 #include "rmpmarl/kinematics/robot.h"
@@ -69,10 +70,9 @@ class WarningSensor {
   const kinematics::Robot* robot_;
   WarningSensorOptions options_;
   std::vector<WarningContact> contacts_;
-  std::vector<std::pair<int, int>> self_pairs_;  // capsule index pairs checked for self-contact
-  std::vector<std::uint8_t> on_moving_link_;     // per capsule: some joint moves its link (floor contacts)
-  std::vector<math::Capsule> world_capsules_;     // the capsules at the sensed state
-  std::vector<Eigen::Vector4d> spheres_;          // their bounding spheres (centre, radius), for the broad phase
+  collision::RobotCollisionModel checker_;     // the capsule pairs checked for self-contact
+  collision::RobotCollisionData placed_;       // the capsules at the sensed state and their bounding spheres
+  std::vector<std::uint8_t> on_moving_link_;   // per capsule: some joint moves its link (floor contacts)
   double min_clearance_ = std::numeric_limits<double>::infinity();
   double min_self_clearance_ = std::numeric_limits<double>::infinity();
 };

@@ -157,6 +157,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   PlanFollowOptions options_;
   RrtPolicy planner_;
   kinematics::Data kin_;
+  collision::RobotCollisionModel checker_;
+  collision::RobotCollisionData placed_;
   Eigen::VectorXd v_path_;
   PlanFollowStats stats_;
 

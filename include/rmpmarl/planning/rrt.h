@@ -20,11 +20,8 @@
 /// sees a snapshot). A start closer than safety_margin to something (an obstacle came close) is planned from with
 /// half its clearance as the margin, so the robot can move away; from a start in penetration no plan is made.
 ///
-/// Validity of a configuration q: every capsule–obstacle signed distance (math::CapsuleBoxDistance /
-/// CapsuleSphereDistance through rmp::CapsuleObstacleDistance), every capsule–floor distance and every checked
-/// capsule–capsule distance (different, non-excluded links; math::CapsuleCapsuleDistance) exceeds the margin. The floor
-/// skips capsules whose height cannot change (links fixed to the base, or moved only by revolute joints about a
-/// vertical axis hanging from the fixed base — the Panda's joint-1 column rests on the mounting plane by design).
+/// Validity of a configuration q: the robot collision checker (collision/checker.h) finds every capsule–obstacle,
+/// capsule–floor and checked capsule–capsule distance above the margin.
 ///
 /// Continuous joints (±inf limits) are planned within [q_i − π, q_i + π] around the configuration at the start of each
 /// plan: every angle is reachable once, the short way round.
@@ -45,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/collision/checker.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/control/controller.h"
@@ -121,21 +119,8 @@ struct IkResult {
   double error = 0.0;        ///< its end-effector distance to the target [m]
 };
 
-/// The pair of shapes that attains a configuration's clearance (RrtPolicy::ClearanceWithPair): which capsule came
-/// closest to what.
-struct ClearancePair {
-  enum class Kind {
-    kNone,      ///< nothing was checked (a robot without capsules, a scene without obstacles and self pairs)
-    kObstacle,  ///< a capsule of `link` and scene.obstacles[obstacle]
-    kFloor,     ///< a capsule of `link` and the floor plane
-    kSelf,      ///< a capsule of `link` and one of `other_link`
-  };
-  double distance = std::numeric_limits<double>::infinity();  ///< the clearance [m], as RrtPolicy::Clearance
-  Kind kind = Kind::kNone;
-  int link = -1;        ///< the link of the capsule attaining it (-1 for kNone)
-  int other_link = -1;  ///< kSelf: the other capsule's link
-  int obstacle = -1;    ///< kObstacle: its index in the scene's obstacles
-};
+/// The pair of shapes that attains a configuration's clearance (RrtPolicy::ClearanceWithPair).
+using ClearancePair = collision::ClearancePair;
 
 /// The timing of a joint path as the RRT baseline executes it: each straight segment at constant joint velocity, as
 /// fast as the slowest joint allows at `speeds` (per dof, > 0; path_speed_fraction × the velocity limits): the arrival

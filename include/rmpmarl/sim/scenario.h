@@ -174,6 +174,7 @@ class Scenario : public SceneSource {
 
   std::string name_;
   kinematics::Robot robot_;
+  collision::RobotCollisionModel checker_;  // the clearances of sampled starts, goals and obstacles
   Workspace workspace_;
   SceneSpec spec_;
   double default_duration_ = 10.0;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/collision/checker.h"
 #include "rmpmarl/control/servos.h"
 #include "rmpmarl/control/warning.h"
 #include "rmpmarl/kinematics/robot.h"
@@ -46,6 +47,8 @@ class WorldModel {
 
   const mjModel* mj_model() const { return mj_model_.get(); }
   const kinematics::Robot& robot() const { return robot_; }
+  /// the robot collision checker of the robot's capsules (clearances of what the world shows)
+  const collision::RobotCollisionModel& collision() const { return collision_; }
   const kinematics::Model& kinematic_model() const { return robot_.model; }
   const SceneSpec& scene() const { return scene_; }
   const WorldOptions& options() const { return options_; }
@@ -105,6 +108,7 @@ class WorldModel {
 
  private:
   kinematics::Robot robot_;
+  collision::RobotCollisionModel collision_;
   SceneSpec scene_;
   WorldOptions options_;
   ServoGains gains_;

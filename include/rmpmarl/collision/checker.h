@@ -1,0 +1,143 @@
+#pragma once
+/// The robot collision checker: one place for what the robot's capsules touch. Check a configuration, check a
+/// straight edge between two, the robot's clearance to the obstacles and its self-clearance, the pair that attains
+/// it (the shape of Drake's CollisionChecker: CheckConfigCollisionFree, CheckEdgeCollisionFree, CalcRobotClearance).
+/// The planner, the plan follower, the scenarios, the viewer, the warning sensor and the benchmark call it.
+///
+/// Model/Data split: a RobotCollisionModel is built once from a robot (its capsules grouped per link, the link pairs
+/// checked for self-collision, which capsules can reach the floor); a RobotCollisionData holds the capsules placed at
+/// one configuration and their bounding spheres, preallocated so that no query allocates.
+///
+/// What is checked. Obstacles: every capsule against every obstacle (rmp::CapsuleObstacleDistance). The floor plane
+/// z = floor_height, when options.check_floor: every capsule whose height can change (not on a link fixed to the base
+/// nor moved only by revolute joints about a vertical axis hanging from the fixed base — the Panda's joint-1 column
+/// rests on its mounting plate by design). Self: every capsule pair of two different links that the robot does not
+/// exclude (adjacent links, its SRDF's disabled pairs, the pairs setup-robot found never close).
+///
+/// Broad phase. Each link's capsules share a bounding sphere; a link (then a capsule) whose sphere cannot come closer
+/// to an obstacle than what was found is skipped, and for a box (or a cylinder's enclosing box) the box's own distance
+/// at the sphere's centre, a tighter bound, decides. Skipping only pairs bounded below by the smallest distance found
+/// keeps the clearance exact; a check with a threshold (stop_below) also skips pairs bounded above it and returns as
+/// soon as one distance is at or below it.
+#include <Eigen/Core>
+#include <limits>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/rmp/scene.h"
+
+namespace rmpmarl::collision {
+
+/// Options of RobotCollisionModel.
+struct RobotCollisionOptions {
+  /// check the capsules against the floor plane z = floor_height (off for planar arms in the z = 0 plane).
+  bool check_floor = true;
+  double floor_height = 0.0;  ///< [m]
+};
+
+/// The pair of shapes that attains a clearance: which capsule came closest to what.
+struct ClearancePair {
+  enum class Kind {
+    kNone,      ///< nothing was checked (a robot without capsules, a scene without obstacles and self pairs)
+    kObstacle,  ///< a capsule of `link` and obstacles[obstacle]
+    kFloor,     ///< a capsule of `link` and the floor plane
+    kSelf,      ///< a capsule of `link` and one of `other_link`
+  };
+  double distance = std::numeric_limits<double>::infinity();  ///< the clearance [m]
+  Kind kind = Kind::kNone;
+  int link = -1;        ///< the link of the capsule attaining it (-1 for kNone)
+  int other_link = -1;  ///< kSelf: the other capsule's link
+  int obstacle = -1;    ///< kObstacle: its index in the obstacles given
+};
+
+/// What the checker knows of a robot (immutable once built).
+class RobotCollisionModel {
+ public:
+  /// the checker of (a copy of) `robot`. Throws InputError for a non-finite floor height.
+  explicit RobotCollisionModel(const kinematics::Robot& robot, const RobotCollisionOptions& options = {});
+
+  const kinematics::Robot& robot() const { return robot_; }
+  const RobotCollisionOptions& options() const { return options_; }
+  int num_capsules() const { return static_cast<int>(robot_.capsules.size()); }
+
+  /// The capsules of one link with capsules (a link's cover can hold many).
+  struct LinkGroup {
+    int link = -1;
+    std::vector<int> capsules;
+  };
+  /// A checked pair of link groups and its capsule pairs, the range [begin, end) of grouped_self_pairs().
+  struct LinkPair {
+    int group_a = 0, group_b = 0;
+    size_t begin = 0, end = 0;
+  };
+  const std::vector<LinkGroup>& link_groups() const { return link_groups_; }
+  const std::vector<LinkPair>& self_link_pairs() const { return self_link_pairs_; }
+  /// the checked capsule pairs grouped by their pair of links (self_link_pairs' ranges)
+  const std::vector<std::pair<int, int>>& grouped_self_pairs() const { return grouped_self_pairs_; }
+  /// the same pairs (a < b) in the order of the capsules: (0, 1), (0, 2), … — the simulated worlds' order
+  const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
+  /// per capsule: checked against the floor (its height can change)
+  bool floor_checked(int capsule) const { return floor_checked_[capsule] != 0; }
+
+ private:
+  kinematics::Robot robot_;
+  RobotCollisionOptions options_;
+  std::vector<LinkGroup> link_groups_;
+  std::vector<LinkPair> self_link_pairs_;
+  std::vector<std::pair<int, int>> grouped_self_pairs_;
+  std::vector<std::pair<int, int>> self_pairs_;
+  std::vector<char> floor_checked_;
+};
+
+/// The robot's capsules placed at one configuration (preallocated for a model).
+struct RobotCollisionData {
+  explicit RobotCollisionData(const RobotCollisionModel& model);
+  kinematics::Data kin;                       ///< the forward kinematics of the last PlaceRobot(q)
+  std::vector<math::Capsule> capsule_W;        ///< per capsule, in world
+  std::vector<Eigen::Vector4d> capsule_sphere;  ///< per capsule: bounding sphere (centre, radius)
+  std::vector<Eigen::Vector4d> group_sphere;    ///< per link group: a sphere around its capsules' spheres
+};
+
+/// places the capsules at q (forward kinematics into data->kin). \pre q of the model's size (checked by callers at
+/// their boundary: kinematics::CheckJointVector).
+void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q, RobotCollisionData* data);
+/// places the capsules at the link poses of forward kinematics already computed (`kin` of the model's robot).
+void PlaceRobot(const RobotCollisionModel& model, const kinematics::Data& kin, RobotCollisionData* data);
+/// places the capsules at given link poses X_WL (one per link of the model, e.g. a simulator's bodies).
+void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometry3d> X_WL, RobotCollisionData* data);
+
+/// the smallest signed distance [m] between the placed capsules and `obstacles`, continuing from d (the smallest found
+/// so far). Exact for stop_below = −inf; otherwise returns as soon as a distance is at or below stop_below (a value at
+/// or below it exactly when the clearance is). `pair` (optional) receives the pair attaining the value returned, left
+/// as it is unless a pair here comes closer than d.
+double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                             std::span<const rmp::Obstacle> obstacles,
+                             double stop_below = -std::numeric_limits<double>::infinity(),
+                             double d = std::numeric_limits<double>::infinity(), ClearancePair* pair = nullptr);
+/// the same for one obstacle (its index in `pair` is `index`).
+double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                             const rmp::Obstacle& obstacle, int index = 0,
+                             double stop_below = -std::numeric_limits<double>::infinity(),
+                             double d = std::numeric_limits<double>::infinity(), ClearancePair* pair = nullptr);
+/// the floor and self-collision part on the placed capsules, with the same conventions.
+double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                         double stop_below = -std::numeric_limits<double>::infinity(),
+                         double d = std::numeric_limits<double>::infinity(), ClearancePair* pair = nullptr);
+/// the smallest distance between capsules of checked link pairs alone (no floor), exact.
+double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data);
+
+/// the robot's clearance at q: obstacles, floor and self pairs, exact, with the pair attaining it.
+ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 std::span<const rmp::Obstacle> obstacles, RobotCollisionData* data);
+/// every checked distance at q exceeds `margin` (joint limits are the caller's).
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data);
+/// every configuration of the straight edge q0 → q1 at most `resolution` apart in joint space (q0 excluded, q1
+/// included) is collision-free with `margin`. \pre resolution > 0.
+bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                            const Eigen::Ref<const Eigen::VectorXd>& q1, std::span<const rmp::Obstacle> obstacles,
+                            double margin, double resolution, RobotCollisionData* data, Eigen::VectorXd* scratch);
+
+}  // namespace rmpmarl::collision

@@ -1,0 +1,259 @@
+// The robot collision checker: capsules placed at a configuration against obstacles, the floor and each other.
+#include "rmpmarl/collision/checker.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::collision {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// a pair whose distance is bounded below by `lower_bound` cannot lower the smallest distance d found so far, nor, in a
+// check with a threshold (a finite stop_below), make the answer <= stop_below when the bound exceeds stop_below
+bool CannotMatter(double lower_bound, double d, double stop_below) {
+  return lower_bound >= d || (std::isfinite(stop_below) && lower_bound > stop_below);
+}
+
+// the same for the pair of a bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
+bool SpheresCannotMatter(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius, double d,
+                         double stop_below) {
+  return CannotMatter((a.head<3>() - centre).norm() - a[3] - radius, d, stop_below);
+}
+
+// the bounding spheres of the placed capsules and of each link group
+void BoundingSpheres(const RobotCollisionModel& model, RobotCollisionData* data) {
+  for (size_t c = 0; c < data->capsule_W.size(); ++c) {
+    const math::Capsule& w = data->capsule_W[c];
+    data->capsule_sphere[c] << 0.5 * (w.p_WA + w.p_WB), 0.5 * (w.p_WB - w.p_WA).norm() + w.radius;
+  }
+  const auto& groups = model.link_groups();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (int c : groups[g].capsules) centre += data->capsule_sphere[c].head<3>();
+    centre /= static_cast<double>(groups[g].capsules.size());
+    double radius = 0.0;
+    for (int c : groups[g].capsules) {
+      radius = std::max(radius, (data->capsule_sphere[c].head<3>() - centre).norm() + data->capsule_sphere[c][3]);
+    }
+    data->group_sphere[g] << centre, radius;
+  }
+}
+
+}  // namespace
+
+RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const RobotCollisionOptions& options)
+    : robot_(robot), options_(options) {
+  if (!std::isfinite(options.floor_height)) {
+    throw InputError(fmt::format("RobotCollisionOptions.floor_height: expected a finite height, got {}",
+                                 options.floor_height));
+  }
+  const kinematics::Model& model = robot_.model;
+  // a capsule's height is fixed when every dof moving its link is a revolute joint about a vertical axis whose parent
+  // link is fixed to the base (axes taken at q = 0; they cannot move since the parent does not)
+  kinematics::Data kin(model);
+  kinematics::CalcForwardKinematics(model, Eigen::VectorXd::Zero(model.nq()), &kin);
+  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+    bool fixed_height = true;
+    for (int i : model.link_dofs(c.link)) {
+      const kinematics::Link& joint_link = model.link(model.dof_link(i));
+      const bool revolute = joint_link.joint_type != kinematics::JointType::kPrismatic;
+      const bool parent_fixed = model.link_dofs(joint_link.parent).empty();
+      const bool vertical = std::abs(std::abs(kin.axis_W.col(i).z()) - 1.0) < 1e-9;
+      fixed_height = fixed_height && revolute && parent_fixed && vertical;
+    }
+    floor_checked_.push_back(fixed_height ? 0 : 1);
+  }
+  const int num_capsules = static_cast<int>(robot_.capsules.size());
+  std::vector<int> group_of_link(model.num_links(), -1);
+  for (int c = 0; c < num_capsules; ++c) {
+    const int link = robot_.capsules[c].link;
+    if (group_of_link[link] < 0) {
+      group_of_link[link] = static_cast<int>(link_groups_.size());
+      link_groups_.push_back({link, {}});
+    }
+    link_groups_[group_of_link[link]].capsules.push_back(c);
+  }
+  const int num_groups = static_cast<int>(link_groups_.size());
+  for (int ga = 0; ga < num_groups; ++ga) {
+    for (int gb = ga + 1; gb < num_groups; ++gb) {
+      if (robot_.IsExcludedPair(link_groups_[ga].link, link_groups_[gb].link)) continue;
+      LinkPair pair{ga, gb, grouped_self_pairs_.size(), 0};
+      for (int a : link_groups_[ga].capsules) {
+        for (int b : link_groups_[gb].capsules) grouped_self_pairs_.emplace_back(a, b);
+      }
+      pair.end = grouped_self_pairs_.size();
+      self_link_pairs_.push_back(pair);
+    }
+  }
+  for (int a = 0; a < num_capsules; ++a) {
+    for (int b = a + 1; b < num_capsules; ++b) {
+      const int la = robot_.capsules[a].link, lb = robot_.capsules[b].link;
+      if (la != lb && !robot_.IsExcludedPair(la, lb)) self_pairs_.emplace_back(a, b);
+    }
+  }
+}
+
+RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
+    : kin(model.robot().model),
+      capsule_W(model.num_capsules()),
+      capsule_sphere(model.num_capsules()),
+      group_sphere(model.link_groups().size()) {}
+
+void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                RobotCollisionData* data) {
+  kinematics::CalcForwardKinematics(model.robot().model, q, &data->kin);
+  PlaceRobot(model, data->kin, data);
+}
+
+void PlaceRobot(const RobotCollisionModel& model, const kinematics::Data& kin, RobotCollisionData* data) {
+  const auto& capsules = model.robot().capsules;
+  for (size_t c = 0; c < capsules.size(); ++c) data->capsule_W[c] = kinematics::WorldCapsule(capsules[c], kin);
+  BoundingSpheres(model, data);
+}
+
+void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometry3d> X_WL, RobotCollisionData* data) {
+  RMPMARL_ASSERT(static_cast<int>(X_WL.size()) == model.robot().model.num_links(), "PlaceRobot: one pose per link");
+  const auto& capsules = model.robot().capsules;
+  for (size_t c = 0; c < capsules.size(); ++c) {
+    const Eigen::Isometry3d& X = X_WL[capsules[c].link];
+    data->capsule_W[c] = {X * capsules[c].p_LA, X * capsules[c].p_LB, capsules[c].radius};
+  }
+  BoundingSpheres(model, data);
+}
+
+double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                             const rmp::Obstacle& o, int index, double stop_below, double d, ClearancePair* pair) {
+  auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
+  const Eigen::Vector3d centre = rmp::Centre(o);
+  const double radius = rmp::BoundingRadius(o);
+  // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
+  // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
+  const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
+  math::Box box = o.box;
+  if (o.shape == rmp::ObstacleShape::kCylinder) {
+    box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
+  }
+  const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
+  // a sphere (centre, radius) that cannot come closer to the obstacle than what was found
+  auto sphere_out = [&](const Eigen::Vector4d& sphere) {
+    if (SpheresCannotMatter(sphere, centre, radius, d, stop_below)) return true;
+    if (!boxed) return false;
+    // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
+    const Eigen::Vector3d p = (X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
+    return cannot_matter(p.cwiseMax(0.0).norm() + std::min(p.maxCoeff(), 0.0) - sphere[3]);
+  };
+  const auto& groups = model.link_groups();
+  const auto& capsules = model.robot().capsules;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    if (sphere_out(data.group_sphere[g])) continue;
+    for (int c : groups[g].capsules) {
+      if (sphere_out(data.capsule_sphere[c])) continue;
+      if (o.shape == rmp::ObstacleShape::kCylinder &&
+          cannot_matter(math::CapsuleBoxDistance(data.capsule_W[c], box).distance)) {
+        continue;
+      }
+      const double distance = rmp::CapsuleObstacleDistance(data.capsule_W[c], o).distance;
+      if (distance < d) {
+        d = distance;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  return d;
+}
+
+double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                             std::span<const rmp::Obstacle> obstacles, double stop_below, double d,
+                             ClearancePair* pair) {
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    d = CalcObstacleClearance(model, data, obstacles[k], static_cast<int>(k), stop_below, d, pair);
+    if (d <= stop_below) return d;
+  }
+  return d;
+}
+
+double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionData& data, double stop_below,
+                         double d, ClearancePair* pair) {
+  const RobotCollisionOptions& options = model.options();
+  const auto& capsules = model.robot().capsules;
+  if (options.check_floor) {
+    for (size_t c = 0; c < data.capsule_W.size(); ++c) {
+      if (!model.floor_checked(static_cast<int>(c))) continue;
+      const math::Capsule& w = data.capsule_W[c];
+      const double z = std::min(w.p_WA.z(), w.p_WB.z()) - w.radius;
+      if (z - options.floor_height < d) {
+        d = z - options.floor_height;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kFloor, capsules[c].link, -1, -1};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  const auto& pairs = model.grouped_self_pairs();
+  for (const RobotCollisionModel::LinkPair& links : model.self_link_pairs()) {
+    if (SpheresCannotMatter(data.group_sphere[links.group_a], data.group_sphere[links.group_b].head<3>(),
+                            data.group_sphere[links.group_b][3], d, stop_below)) {
+      continue;
+    }
+    for (size_t i = links.begin; i < links.end; ++i) {
+      const auto [a, b] = pairs[i];
+      if (SpheresCannotMatter(data.capsule_sphere[a], data.capsule_sphere[b].head<3>(), data.capsule_sphere[b][3], d,
+                              stop_below)) {
+        continue;
+      }
+      const double distance = math::CapsuleCapsuleDistance(data.capsule_W[a], data.capsule_W[b]).distance;
+      if (distance < d) {
+        d = distance;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  return d;
+}
+
+double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data) {
+  double d = kInf;
+  for (const auto& [a, b] : model.self_pairs()) {
+    d = std::min(d, math::CapsuleCapsuleDistance(data.capsule_W[a], data.capsule_W[b]).distance);
+  }
+  return d;
+}
+
+ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                                 std::span<const rmp::Obstacle> obstacles, RobotCollisionData* data) {
+  PlaceRobot(model, q, data);
+  ClearancePair pair;
+  const double d = CalcObstacleClearance(model, *data, obstacles, -kInf, kInf, &pair);
+  CalcSelfClearance(model, *data, -kInf, d, &pair);
+  return pair;
+}
+
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data) {
+  PlaceRobot(model, q, data);
+  const double d = CalcObstacleClearance(model, *data, obstacles, margin);
+  if (d <= margin) return false;
+  return CalcSelfClearance(model, *data, margin, d) > margin;
+}
+
+bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,
+                            const Eigen::Ref<const Eigen::VectorXd>& q1, std::span<const rmp::Obstacle> obstacles,
+                            double margin, double resolution, RobotCollisionData* data, Eigen::VectorXd* scratch) {
+  RMPMARL_ASSERT(resolution > 0.0, "CheckEdgeCollisionFree: resolution > 0");
+  const int n = std::max(1, static_cast<int>(std::ceil((q1 - q0).norm() / resolution)));
+  for (int k = 1; k <= n; ++k) {
+    *scratch = q0 + (static_cast<double>(k) / n) * (q1 - q0);
+    if (!CheckConfigCollisionFree(model, *scratch, obstacles, margin, data)) return false;
+  }
+  return true;
+}
+
+}  // namespace rmpmarl::collision

@@ -1,0 +1,267 @@
+// The robot collision checker against an exhaustive search over every pair it is meant to check (written here from
+// the capsule distance functions alone, no broad phase), on every shipped arm at random configurations with random
+// boxes, spheres and cylinders near them; its edge check against the configurations of the edge checked one by one;
+// its three ways of placing the capsules against each other; no allocation in a check.
+#include "rmpmarl/collision/checker.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "../kinematics/test_robots.h"
+#include "../support/alloc_counter.h"
+#include "rmpmarl/common/error.h"
+#include "rmpmarl/kinematics/forward_kinematics.h"
+#include "rmpmarl/math/geometry.h"
+
+namespace rmpmarl::collision {
+namespace {
+
+using Eigen::Vector3d;
+using Eigen::VectorXd;
+
+const std::vector<std::string> kArms = {"panda", "ur5e", "iiwa14", "gen3", "xarm6", "irb120"};
+
+// the obstacles of a trial: a box, a sphere and a cylinder placed around random capsules of the arm at q, some
+// touching it, some clear of it
+std::vector<rmp::Obstacle> ObstaclesNear(const kinematics::Robot& robot, const VectorXd& q, std::mt19937_64& rng) {
+  kinematics::Data data(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &data);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  std::normal_distribution<double> N(0.0, 1.0);
+  auto near_point = [&](double reach) {
+    const auto& c = robot.capsules[rng() % robot.capsules.size()];
+    const Vector3d p = data.X_WL[c.link] * (c.p_LA + U(rng) * (c.p_LB - c.p_LA));
+    return Vector3d(p + Vector3d(N(rng), N(rng), N(rng)).normalized() * (c.radius + reach * U(rng)));
+  };
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() = Eigen::Quaterniond(N(rng), N(rng), N(rng), N(rng)).normalized().toRotationMatrix();
+  X.translation() = near_point(0.15);
+  std::vector<rmp::Obstacle> obstacles;
+  obstacles.push_back(rmp::Obstacle::MakeBox(X, Vector3d(0.02 + 0.1 * U(rng), 0.02 + 0.1 * U(rng), 0.01 + 0.05 * U(rng))));
+  obstacles.push_back(rmp::Obstacle::MakeSphere(near_point(0.12), 0.02 + 0.05 * U(rng)));
+  X.linear() = Eigen::Quaterniond(N(rng), N(rng), N(rng), N(rng)).normalized().toRotationMatrix();
+  X.translation() = near_point(0.2);
+  obstacles.push_back(rmp::Obstacle::MakeCylinder(X, 0.02 + 0.04 * U(rng), 0.05 + 0.1 * U(rng)));
+  return obstacles;
+}
+
+// the exhaustive answer: every capsule against every obstacle, the floor for capsules whose height can change (found
+// here from the joint axes), every capsule pair of distinct links the robot does not exclude
+struct Exhaustive {
+  double obstacles = INFINITY, floor = INFINITY, self = INFINITY;
+  double all() const { return std::min({obstacles, floor, self}); }
+};
+
+Exhaustive ExhaustiveClearance(const kinematics::Robot& robot, const VectorXd& q,
+                               const std::vector<rmp::Obstacle>& obstacles, bool check_floor) {
+  kinematics::Data data(robot.model), at_zero(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &data);
+  kinematics::CalcForwardKinematics(robot.model, VectorXd::Zero(robot.model.nq()), &at_zero);
+  Exhaustive e;
+  for (size_t a = 0; a < robot.capsules.size(); ++a) {
+    const kinematics::LinkCapsule& ca = robot.capsules[a];
+    const math::Capsule wa = kinematics::WorldCapsule(ca, data);
+    for (const rmp::Obstacle& o : obstacles) {
+      e.obstacles = std::min(e.obstacles, rmp::CapsuleObstacleDistance(wa, o).distance);
+    }
+    bool fixed_height = true;
+    for (int i : robot.model.link_dofs(ca.link)) {
+      const kinematics::Link& joint = robot.model.link(robot.model.dof_link(i));
+      fixed_height = fixed_height && joint.joint_type != kinematics::JointType::kPrismatic &&
+                     robot.model.link_dofs(joint.parent).empty() &&
+                     std::abs(std::abs(at_zero.axis_W.col(i).z()) - 1.0) < 1e-9;
+    }
+    if (check_floor && !fixed_height) {
+      e.floor = std::min(e.floor, std::min(wa.p_WA.z(), wa.p_WB.z()) - wa.radius);
+    }
+    for (size_t b = a + 1; b < robot.capsules.size(); ++b) {
+      const kinematics::LinkCapsule& cb = robot.capsules[b];
+      if (ca.link == cb.link || robot.IsExcludedPair(ca.link, cb.link)) continue;
+      e.self = std::min(e.self,
+                        math::CapsuleCapsuleDistance(wa, kinematics::WorldCapsule(cb, data)).distance);
+    }
+  }
+  return e;
+}
+
+// the distance of the pair a ClearancePair names, from the capsules of its links
+double PairDistance(const kinematics::Robot& robot, const VectorXd& q, const std::vector<rmp::Obstacle>& obstacles,
+                    const ClearancePair& pair) {
+  kinematics::Data data(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &data);
+  double d = INFINITY;
+  for (const kinematics::LinkCapsule& a : robot.capsules) {
+    if (a.link != pair.link) continue;
+    const math::Capsule wa = kinematics::WorldCapsule(a, data);
+    if (pair.kind == ClearancePair::Kind::kObstacle) {
+      d = std::min(d, rmp::CapsuleObstacleDistance(wa, obstacles[pair.obstacle]).distance);
+    } else if (pair.kind == ClearancePair::Kind::kFloor) {
+      d = std::min(d, std::min(wa.p_WA.z(), wa.p_WB.z()) - wa.radius);
+    } else {
+      for (const kinematics::LinkCapsule& b : robot.capsules) {
+        if (b.link == pair.other_link) {
+          d = std::min(d, math::CapsuleCapsuleDistance(wa, kinematics::WorldCapsule(b, data)).distance);
+        }
+      }
+    }
+  }
+  return d;
+}
+
+TEST(RobotCollisionCheckerTest, ClearanceIsTheSmallestDistanceOfEveryCheckedPairOnEveryArm) {
+  std::mt19937_64 rng(11);
+  int obstacle = 0, floor = 0, self = 0, touching = 0;
+  for (const std::string& name : kArms) {
+    const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
+    const RobotCollisionModel model(robot);
+    RobotCollisionData data(model);
+    for (int trial = 0; trial < 60; ++trial) {
+      const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      const std::vector<rmp::Obstacle> obstacles =
+          trial % 5 == 4 ? std::vector<rmp::Obstacle>{} : ObstaclesNear(robot, q, rng);
+      const Exhaustive e = ExhaustiveClearance(robot, q, obstacles, true);
+      const ClearancePair pair = CalcRobotClearance(model, q, obstacles, &data);
+      // exact: the broad phase skips only pairs that cannot come closer
+      ASSERT_EQ(pair.distance, e.all()) << name << " trial " << trial;
+      ASSERT_EQ(PairDistance(robot, q, obstacles, pair), pair.distance) << name << " trial " << trial;
+      EXPECT_EQ(CalcObstacleClearance(model, data, obstacles), e.obstacles);
+      EXPECT_EQ(CalcSelfCapsuleClearance(model, data), e.self);
+      EXPECT_EQ(CalcSelfClearance(model, data), std::min(e.self, e.floor));
+      obstacle += pair.kind == ClearancePair::Kind::kObstacle;
+      floor += pair.kind == ClearancePair::Kind::kFloor;
+      self += pair.kind == ClearancePair::Kind::kSelf;
+      touching += pair.distance <= 0.0;
+      // a check with a margin says the same as the clearance, whichever part returns early
+      for (double margin : {0.0, 0.01, 0.05}) {
+        EXPECT_EQ(CheckConfigCollisionFree(model, q, obstacles, margin, &data), e.all() > margin)
+            << name << " trial " << trial << " margin " << margin;
+      }
+    }
+    // without the floor, the floor is not what attains it
+    const RobotCollisionModel no_floor(robot, {.check_floor = false});
+    RobotCollisionData data_no_floor(no_floor);
+    const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+    const std::vector<rmp::Obstacle> obstacles = ObstaclesNear(robot, q, rng);
+    EXPECT_EQ(CalcRobotClearance(no_floor, q, obstacles, &data_no_floor).distance,
+              ExhaustiveClearance(robot, q, obstacles, false).all());
+  }
+  std::printf("[ checker ] %zu arms x 60 configurations: closest to an obstacle %d, the floor %d, another link %d; "
+              "%d in contact\n", kArms.size(), obstacle, floor, self, touching);
+  EXPECT_GT(obstacle, 50);
+  EXPECT_GT(self, 5);
+  EXPECT_GT(touching, 30);
+}
+
+TEST(RobotCollisionCheckerTest, AnEdgeIsFreeWhenEveryConfigurationAlongItIs) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  const RobotCollisionModel model(robot);
+  RobotCollisionData data(model);
+  std::mt19937_64 rng(5);
+  int free_edges = 0, blocked = 0;
+  VectorXd scratch(robot.model.nq());
+  // edges around the Panda's ready posture (clear of itself and the floor), some through the obstacles
+  VectorXd ready(7);
+  ready << 0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785;
+  std::uniform_real_distribution<double> U(-0.5, 0.5);
+  auto near_ready = [&] {
+    VectorXd q = ready;
+    for (int i = 0; i < q.size(); ++i) q[i] += U(rng);
+    return q;
+  };
+  for (int trial = 0; trial < 40; ++trial) {
+    const VectorXd q0 = near_ready();
+    const VectorXd q1 = near_ready();
+    // one of the three obstacles placed near the edge's end
+    const std::vector<rmp::Obstacle> obstacles = {ObstaclesNear(robot, q1, rng)[trial % 3]};
+    const double resolution = 0.02;
+    // the states the edge check promises to look at, checked one by one against the exhaustive clearance
+    const int n = std::max(1, static_cast<int>(std::ceil((q1 - q0).norm() / resolution)));
+    bool expected = true;
+    for (int k = 1; k <= n && expected; ++k) {
+      const VectorXd q = q0 + (static_cast<double>(k) / n) * (q1 - q0);
+      expected = ExhaustiveClearance(robot, q, obstacles, true).all() > 0.0;
+    }
+    EXPECT_EQ(CheckEdgeCollisionFree(model, q0, q1, obstacles, 0.0, resolution, &data, &scratch), expected)
+        << "trial " << trial;
+    ++(expected ? free_edges : blocked);
+  }
+  EXPECT_GT(free_edges, 5);
+  EXPECT_GT(blocked, 5);
+}
+
+TEST(RobotCollisionCheckerTest, TheThreeWaysOfPlacingTheCapsulesAgree) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("iiwa14");
+  const RobotCollisionModel model(robot);
+  RobotCollisionData by_q(model), by_kin(model), by_poses(model);
+  std::mt19937_64 rng(3);
+  const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+  kinematics::Data kin(robot.model);
+  kinematics::CalcForwardKinematics(robot.model, q, &kin);
+  PlaceRobot(model, q, &by_q);
+  PlaceRobot(model, kin, &by_kin);
+  PlaceRobot(model, std::span<const Eigen::Isometry3d>(kin.X_WL), &by_poses);
+  for (int c = 0; c < model.num_capsules(); ++c) {
+    for (const RobotCollisionData* d : {&by_kin, &by_poses}) {
+      EXPECT_EQ(d->capsule_W[c].p_WA, by_q.capsule_W[c].p_WA);
+      EXPECT_EQ(d->capsule_W[c].p_WB, by_q.capsule_W[c].p_WB);
+      EXPECT_EQ(d->capsule_sphere[c], by_q.capsule_sphere[c]);
+    }
+  }
+  // each link group's sphere holds its capsules
+  for (size_t g = 0; g < model.link_groups().size(); ++g) {
+    for (int c : model.link_groups()[g].capsules) {
+      const math::Capsule& w = by_q.capsule_W[c];
+      for (const Vector3d& p : {w.p_WA, w.p_WB}) {
+        EXPECT_LE((p - by_q.group_sphere[g].head<3>()).norm() + w.radius, by_q.group_sphere[g][3] + 1e-12);
+      }
+    }
+  }
+}
+
+TEST(RobotCollisionCheckerTest, ModelListsTheCheckedPairsBothWaysAndTheFloorCapsules) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  const RobotCollisionModel model(robot);
+  std::vector<std::pair<int, int>> grouped = model.grouped_self_pairs();
+  for (auto& [a, b] : grouped) {
+    if (a > b) std::swap(a, b);
+  }
+  std::sort(grouped.begin(), grouped.end());
+  EXPECT_EQ(grouped, model.self_pairs());
+  for (size_t i = 1; i < model.self_pairs().size(); ++i) EXPECT_LT(model.self_pairs()[i - 1], model.self_pairs()[i]);
+  // the Panda's base and joint-1 column cannot reach the floor; its wrist can
+  const int link0 = robot.model.LinkIndex("panda_link0"), link1 = robot.model.LinkIndex("panda_link1");
+  const int link6 = robot.model.LinkIndex("panda_link6");
+  for (int c = 0; c < model.num_capsules(); ++c) {
+    const int link = robot.capsules[c].link;
+    if (link == link0 || link == link1) EXPECT_FALSE(model.floor_checked(c));
+    if (link == link6) EXPECT_TRUE(model.floor_checked(c));
+  }
+  EXPECT_THROW(RobotCollisionModel(robot, {.check_floor = true, .floor_height = NAN}), InputError);
+}
+
+TEST(RobotCollisionCheckerTest, ACheckAllocatesNothing) {
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  const RobotCollisionModel model(robot);
+  RobotCollisionData data(model);
+  std::mt19937_64 rng(9);
+  const VectorXd q0 = testing::RandomConfiguration(robot.model, rng);
+  const VectorXd q1 = testing::RandomConfiguration(robot.model, rng);
+  const std::vector<rmp::Obstacle> obstacles = ObstaclesNear(robot, q0, rng);
+  VectorXd scratch(robot.model.nq());
+  const long before = testing::AllocationCount();
+  bool any = CheckConfigCollisionFree(model, q0, obstacles, 0.01, &data);
+  any = CheckEdgeCollisionFree(model, q0, q1, obstacles, 0.01, 0.05, &data, &scratch) || any;
+  const ClearancePair pair = CalcRobotClearance(model, q1, obstacles, &data);
+  EXPECT_EQ(testing::AllocationCount(), before);
+  EXPECT_TRUE(std::isfinite(pair.distance));
+  (void)any;
+}
+
+}  // namespace
+}  // namespace rmpmarl::collision
