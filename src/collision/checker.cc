@@ -14,6 +14,9 @@ namespace rmpmarl::collision {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// the broad phase's spheres are this much larger than what they bound [m], so that rounding in moving them with
+// their links never leaves a capsule poking out of its sphere
+constexpr double kSphereSlack = 1e-9;
 
 // a pair whose distance is bounded below by `lower_bound` cannot lower the smallest distance d found so far, nor, in a
 // check with a threshold (a finite stop_below), make the answer <= stop_below when the bound exceeds stop_below
@@ -27,23 +30,39 @@ bool SpheresCannotMatter(const Eigen::Vector4d& a, const Eigen::Vector3d& centre
   return CannotMatter((a.head<3>() - centre).norm() - a[3] - radius, d, stop_below);
 }
 
-// the bounding spheres of the placed capsules and of each link group
-void BoundingSpheres(const RobotCollisionModel& model, RobotCollisionData* data) {
-  for (size_t c = 0; c < data->capsule_W.size(); ++c) {
-    const math::Capsule& w = data->capsule_W[c];
-    data->capsule_sphere[c] << 0.5 * (w.p_WA + w.p_WB), 0.5 * (w.p_WB - w.p_WA).norm() + w.radius;
+// the bounding spheres of the placed capsules and of each link group: their link-frame spheres moved with the links
+template <typename Pose>
+void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCollisionData* data) {
+  const auto& capsules = model.robot().capsules;
+  for (size_t c = 0; c < capsules.size(); ++c) {
+    const Eigen::Vector4d& s = model.capsule_sphere_L(static_cast<int>(c));
+    data->capsule_sphere[c] << X_WL(capsules[c].link) * Eigen::Vector3d(s.head<3>()), s[3];
   }
   const auto& groups = model.link_groups();
   for (size_t g = 0; g < groups.size(); ++g) {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (int c : groups[g].capsules) centre += data->capsule_sphere[c].head<3>();
-    centre /= static_cast<double>(groups[g].capsules.size());
-    double radius = 0.0;
-    for (int c : groups[g].capsules) {
-      radius = std::max(radius, (data->capsule_sphere[c].head<3>() - centre).norm() + data->capsule_sphere[c][3]);
-    }
-    data->group_sphere[g] << centre, radius;
+    const Eigen::Vector4d& s = model.group_sphere_L(static_cast<int>(g));
+    data->group_sphere[g] << X_WL(groups[g].link) * Eigen::Vector3d(s.head<3>()), s[3];
   }
+}
+
+// the distance of one pair as ClearancePair names it, on the placed capsules; +inf when it names nothing it can
+// measure (kNone, or an obstacle index beyond those given)
+double PairDistance(const RobotCollisionModel& model, const RobotCollisionData& data,
+                    std::span<const rmp::Obstacle> obstacles, const ClearancePair& pair) {
+  switch (pair.kind) {
+    case ClearancePair::Kind::kObstacle:
+      if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return kInf;
+      return rmp::CapsuleObstacleDistance(data.capsule_W[pair.capsule], obstacles[pair.obstacle]).distance;
+    case ClearancePair::Kind::kFloor: {
+      const math::Capsule& w = data.capsule_W[pair.capsule];
+      return std::min(w.p_WA.z(), w.p_WB.z()) - w.radius - model.options().floor_height;
+    }
+    case ClearancePair::Kind::kSelf:
+      return math::CapsuleCapsuleDistance(data.capsule_W[pair.capsule], data.capsule_W[pair.other_capsule]).distance;
+    case ClearancePair::Kind::kNone:
+      break;
+  }
+  return kInf;
 }
 
 }  // namespace
@@ -98,6 +117,21 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
       if (la != lb && !robot_.IsExcludedPair(la, lb)) self_pairs_.emplace_back(a, b);
     }
   }
+  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+    capsule_sphere_L_.emplace_back();
+    capsule_sphere_L_.back() << 0.5 * (c.p_LA + c.p_LB), 0.5 * (c.p_LB - c.p_LA).norm() + c.radius + kSphereSlack;
+  }
+  for (const LinkGroup& g : link_groups_) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (int c : g.capsules) centre += capsule_sphere_L_[c].head<3>();
+    centre /= static_cast<double>(g.capsules.size());
+    double radius = 0.0;
+    for (int c : g.capsules) {
+      radius = std::max(radius, (capsule_sphere_L_[c].head<3>() - centre).norm() + capsule_sphere_L_[c][3]);
+    }
+    group_sphere_L_.emplace_back();
+    group_sphere_L_.back() << centre, radius + kSphereSlack;
+  }
 }
 
 RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
@@ -115,7 +149,7 @@ void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::
 void PlaceRobot(const RobotCollisionModel& model, const kinematics::Data& kin, RobotCollisionData* data) {
   const auto& capsules = model.robot().capsules;
   for (size_t c = 0; c < capsules.size(); ++c) data->capsule_W[c] = kinematics::WorldCapsule(capsules[c], kin);
-  BoundingSpheres(model, data);
+  BoundingSpheres(model, [&kin](int link) -> const Eigen::Isometry3d& { return kin.X_WL[link]; }, data);
 }
 
 void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometry3d> X_WL, RobotCollisionData* data) {
@@ -125,7 +159,7 @@ void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometr
     const Eigen::Isometry3d& X = X_WL[capsules[c].link];
     data->capsule_W[c] = {X * capsules[c].p_LA, X * capsules[c].p_LB, capsules[c].radius};
   }
-  BoundingSpheres(model, data);
+  BoundingSpheres(model, [&X_WL](int link) -> const Eigen::Isometry3d& { return X_WL[link]; }, data);
 }
 
 double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
@@ -162,7 +196,7 @@ double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollis
       const double distance = rmp::CapsuleObstacleDistance(data.capsule_W[c], o).distance;
       if (distance < d) {
         d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index};
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index, c, -1};
       }
       if (d <= stop_below) return d;
     }
@@ -191,7 +225,9 @@ double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionD
       const double z = std::min(w.p_WA.z(), w.p_WB.z()) - w.radius;
       if (z - options.floor_height < d) {
         d = z - options.floor_height;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kFloor, capsules[c].link, -1, -1};
+        if (pair != nullptr) {
+          *pair = {d, ClearancePair::Kind::kFloor, capsules[c].link, -1, -1, static_cast<int>(c), -1};
+        }
       }
       if (d <= stop_below) return d;
     }
@@ -211,7 +247,7 @@ double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionD
       const double distance = math::CapsuleCapsuleDistance(data.capsule_W[a], data.capsule_W[b]).distance;
       if (distance < d) {
         d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1};
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
       }
       if (d <= stop_below) return d;
     }
@@ -236,12 +272,25 @@ ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::
   return pair;
 }
 
+bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const rmp::Obstacle> obstacles,
+                              double obstacle_margin, double self_margin, bool obstacles_only,
+                              RobotCollisionData* data) {
+  ClearancePair& hit = data->last_hit;
+  if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
+    const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
+    if (PairDistance(model, *data, obstacles, hit) <= margin) return false;
+  }
+  if (CalcObstacleClearance(model, *data, obstacles, obstacle_margin, kInf, &hit) <= obstacle_margin) return false;
+  if (obstacles_only || CalcSelfClearance(model, *data, self_margin, kInf, &hit) > self_margin) {
+    return true;
+  }
+  return false;
+}
+
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data) {
   PlaceRobot(model, q, data);
-  const double d = CalcObstacleClearance(model, *data, obstacles, margin);
-  if (d <= margin) return false;
-  return CalcSelfClearance(model, *data, margin, d) > margin;
+  return CheckPlacedCollisionFree(model, obstacles, margin, margin, false, data);
 }
 
 bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,

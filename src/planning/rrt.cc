@@ -130,7 +130,7 @@ bool RrtPolicy::Impl::RemainingPathValid(const Eigen::Ref<const Eigen::VectorXd>
   margin = path_margin;
   Reference(time - path_start_time);
   q_now = q;
-  if (Clearance(q_now, true, margin) <= margin) return false;
+  if (!CollisionFree(q_now, /*obstacles_only=*/true)) return false;
   if (!SegmentValid(q_now, q_d, true)) return false;
   const Eigen::VectorXd* from = &q_d;
   for (size_t k = segment + 1; k < path.size(); ++k) {

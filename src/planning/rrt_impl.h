@@ -35,12 +35,16 @@ struct RrtPolicy::Impl {
   // q valid for a PlanPath search: its obstacle distances beyond MarginAt(q), its floor and self distances beyond
   // self_margin (an arm that always keeps two of its links close, inside the margin, can still move)
   bool ValidRelaxed(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
-    const double m = MarginAt(q);
-    if (Clearance(q, /*obstacles_only=*/true, m) <= m) return false;
-    return obstacles_only || SelfClearance(self_margin) > self_margin;
+    collision::PlaceRobot(checker, q, &placed);
+    return collision::CheckPlacedCollisionFree(checker, obstacles, MarginAt(q), self_margin, obstacles_only, &placed);
+  }
+  // every checked distance at q (only the obstacles' with obstacles_only) > margin
+  bool CollisionFree(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
+    collision::PlaceRobot(checker, q, &placed);
+    return collision::CheckPlacedCollisionFree(checker, obstacles, margin, margin, obstacles_only, &placed);
   }
   // q within the bounds of the current plan and every checked distance > margin.
-  bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && Clearance(q, false, margin) > margin; }
+  bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && CollisionFree(q, false); }
   bool InBounds(const Eigen::Ref<const Eigen::VectorXd>& q) const { return Within(q, lower, upper); }
   // q within [lo, hi] to rounding
   static bool Within(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {

@@ -55,7 +55,7 @@ bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::Vector
     if (within_limits && !Within(scratch, limit_lower, limit_upper)) return false;
     if (split_margins) {
       if (!ValidRelaxed(scratch, obstacles_only)) return false;
-    } else if (Clearance(scratch, obstacles_only, margin) <= margin) {
+    } else if (!CollisionFree(scratch, obstacles_only)) {
       return false;
     }
   }
@@ -81,7 +81,7 @@ std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_star
   si->setStateValidityChecker([this](const ob::State* state) {
     const double* v = state->as<ob::RealVectorStateSpace::StateType>()->values;
     const Eigen::Map<const Eigen::VectorXd> q(v, nq);
-    return split_margins ? ValidRelaxed(q, false) : Clearance(q, false, margin) > margin;
+    return split_margins ? ValidRelaxed(q, false) : CollisionFree(q, false);
   });
   si->setStateValidityCheckingResolution(options.validity_resolution / space->getMaximumExtent());
   si->setup();

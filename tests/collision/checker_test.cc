@@ -130,6 +130,17 @@ TEST(RobotCollisionCheckerTest, ClearanceIsTheSmallestDistanceOfEveryCheckedPair
       // exact: the broad phase skips only pairs that cannot come closer
       ASSERT_EQ(pair.distance, e.all()) << name << " trial " << trial;
       ASSERT_EQ(PairDistance(robot, q, obstacles, pair), pair.distance) << name << " trial " << trial;
+      // the capsules it names are the ones attaining it
+      if (pair.kind != ClearancePair::Kind::kNone) {
+        const math::Capsule a = data.capsule_W[pair.capsule];
+        EXPECT_EQ(robot.capsules[pair.capsule].link, pair.link);
+        const double d = pair.kind == ClearancePair::Kind::kObstacle
+                             ? rmp::CapsuleObstacleDistance(a, obstacles[pair.obstacle]).distance
+                         : pair.kind == ClearancePair::Kind::kFloor
+                             ? std::min(a.p_WA.z(), a.p_WB.z()) - a.radius
+                             : math::CapsuleCapsuleDistance(a, data.capsule_W[pair.other_capsule]).distance;
+        EXPECT_EQ(d, pair.distance);
+      }
       EXPECT_EQ(CalcObstacleClearance(model, data, obstacles), e.obstacles);
       EXPECT_EQ(CalcSelfCapsuleClearance(model, data), e.self);
       EXPECT_EQ(CalcSelfClearance(model, data), std::min(e.self, e.floor));
@@ -213,12 +224,18 @@ TEST(RobotCollisionCheckerTest, TheThreeWaysOfPlacingTheCapsulesAgree) {
       EXPECT_EQ(d->capsule_sphere[c], by_q.capsule_sphere[c]);
     }
   }
-  // each link group's sphere holds its capsules
+  // each capsule's and each link group's sphere holds its capsules
+  for (int c = 0; c < model.num_capsules(); ++c) {
+    const math::Capsule& w = by_q.capsule_W[c];
+    for (const Vector3d& p : {w.p_WA, w.p_WB}) {
+      EXPECT_LE((p - by_q.capsule_sphere[c].head<3>()).norm() + w.radius, by_q.capsule_sphere[c][3]);
+    }
+  }
   for (size_t g = 0; g < model.link_groups().size(); ++g) {
     for (int c : model.link_groups()[g].capsules) {
       const math::Capsule& w = by_q.capsule_W[c];
       for (const Vector3d& p : {w.p_WA, w.p_WB}) {
-        EXPECT_LE((p - by_q.group_sphere[g].head<3>()).norm() + w.radius, by_q.group_sphere[g][3] + 1e-12);
+        EXPECT_LE((p - by_q.group_sphere[g].head<3>()).norm() + w.radius, by_q.group_sphere[g][3]);
       }
     }
   }

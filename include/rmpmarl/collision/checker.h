@@ -16,9 +16,12 @@
 ///
 /// Broad phase. Each link's capsules share a bounding sphere; a link (then a capsule) whose sphere cannot come closer
 /// to an obstacle than what was found is skipped, and for a box (or a cylinder's enclosing box) the box's own distance
-/// at the sphere's centre, a tighter bound, decides. Skipping only pairs bounded below by the smallest distance found
-/// keeps the clearance exact; a check with a threshold (stop_below) also skips pairs bounded above it and returns as
-/// soon as one distance is at or below it.
+/// at the sphere's centre, a tighter bound, decides. The spheres are fixed in their links' frames (built once, 1 nm
+/// larger than the capsules so that rounding never makes one too small) and only moved with the link. Skipping only
+/// pairs bounded below by the smallest distance found keeps the clearance exact; a check with a threshold (stop_below)
+/// also skips pairs bounded above it and returns as soon as one distance is at or below it. A collision check first
+/// tries the pair that failed the last check of the same data (a path's neighbouring configurations usually fail on
+/// the same pair); the answer does not depend on that order.
 #include <Eigen/Core>
 #include <limits>
 #include <span>
@@ -50,6 +53,8 @@ struct ClearancePair {
   int link = -1;        ///< the link of the capsule attaining it (-1 for kNone)
   int other_link = -1;  ///< kSelf: the other capsule's link
   int obstacle = -1;    ///< kObstacle: its index in the obstacles given
+  int capsule = -1;        ///< the capsule attaining it (index in the robot's capsules; -1 for kNone)
+  int other_capsule = -1;  ///< kSelf: the other capsule
 };
 
 /// What the checker knows of a robot (immutable once built).
@@ -80,6 +85,10 @@ class RobotCollisionModel {
   const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
   /// per capsule: checked against the floor (its height can change)
   bool floor_checked(int capsule) const { return floor_checked_[capsule] != 0; }
+  /// per capsule: its bounding sphere in its link's frame (centre, radius)
+  const Eigen::Vector4d& capsule_sphere_L(int capsule) const { return capsule_sphere_L_[capsule]; }
+  /// per link group: a sphere around its capsules' spheres in the link's frame (centre, radius)
+  const Eigen::Vector4d& group_sphere_L(int group) const { return group_sphere_L_[group]; }
 
  private:
   kinematics::Robot robot_;
@@ -89,6 +98,7 @@ class RobotCollisionModel {
   std::vector<std::pair<int, int>> grouped_self_pairs_;
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<char> floor_checked_;
+  std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
 };
 
 /// The robot's capsules placed at one configuration (preallocated for a model).
@@ -98,6 +108,7 @@ struct RobotCollisionData {
   std::vector<math::Capsule> capsule_W;        ///< per capsule, in world
   std::vector<Eigen::Vector4d> capsule_sphere;  ///< per capsule: bounding sphere (centre, radius)
   std::vector<Eigen::Vector4d> group_sphere;    ///< per link group: a sphere around its capsules' spheres
+  ClearancePair last_hit;  ///< the pair that failed the last CheckPlacedCollisionFree (kNone: none yet)
 };
 
 /// places the capsules at q (forward kinematics into data->kin). \pre q of the model's size (checked by callers at
@@ -127,6 +138,12 @@ double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionD
                          double d = std::numeric_limits<double>::infinity(), ClearancePair* pair = nullptr);
 /// the smallest distance between capsules of checked link pairs alone (no floor), exact.
 double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data);
+
+/// the placed capsules are clear of the obstacles by more than obstacle_margin and, unless obstacles_only, of the floor
+/// and each other by more than self_margin. Tries data->last_hit first and leaves there the closest pair it measured
+/// (the failing one when it fails).
+bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const rmp::Obstacle> obstacles,
+                              double obstacle_margin, double self_margin, bool obstacles_only, RobotCollisionData* data);
 
 /// the robot's clearance at q: obstacles, floor and self pairs, exact, with the pair attaining it.
 ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
