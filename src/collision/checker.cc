@@ -298,11 +298,10 @@ bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<c
                             double margin, double resolution, RobotCollisionData* data, Eigen::VectorXd* scratch) {
   RMPMARL_ASSERT(resolution > 0.0, "CheckEdgeCollisionFree: resolution > 0");
   const int n = std::max(1, static_cast<int>(std::ceil((q1 - q0).norm() / resolution)));
-  for (int k = 1; k <= n; ++k) {
+  return VisitEdgeStatesCoarseToFine(n, [&](int k) {
     *scratch = q0 + (static_cast<double>(k) / n) * (q1 - q0);
-    if (!CheckConfigCollisionFree(model, *scratch, obstacles, margin, data)) return false;
-  }
-  return true;
+    return CheckConfigCollisionFree(model, *scratch, obstacles, margin, data);
+  });
 }
 
 }  // namespace rmpmarl::collision

@@ -243,6 +243,13 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
                                robot.model.link(c.link).name, p.obstacle_names[c.obstacle], -1e3 * c.distance);
         return p;
       }
+      const MeshSelfContact self = CheckMeshSelfCollision(*options.meshes, kin, &data);
+      if (self.in_collision()) {
+        p.valid = false;
+        p.reason = fmt::format("{} in self-collision (meshes): {} with {}", what, robot.model.link(self.link).name,
+                               robot.model.link(self.other_link).name);
+        return p;
+      }
     }
   }
   // the capsule model collision-free at the start and the goal (no floor: the cell's own surfaces count): without
@@ -345,9 +352,10 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
         const auto start = std::chrono::steady_clock::now();
         const MeshClearance c =
             CalcMeshClearance(*options.meshes, *frame.kinematics, frame.scene->obstacles, &*mesh_data);
+        const bool self = CheckMeshSelfCollision(*options.meshes, *frame.kinematics, &*mesh_data).in_collision();
         mesh_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         ++mesh_steps;
-        if (c.in_collision()) ++r.mesh_collisions;
+        if (c.in_collision() || self) ++r.mesh_collisions;
         if (c.distance < r.min_mesh_clearance) {
           r.min_mesh_clearance = c.distance;
           r.min_mesh_pair =

@@ -134,6 +134,8 @@ struct MeshCollisionModel::Impl {
   MeshCollisionOptions options;
   std::vector<Geometry> geometries;
   std::vector<std::string> link_names;
+  // the geometry pairs of two links the robot checks against each other (distinct, not excluded)
+  std::vector<std::pair<int, int>> self_pairs;
   std::string unavailable_reason;
   bool geometry_missing = false;  // the URDF has <collision> geometry that could not be read
   std::string summary;
@@ -150,6 +152,9 @@ struct MeshCollisionData::Impl {
   std::vector<WorldBox> geometry_box;            // per geometry, in W
   std::vector<Eigen::Vector4d> geometry_sphere;  // per geometry: bounding sphere (centre, radius) in W
   std::vector<Candidate> candidates;             // the pairs within the cap, nearest bound first
+  // the geometries' world poses, boxes and spheres at the link poses of `kinematics`; the link of the first
+  // non-finite pose (-1: all finite)
+  int Pose(const kinematics::Data& kinematics);
 };
 
 namespace {
@@ -184,6 +189,13 @@ MeshCollisionModel::MeshCollisionModel(const kinematics::Robot& robot, const Mes
   impl->options = options;
   for (const kinematics::Link& link : robot.model.links()) impl->link_names.push_back(link.name);
   impl->Read(robot);
+  const int n = static_cast<int>(impl->geometries.size());
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      const int la = impl->geometries[a].link, lb = impl->geometries[b].link;
+      if (la != lb && !robot.IsExcludedPair(la, lb)) impl->self_pairs.emplace_back(a, b);
+    }
+  }
   impl_ = impl;
 }
 
@@ -315,6 +327,49 @@ MeshCollisionData::~MeshCollisionData() = default;
 MeshCollisionData::MeshCollisionData(MeshCollisionData&&) noexcept = default;
 MeshCollisionData& MeshCollisionData::operator=(MeshCollisionData&&) noexcept = default;
 
+int MeshCollisionData::Impl::Pose(const kinematics::Data& kinematics) {
+  const MeshCollisionModel::Impl& m = *model;
+  for (size_t g = 0; g < m.geometries.size(); ++g) {
+    const MeshCollisionModel::Impl::Geometry& geometry = m.geometries[g];
+    if (!kinematics.X_WL[geometry.link].matrix().allFinite()) return geometry.link;
+    X_WG[g] = kinematics.X_WL[geometry.link] * geometry.X_LG;
+    geometry_box[g] = BoundBox(X_WG[g], geometry.p_GC, geometry.half);
+    geometry_sphere[g] << geometry_box[g].centre, geometry.half.norm();
+  }
+  return -1;
+}
+
+MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel& model, const kinematics::Data& kinematics,
+                                       MeshCollisionData* data) {
+  if (!model.available()) {
+    throw InputError("CheckMeshSelfCollision: the mesh model is not available: " + model.unavailable_reason());
+  }
+  const MeshCollisionModel::Impl& m = *model.impl_;
+  if (kinematics.X_WL.size() != m.link_names.size()) {
+    throw InputError(fmt::format("CheckMeshSelfCollision: expected the link poses of a robot with {} links, got {}",
+                                 m.link_names.size(), kinematics.X_WL.size()));
+  }
+  if (data == nullptr || data->impl_->model != model.impl_) {
+    throw InputError("CheckMeshSelfCollision: expected a MeshCollisionData made for this model");
+  }
+  MeshCollisionData::Impl& d = *data->impl_;
+  MeshSelfContact contact;
+  if (d.Pose(kinematics) >= 0) return contact;
+  const fcl::CollisionRequestd request;  // yes or no: one contact, no depth
+  for (const auto& [a, b] : m.self_pairs) {
+    if (BoxBoxDistance(d.geometry_box[a], d.geometry_box[b]) > 0.0) continue;
+    ++contact.exact_pairs;
+    fcl::CollisionResultd r;
+    fcl::collide(m.geometries[a].fcl.get(), d.X_WG[a], m.geometries[b].fcl.get(), d.X_WG[b], request, r);
+    if (r.isCollision()) {
+      contact.link = m.geometries[a].link;
+      contact.other_link = m.geometries[b].link;
+      return contact;
+    }
+  }
+  return contact;
+}
+
 MeshClearance CalcMeshClearance(const MeshCollisionModel& model, const kinematics::Data& kinematics,
                                 std::span<const rmp::Obstacle> obstacles, MeshCollisionData* data) {
   if (!model.available()) {
@@ -329,18 +384,12 @@ MeshClearance CalcMeshClearance(const MeshCollisionModel& model, const kinematic
     throw InputError("CalcMeshClearance: expected a MeshCollisionData made for this model");
   }
   MeshCollisionData::Impl& d = *data->impl_;
-  for (size_t g = 0; g < m.geometries.size(); ++g) {
-    const MeshCollisionModel::Impl::Geometry& geometry = m.geometries[g];
-    if (!kinematics.X_WL[geometry.link].matrix().allFinite()) {
-      // a diverged state: no clearance, and counted as a collision (MeshClearance::in_collision)
-      MeshClearance nan;
-      nan.distance = std::numeric_limits<double>::quiet_NaN();
-      nan.link = geometry.link;
-      return nan;
-    }
-    d.X_WG[g] = kinematics.X_WL[geometry.link] * geometry.X_LG;
-    d.geometry_box[g] = BoundBox(d.X_WG[g], geometry.p_GC, geometry.half);
-    d.geometry_sphere[g] << d.geometry_box[g].centre, geometry.half.norm();
+  if (const int diverged = d.Pose(kinematics); diverged >= 0) {
+    // a diverged state: no clearance, and counted as a collision (MeshClearance::in_collision)
+    MeshClearance nan;
+    nan.distance = std::numeric_limits<double>::quiet_NaN();
+    nan.link = diverged;
+    return nan;
   }
   // the pairs whose lower bound — the boxes' distance, and the obstacle's signed distance at the geometry's bounding
   // sphere less its radius — is below the cap, nearest first: the best distance then falls early and rules out the

@@ -50,7 +50,8 @@ struct RrtPolicy::Impl {
   static bool Within(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
     return ((q - lo).array() >= -1e-12).all() && ((hi - q).array() >= -1e-12).all();
   }
-  // the states of segment a → b at most validity_resolution apart (excluding a, including b) are valid; with
+  // the states of segment a → b at most validity_resolution apart (excluding a, including b; checked coarse to
+  // fine) are valid; with
   // obstacles_only, only the obstacle distances are checked (margin `margin`).
   bool SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only,
                     bool within_limits = false);

@@ -50,16 +50,12 @@ double RrtPolicy::Impl::SelfClearance(double stop_below, double d, ClearancePair
 bool RrtPolicy::Impl::SegmentValid(const Eigen::VectorXd& a, const Eigen::VectorXd& b, bool obstacles_only,
                                    bool within_limits) {
   const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / options.validity_resolution)));
-  for (int k = 1; k <= n; ++k) {
+  // coarse to fine: a shortcut through an obstacle fails at one of its first states (the answer is the same)
+  return collision::VisitEdgeStatesCoarseToFine(n, [&](int k) {
     scratch = a + (static_cast<double>(k) / n) * (b - a);
     if (within_limits && !Within(scratch, limit_lower, limit_upper)) return false;
-    if (split_margins) {
-      if (!ValidRelaxed(scratch, obstacles_only)) return false;
-    } else if (!CollisionFree(scratch, obstacles_only)) {
-      return false;
-    }
-  }
-  return true;
+    return split_margins ? ValidRelaxed(scratch, obstacles_only) : CollisionFree(scratch, obstacles_only);
+  });
 }
 
 std::vector<Eigen::VectorXd> RrtPolicy::Impl::Plan(const Eigen::VectorXd& q_start, const Eigen::VectorXd& q_goal) {

@@ -206,6 +206,37 @@ TEST(RobotCollisionCheckerTest, AnEdgeIsFreeWhenEveryConfigurationAlongItIs) {
   EXPECT_GT(blocked, 5);
 }
 
+TEST(RobotCollisionCheckerTest, CoarseToFineVisitsEveryStateOnceTheEndFirst) {
+  for (int n = 0; n <= 70; ++n) {
+    std::vector<int> order;
+    EXPECT_TRUE(VisitEdgeStatesCoarseToFine(n, [&](int k) {
+      order.push_back(k);
+      return true;
+    }));
+    ASSERT_EQ(static_cast<int>(order.size()), n) << "n=" << n;
+    if (n > 0) EXPECT_EQ(order.front(), n);
+    std::vector<int> sorted = order;
+    std::sort(sorted.begin(), sorted.end());
+    for (int k = 1; k <= n; ++k) EXPECT_EQ(sorted[k - 1], k) << "n=" << n;
+    // coarse first: the largest gap left after the first half of the visits is at most twice the smallest step
+    if (n >= 8) {
+      std::vector<int> first(order.begin(), order.begin() + n / 2);
+      first.push_back(0);
+      std::sort(first.begin(), first.end());
+      int gap = 0;
+      for (size_t i = 1; i < first.size(); ++i) gap = std::max(gap, first[i] - first[i - 1]);
+      EXPECT_LE(gap, 4) << "n=" << n;
+    }
+  }
+  // it stops at the first refusal
+  int visits = 0;
+  EXPECT_FALSE(VisitEdgeStatesCoarseToFine(100, [&](int k) {
+    ++visits;
+    return k != 64;
+  }));
+  EXPECT_EQ(visits, 2);  // 100, then 64
+}
+
 TEST(RobotCollisionCheckerTest, TheThreeWaysOfPlacingTheCapsulesAgree) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("iiwa14");
   const RobotCollisionModel model(robot);

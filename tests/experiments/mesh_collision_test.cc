@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -177,6 +178,65 @@ TEST(MeshCollisionTest, UrdfPrimitivesArePosedByTheirOrigins) {
                                                               0.01)},
                         &data);
   EXPECT_NEAR(c.distance, 0.03, 1e-5);
+  fs::remove_all(dir);
+}
+
+// Self-collision: a cube mesh (side 0.2 m) on the base and one on the second of two joints about z, 0.3 m out along it,
+// the first joint 0.45 m from the base. Folded back (q1 = π) the arm's cube is centred at x = 0.15, 5 cm into the
+// base's cube (a contact, hand-derived); stretched out sideways (q1 = π/2) it is at (0.45, 0.3): apart, and their boxes
+// too, so FCL is not asked; turned to 45° near the base's corner, the boxes overlap and the meshes do not. A pair the
+// robot excludes is never reported.
+TEST(MeshCollisionTest, SelfCollisionBetweenLinksTheRobotChecks) {
+  const fs::path dir = TempDir("self");
+  WriteCube(dir / "cube.obj", 0.1);
+  const fs::path urdf = dir / "fold.urdf";
+  std::ofstream(urdf) << R"(<?xml version="1.0"?>
+<robot name="fold">
+  <link name="base"><collision><geometry><mesh filename="cube.obj"/></geometry></collision></link>
+  <link name="upper"/>
+  <link name="fore"><collision><origin xyz="0.3 0 0"/><geometry><mesh filename="cube.obj"/></geometry></collision></link>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="upper"/><origin xyz="0.45 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-3.2" upper="3.2" velocity="1" effort="1"/>
+  </joint>
+  <joint name="j2" type="revolute">
+    <parent link="upper"/><child link="fore"/><axis xyz="0 0 1"/>
+    <limit lower="-3.2" upper="3.2" velocity="1" effort="1"/>
+  </joint>
+</robot>
+)";
+  kinematics::Robot robot;
+  robot.name = "fold";
+  robot.model = kinematics::LoadUrdfModel(urdf);
+  robot.urdf_path = urdf;
+  const MeshCollisionModel model(robot);
+  ASSERT_TRUE(model.available()) << model.unavailable_reason();
+  MeshCollisionData data(model);
+  const int base = robot.model.LinkIndex("base"), fore = robot.model.LinkIndex("fore");
+  MeshSelfContact c = CheckMeshSelfCollision(model, Kinematics(robot, Eigen::Vector2d(M_PI, 0.0)), &data);
+  ASSERT_TRUE(c.in_collision());
+  EXPECT_EQ(std::minmax(c.link, c.other_link), std::minmax(base, fore));
+  EXPECT_EQ(c.exact_pairs, 1);
+  c = CheckMeshSelfCollision(model, Kinematics(robot, Eigen::Vector2d(M_PI / 2.0, 0.0)), &data);
+  EXPECT_FALSE(c.in_collision());
+  EXPECT_EQ(c.exact_pairs, 0);
+  // boxes overlapping, meshes apart: at q1 = 3π/4 the cube (turned with the arm, 135° about z) is centred at
+  // (0.45 − 0.3/√2, 0.3/√2) = (0.238, 0.212); its face towards the base's corner edge (0.1, 0.1) is
+  // (0.138 + 0.112)/√2 − 0.1 = 7.7 cm from it, while its box (half size 0.1·√2) reaches x = 0.097 and y = 0.071,
+  // inside the base's: FCL is asked and finds nothing
+  c = CheckMeshSelfCollision(model, Kinematics(robot, Eigen::Vector2d(3.0 * M_PI / 4.0, 0.0)), &data);
+  EXPECT_FALSE(c.in_collision());
+  EXPECT_EQ(c.exact_pairs, 1);
+  kinematics::Robot excluded = robot;
+  excluded.excluded_pairs.emplace_back(std::min(base, fore), std::max(base, fore));
+  std::sort(excluded.excluded_pairs.begin(), excluded.excluded_pairs.end());
+  const MeshCollisionModel model_excluded(excluded);
+  MeshCollisionData data_excluded(model_excluded);
+  EXPECT_FALSE(
+      CheckMeshSelfCollision(model_excluded, Kinematics(robot, Eigen::Vector2d(M_PI, 0.0)), &data_excluded)
+          .in_collision());
+  EXPECT_THROW(CheckMeshSelfCollision(model, Kinematics(robot, Eigen::Vector2d(M_PI, 0.0)), &data_excluded),
+               InputError);
   fs::remove_all(dir);
 }
 

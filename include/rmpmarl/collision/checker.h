@@ -151,8 +151,27 @@ ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::
 /// every checked distance at q exceeds `margin` (joint limits are the caller's).
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data);
+/// calls visit(k) for every k in 1..n once, coarse to fine — n first, then the multiples of the largest power of two
+/// not above n, then the odd multiples of each smaller power of two — and stops, returning false, as soon as visit
+/// does. An edge through an obstacle usually fails at one of its first, far apart states; a free one visits them all.
+template <typename Visit>
+bool VisitEdgeStatesCoarseToFine(int n, Visit&& visit) {
+  if (n < 1) return true;
+  if (!visit(n)) return false;
+  int top = 1;
+  while (top <= n / 2) top *= 2;
+  for (int stride = top; stride >= 1; stride /= 2) {
+    for (int k = stride; k < n; k += stride) {
+      if (stride != top && (k / stride) % 2 == 0) continue;  // visited at twice this stride
+      if (!visit(k)) return false;
+    }
+  }
+  return true;
+}
+
 /// every configuration of the straight edge q0 → q1 at most `resolution` apart in joint space (q0 excluded, q1
-/// included) is collision-free with `margin`. \pre resolution > 0.
+/// included) is collision-free with `margin`; they are checked coarse to fine (VisitEdgeStatesCoarseToFine).
+/// \pre resolution > 0.
 bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,
                             const Eigen::Ref<const Eigen::VectorXd>& q1, std::span<const rmp::Obstacle> obstacles,
                             double margin, double resolution, RobotCollisionData* data, Eigen::VectorXd* scratch);

@@ -22,7 +22,12 @@
 /// solid). The penetration depth is FCL's deepest contact (exact for sphere–triangle); for a mesh in a box or
 /// cylinder, where libccd's EPA depth of a triangle across a board can be metres off, that is bounded by the
 /// primitive's smallest half size (nothing lies deeper in it) and raised to the deepest mesh vertex's depth (minus the
-/// primitive's signed distance there). Self-collision between meshes is not checked (it needs the SRDF's allowed pairs).
+/// primitive's signed distance there).
+///
+/// Self-collision (CheckMeshSelfCollision): the geometries of two links the robot checks against each other — distinct
+/// links that kinematics::Robot::IsExcludedPair does not exclude, so not parent and child, not a pair its SRDF
+/// disables, not a pair setup-robot found never close — are given to FCL's collision query when their world boxes
+/// overlap; the first pair in contact is reported.
 ///
 /// FCL stays out of this header (pimpl): only the experiments library links it.
 #include <Eigen/Core>
@@ -61,6 +66,14 @@ struct MeshClearance {
   bool in_collision() const { return !(distance > 0.0); }
 };
 
+/// Two of the robot's own collision geometries in contact (CheckMeshSelfCollision).
+struct MeshSelfContact {
+  int link = -1;        ///< the first pair found in contact (-1: none)
+  int other_link = -1;
+  int exact_pairs = 0;  ///< pairs given to FCL (the others' boxes were apart)
+  bool in_collision() const { return link >= 0; }
+};
+
 class MeshCollisionModel;
 class MeshCollisionData;
 
@@ -70,6 +83,12 @@ class MeshCollisionData;
 /// point-set obstacle (naming its index).
 MeshClearance CalcMeshClearance(const MeshCollisionModel& model, const kinematics::Data& kinematics,
                                 std::span<const rmp::Obstacle> obstacles, MeshCollisionData* data);
+
+/// whether the robot's collision geometries of two links it checks against each other touch at the link poses of
+/// `kinematics` (see the file comment); a non-finite pose reports nothing (CalcMeshClearance counts it). Throws
+/// InputError as CalcMeshClearance.
+MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel& model, const kinematics::Data& kinematics,
+                                       MeshCollisionData* data);
 
 /// The collision geometry of a robot's URDF, for FCL (see the file comment).
 class MeshCollisionModel {
@@ -107,6 +126,7 @@ class MeshCollisionModel {
   friend class MeshCollisionData;
   friend MeshClearance CalcMeshClearance(const MeshCollisionModel&, const kinematics::Data&,
                                          std::span<const rmp::Obstacle>, MeshCollisionData*);
+  friend MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel&, const kinematics::Data&, MeshCollisionData*);
   struct Impl;
   std::shared_ptr<const Impl> impl_;
 };
@@ -123,6 +143,7 @@ class MeshCollisionData {
  private:
   friend MeshClearance CalcMeshClearance(const MeshCollisionModel&, const kinematics::Data&,
                                          std::span<const rmp::Obstacle>, MeshCollisionData*);
+  friend MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel&, const kinematics::Data&, MeshCollisionData*);
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
