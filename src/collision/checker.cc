@@ -45,6 +45,23 @@ void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCo
   }
 }
 
+// whether the bounding spheres of a pair as ClearancePair names it come within `margin` (the floor: always)
+bool PairMayCollide(const RobotCollisionModel& model, const RobotCollisionData& data,
+                    std::span<const rmp::Obstacle> obstacles, const ClearancePair& pair, double margin) {
+  const Eigen::Vector4d& a = data.capsule_sphere[pair.capsule];
+  if (pair.kind == ClearancePair::Kind::kObstacle) {
+    if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return false;
+    const rmp::Obstacle& o = obstacles[pair.obstacle];
+    return (a.head<3>() - rmp::Centre(o)).norm() - a[3] - rmp::BoundingRadius(o) <= margin;
+  }
+  if (pair.kind == ClearancePair::Kind::kSelf) {
+    const Eigen::Vector4d& b = data.capsule_sphere[pair.other_capsule];
+    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3] <= margin;
+  }
+  (void)model;
+  return pair.kind == ClearancePair::Kind::kFloor;
+}
+
 // the distance of one pair as ClearancePair names it, on the placed capsules; +inf when it names nothing it can
 // measure (kNone, or an obstacle index beyond those given)
 double PairDistance(const RobotCollisionModel& model, const RobotCollisionData& data,
@@ -278,13 +295,17 @@ bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const 
   ClearancePair& hit = data->last_hit;
   if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
     const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
-    if (PairDistance(model, *data, obstacles, hit) <= margin) return false;
+    if (PairMayCollide(model, *data, obstacles, hit, margin) && PairDistance(model, *data, obstacles, hit) <= margin) {
+      return false;
+    }
   }
-  if (CalcObstacleClearance(model, *data, obstacles, obstacle_margin, kInf, &hit) <= obstacle_margin) return false;
-  if (obstacles_only || CalcSelfClearance(model, *data, self_margin, kInf, &hit) > self_margin) {
-    return true;
+  ClearancePair pair;
+  if (CalcObstacleClearance(model, *data, obstacles, obstacle_margin, kInf, &pair) <= obstacle_margin ||
+      (!obstacles_only && CalcSelfClearance(model, *data, self_margin, kInf, &pair) <= self_margin)) {
+    hit = pair;
+    return false;
   }
-  return false;
+  return true;
 }
 
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,

@@ -108,7 +108,7 @@ struct RobotCollisionData {
   std::vector<math::Capsule> capsule_W;        ///< per capsule, in world
   std::vector<Eigen::Vector4d> capsule_sphere;  ///< per capsule: bounding sphere (centre, radius)
   std::vector<Eigen::Vector4d> group_sphere;    ///< per link group: a sphere around its capsules' spheres
-  ClearancePair last_hit;  ///< the pair that failed the last CheckPlacedCollisionFree (kNone: none yet)
+  ClearancePair last_hit;  ///< the pair the last failing CheckPlacedCollisionFree failed on (kNone: none yet)
 };
 
 /// places the capsules at q (forward kinematics into data->kin). \pre q of the model's size (checked by callers at
@@ -140,8 +140,8 @@ double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionD
 double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data);
 
 /// the placed capsules are clear of the obstacles by more than obstacle_margin and, unless obstacles_only, of the floor
-/// and each other by more than self_margin. Tries data->last_hit first and leaves there the closest pair it measured
-/// (the failing one when it fails).
+/// and each other by more than self_margin. Tries data->last_hit first and records there the pair a failing check
+/// failed on.
 bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const rmp::Obstacle> obstacles,
                               double obstacle_margin, double self_margin, bool obstacles_only, RobotCollisionData* data);
 
