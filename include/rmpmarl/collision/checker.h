@@ -20,8 +20,8 @@
 /// larger than the capsules so that rounding never makes one too small) and only moved with the link. Skipping only
 /// pairs bounded below by the smallest distance found keeps the clearance exact; a check with a threshold (stop_below)
 /// also skips pairs bounded above it and returns as soon as one distance is at or below it. A collision check first
-/// tries the pair that failed the last check of the same data (a path's neighbouring configurations usually fail on
-/// the same pair); the answer does not depend on that order.
+/// tries the pair the last failing check on the same data failed on (a path's neighbouring configurations usually fail
+/// on the same pair); the answer does not depend on that order.
 #include <Eigen/Core>
 #include <limits>
 #include <span>
