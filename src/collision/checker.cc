@@ -46,8 +46,8 @@ void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCo
 }
 
 // whether the bounding spheres of a pair as ClearancePair names it come within `margin` (the floor: always)
-bool PairMayCollide(const RobotCollisionModel& model, const RobotCollisionData& data,
-                    std::span<const rmp::Obstacle> obstacles, const ClearancePair& pair, double margin) {
+bool PairMayCollide(const RobotCollisionData& data, std::span<const rmp::Obstacle> obstacles,
+                    const ClearancePair& pair, double margin) {
   const Eigen::Vector4d& a = data.capsule_sphere[pair.capsule];
   if (pair.kind == ClearancePair::Kind::kObstacle) {
     if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return false;
@@ -58,7 +58,6 @@ bool PairMayCollide(const RobotCollisionModel& model, const RobotCollisionData& 
     const Eigen::Vector4d& b = data.capsule_sphere[pair.other_capsule];
     return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3] <= margin;
   }
-  (void)model;
   return pair.kind == ClearancePair::Kind::kFloor;
 }
 
@@ -295,7 +294,7 @@ bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const 
   ClearancePair& hit = data->last_hit;
   if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
     const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
-    if (PairMayCollide(model, *data, obstacles, hit, margin) && PairDistance(model, *data, obstacles, hit) <= margin) {
+    if (PairMayCollide(*data, obstacles, hit, margin) && PairDistance(model, *data, obstacles, hit) <= margin) {
       return false;
     }
   }

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string_view>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -155,6 +156,10 @@ struct MeshCollisionData::Impl {
   // the geometries' world poses, boxes and spheres at the link poses of `kinematics`; the link of the first
   // non-finite pose (-1: all finite)
   int Pose(const kinematics::Data& kinematics);
+  // the scratch of `data` for a query `who` of `model` at `kinematics`, after checking them (InputError: the model
+  // unavailable, link poses of another robot, data of another model)
+  static Impl& Checked(std::string_view who, const MeshCollisionModel& model, const kinematics::Data& kinematics,
+                       MeshCollisionData* data);
 };
 
 namespace {
@@ -327,6 +332,22 @@ MeshCollisionData::~MeshCollisionData() = default;
 MeshCollisionData::MeshCollisionData(MeshCollisionData&&) noexcept = default;
 MeshCollisionData& MeshCollisionData::operator=(MeshCollisionData&&) noexcept = default;
 
+MeshCollisionData::Impl& MeshCollisionData::Impl::Checked(std::string_view who, const MeshCollisionModel& model,
+                                                          const kinematics::Data& kinematics,
+                                                          MeshCollisionData* data) {
+  if (!model.available()) {
+    throw InputError(fmt::format("{}: the mesh model is not available: {}", who, model.unavailable_reason()));
+  }
+  if (kinematics.X_WL.size() != model.impl_->link_names.size()) {
+    throw InputError(fmt::format("{}: expected the link poses of a robot with {} links, got {}", who,
+                                 model.impl_->link_names.size(), kinematics.X_WL.size()));
+  }
+  if (data == nullptr || data->impl_->model != model.impl_) {
+    throw InputError(fmt::format("{}: expected a MeshCollisionData made for this model", who));
+  }
+  return *data->impl_;
+}
+
 int MeshCollisionData::Impl::Pose(const kinematics::Data& kinematics) {
   const MeshCollisionModel::Impl& m = *model;
   for (size_t g = 0; g < m.geometries.size(); ++g) {
@@ -341,18 +362,8 @@ int MeshCollisionData::Impl::Pose(const kinematics::Data& kinematics) {
 
 MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel& model, const kinematics::Data& kinematics,
                                        MeshCollisionData* data) {
-  if (!model.available()) {
-    throw InputError("CheckMeshSelfCollision: the mesh model is not available: " + model.unavailable_reason());
-  }
+  MeshCollisionData::Impl& d = MeshCollisionData::Impl::Checked("CheckMeshSelfCollision", model, kinematics, data);
   const MeshCollisionModel::Impl& m = *model.impl_;
-  if (kinematics.X_WL.size() != m.link_names.size()) {
-    throw InputError(fmt::format("CheckMeshSelfCollision: expected the link poses of a robot with {} links, got {}",
-                                 m.link_names.size(), kinematics.X_WL.size()));
-  }
-  if (data == nullptr || data->impl_->model != model.impl_) {
-    throw InputError("CheckMeshSelfCollision: expected a MeshCollisionData made for this model");
-  }
-  MeshCollisionData::Impl& d = *data->impl_;
   MeshSelfContact contact;
   if (d.Pose(kinematics) >= 0) return contact;
   const fcl::CollisionRequestd request;  // yes or no: one contact, no depth
@@ -372,18 +383,8 @@ MeshSelfContact CheckMeshSelfCollision(const MeshCollisionModel& model, const ki
 
 MeshClearance CalcMeshClearance(const MeshCollisionModel& model, const kinematics::Data& kinematics,
                                 std::span<const rmp::Obstacle> obstacles, MeshCollisionData* data) {
-  if (!model.available()) {
-    throw InputError("CalcMeshClearance: the mesh model is not available: " + model.unavailable_reason());
-  }
+  MeshCollisionData::Impl& d = MeshCollisionData::Impl::Checked("CalcMeshClearance", model, kinematics, data);
   const MeshCollisionModel::Impl& m = *model.impl_;
-  if (kinematics.X_WL.size() != m.link_names.size()) {
-    throw InputError(fmt::format("CalcMeshClearance: expected the link poses of a robot with {} links, got {}",
-                                 m.link_names.size(), kinematics.X_WL.size()));
-  }
-  if (data == nullptr || data->impl_->model != model.impl_) {
-    throw InputError("CalcMeshClearance: expected a MeshCollisionData made for this model");
-  }
-  MeshCollisionData::Impl& d = *data->impl_;
   if (const int diverged = d.Pose(kinematics); diverged >= 0) {
     // a diverged state: no clearance, and counted as a collision (MeshClearance::in_collision)
     MeshClearance nan;
