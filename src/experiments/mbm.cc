@@ -231,12 +231,15 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
                                                                  {"goal", &p.scene.q_goal}};
 
   // valid, with the mesh referee: the collision meshes are clear of the cell at the start and the goal
+  double mesh_clearance[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
   if (options.meshes) {
     MeshCollisionData data(*options.meshes);
     kinematics::Data kin(robot.model);
-    for (const auto& [what, q] : ends) {
+    for (int e = 0; e < 2; ++e) {
+      const auto& [what, q] = ends[e];
       kinematics::CalcForwardKinematics(robot.model, *q, &kin);
       const MeshClearance c = CalcMeshClearance(*options.meshes, kin, rmp_scene.obstacles, &data);
+      mesh_clearance[e] = c.distance;
       if (c.in_collision()) {
         p.valid = false;
         p.reason = fmt::format("{} in collision (meshes): {} with {} ({:.1f} mm deep)", what,
@@ -257,15 +260,20 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   // failure (rejected by the model, counted)
   const collision::RobotCollisionModel checker(robot, {/*check_floor=*/false, 0.0});
   collision::RobotCollisionData placed(checker);
-  for (const auto& [what, q] : ends) {
+  for (int e = 0; e < 2; ++e) {
+    const auto& [what, q] = ends[e];
     kinematics::CheckJointVector(robot.model, *q, what);
     const collision::ClearancePair pair = collision::CalcRobotClearance(checker, *q, rmp_scene.obstacles, &placed);
     if (!(pair.distance > 0.0)) {
       const std::string why = fmt::format("{} in collision in the capsule model: {} ({:.1f} mm deep)", what,
                                           CapsulePairName(robot, pair, p.obstacle_names), -1e3 * pair.distance);
       if (options.meshes) {
+        // how far the meshes are from the scene there: what a tighter model has to gain
+        const std::string meshes = std::isfinite(mesh_clearance[e])
+                                       ? fmt::format("{:.1f} mm", 1e3 * mesh_clearance[e])
+                                       : fmt::format("> {:.0f} mm", 1e3 * options.meshes->options().distance_cap);
         p.rejected = true;
-        p.reason = "rejected by the model: " + why;
+        p.reason = fmt::format("rejected by the model: {}; the meshes' clearance {}", why, meshes);
       } else {
         p.valid = false;
         p.reason = why;
