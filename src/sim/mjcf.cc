@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -296,12 +297,17 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
       else ++num_dynamic_pairs;
     }
   }
-  // every primitive pair used here yields at most 2 contacts (capsule–capsule, capsule–box, capsule–plane);
-  // frictionless contacts (condim 1) need one constraint row each, joint limits one per dof.
+  // every primitive pair used here yields at most 2 contacts (capsule–capsule, capsule–box, capsule–plane), so the
+  // contact list never overflows. Only penetrating contacts are constraints (gap = margin: the contacts within the
+  // margin are warnings, no force), one row each (condim 1), beside one per joint limit and mimic joint. MuJoCo 2.2.2
+  // preallocates njmax² doubles per mjData for the solver: rows for every contact would cost gigabytes with a hundred
+  // capsules (and fail to allocate), so the contact rows are capped at kMaxContactRows penetrating contacts at once —
+  // far more than an arm pressed into a cell has; past it MuJoCo drops rows (ContactReport::contact_buffer_full).
+  constexpr int kMaxContactRows = 512;
   const int nconmax = 2 * (num_dynamic_pairs + static_cast<int>(pairs.size())) + 16;
   int num_mimic = 0;
   for (int k = 1; k < num_links; ++k) num_mimic += model.link(k).mimic_dof >= 0;
-  const int njmax = nconmax + 2 * nq + num_mimic + 16;
+  const int njmax = std::min(nconmax, kMaxContactRows) + 2 * nq + num_mimic + 16;
 
   std::string out;
   out.reserve(4096 + 512 * (num_links + num_capsules + num_obstacles));

@@ -361,7 +361,7 @@ const ContactReport& World::QueryContacts() {
   r.colliding_pairs.clear();
   r.warnings.clear();
   r.min_clearance = std::numeric_limits<double>::infinity();
-  r.contact_buffer_full = d->ncon >= m->nconmax;
+  r.contact_buffer_full = d->ncon >= m->nconmax || d->nefc >= m->njmax;
   for (int c = 0; c < d->ncon; ++c) {
     const mjContact& con = d->contact[c];
     const GeomInfo& info1 = model_->geom_info(con.geom1);
