@@ -66,6 +66,16 @@ void BM_CheckConfigCollisionFree(benchmark::State& state) {
 }
 BENCHMARK(BM_CheckConfigCollisionFree);
 
+void BM_PlaceRobot(benchmark::State& state) {
+  Fixture& f = Shared();
+  int i = 0;
+  for (auto _ : state) {
+    PlaceRobot(f.model, f.q[i++ & (kInputs - 1)], &f.data);
+    benchmark::DoNotOptimize(f.data.capsule_W.data());
+  }
+}
+BENCHMARK(BM_PlaceRobot);
+
 void BM_CalcRobotClearance(benchmark::State& state) {
   Fixture& f = Shared();
   int i = 0;

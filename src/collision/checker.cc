@@ -45,17 +45,49 @@ void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCo
   }
 }
 
+// The placed capsules as a query reads them. Eager: PlaceRobot placed every one. Lazy: the forward kinematics and
+// the group spheres are computed, a capsule's sphere and the capsule itself on first use (the same arithmetic as
+// PlaceRobot's, so the same values).
+struct EagerPlacement {
+  const RobotCollisionData& data;
+  const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
+  const Eigen::Vector4d& sphere(int c) const { return data.capsule_sphere[c]; }
+  const math::Capsule& capsule(int c) const { return data.capsule_W[c]; }
+};
+
+struct LazyPlacement {
+  const RobotCollisionModel& model;
+  RobotCollisionData& data;
+  const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
+  const Eigen::Vector4d& sphere(int c) const {
+    if (data.sphere_stamp[c] != data.stamp) {
+      const Eigen::Vector4d& s = model.capsule_sphere_L(c);
+      data.capsule_sphere[c] << data.kin.X_WL[model.robot().capsules[c].link] * Eigen::Vector3d(s.head<3>()), s[3];
+      data.sphere_stamp[c] = data.stamp;
+    }
+    return data.capsule_sphere[c];
+  }
+  const math::Capsule& capsule(int c) const {
+    if (data.capsule_stamp[c] != data.stamp) {
+      data.capsule_W[c] = kinematics::WorldCapsule(model.robot().capsules[c], data.kin);
+      data.capsule_stamp[c] = data.stamp;
+    }
+    return data.capsule_W[c];
+  }
+};
+
 // whether the bounding spheres of a pair as ClearancePair names it come within `margin` (the floor: always)
-bool PairMayCollide(const RobotCollisionData& data, std::span<const rmp::Obstacle> obstacles,
-                    const ClearancePair& pair, double margin) {
-  const Eigen::Vector4d& a = data.capsule_sphere[pair.capsule];
+template <typename Placement>
+bool PairMayCollide(const Placement& placed, std::span<const rmp::Obstacle> obstacles, const ClearancePair& pair,
+                    double margin) {
+  const Eigen::Vector4d& a = placed.sphere(pair.capsule);
   if (pair.kind == ClearancePair::Kind::kObstacle) {
     if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return false;
     const rmp::Obstacle& o = obstacles[pair.obstacle];
     return (a.head<3>() - rmp::Centre(o)).norm() - a[3] - rmp::BoundingRadius(o) <= margin;
   }
   if (pair.kind == ClearancePair::Kind::kSelf) {
-    const Eigen::Vector4d& b = data.capsule_sphere[pair.other_capsule];
+    const Eigen::Vector4d& b = placed.sphere(pair.other_capsule);
     return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3] <= margin;
   }
   return pair.kind == ClearancePair::Kind::kFloor;
@@ -63,22 +95,133 @@ bool PairMayCollide(const RobotCollisionData& data, std::span<const rmp::Obstacl
 
 // the distance of one pair as ClearancePair names it, on the placed capsules; +inf when it names nothing it can
 // measure (kNone, or an obstacle index beyond those given)
-double PairDistance(const RobotCollisionModel& model, const RobotCollisionData& data,
+template <typename Placement>
+double PairDistance(const RobotCollisionModel& model, const Placement& placed,
                     std::span<const rmp::Obstacle> obstacles, const ClearancePair& pair) {
   switch (pair.kind) {
     case ClearancePair::Kind::kObstacle:
       if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return kInf;
-      return rmp::CapsuleObstacleDistance(data.capsule_W[pair.capsule], obstacles[pair.obstacle]).distance;
+      return rmp::CapsuleObstacleDistance(placed.capsule(pair.capsule), obstacles[pair.obstacle]).distance;
     case ClearancePair::Kind::kFloor: {
-      const math::Capsule& w = data.capsule_W[pair.capsule];
+      const math::Capsule& w = placed.capsule(pair.capsule);
       return std::min(w.p_WA.z(), w.p_WB.z()) - w.radius - model.options().floor_height;
     }
     case ClearancePair::Kind::kSelf:
-      return math::CapsuleCapsuleDistance(data.capsule_W[pair.capsule], data.capsule_W[pair.other_capsule]).distance;
+      return math::CapsuleCapsuleDistance(placed.capsule(pair.capsule), placed.capsule(pair.other_capsule)).distance;
     case ClearancePair::Kind::kNone:
       break;
   }
   return kInf;
+}
+
+template <typename Placement>
+double ObstacleClearance(const RobotCollisionModel& model, const Placement& placed, const rmp::Obstacle& o,
+                         int index, double stop_below, double d, ClearancePair* pair) {
+  auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
+  const Eigen::Vector3d centre = rmp::Centre(o);
+  const double radius = rmp::BoundingRadius(o);
+  // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
+  // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
+  const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
+  math::Box box = o.box;
+  if (o.shape == rmp::ObstacleShape::kCylinder) {
+    box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
+  }
+  const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
+  // a sphere (centre, radius) that cannot come closer to the obstacle than what was found
+  auto sphere_out = [&](const Eigen::Vector4d& sphere) {
+    if (SpheresCannotMatter(sphere, centre, radius, d, stop_below)) return true;
+    if (!boxed) return false;
+    // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
+    const Eigen::Vector3d p = (X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
+    return cannot_matter(p.cwiseMax(0.0).norm() + std::min(p.maxCoeff(), 0.0) - sphere[3]);
+  };
+  const auto& groups = model.link_groups();
+  const auto& capsules = model.robot().capsules;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    if (sphere_out(placed.group(g))) continue;
+    for (int c : groups[g].capsules) {
+      if (sphere_out(placed.sphere(c))) continue;
+      const math::Capsule& w = placed.capsule(c);
+      if (o.shape == rmp::ObstacleShape::kCylinder && cannot_matter(math::CapsuleBoxDistance(w, box).distance)) {
+        continue;
+      }
+      const double distance = rmp::CapsuleObstacleDistance(w, o).distance;
+      if (distance < d) {
+        d = distance;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index, c, -1};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  return d;
+}
+
+template <typename Placement>
+double ObstaclesClearance(const RobotCollisionModel& model, const Placement& placed,
+                          std::span<const rmp::Obstacle> obstacles, double stop_below, double d, ClearancePair* pair) {
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    d = ObstacleClearance(model, placed, obstacles[k], static_cast<int>(k), stop_below, d, pair);
+    if (d <= stop_below) return d;
+  }
+  return d;
+}
+
+template <typename Placement>
+double SelfClearance(const RobotCollisionModel& model, const Placement& placed, int num_capsules, double stop_below,
+                     double d, ClearancePair* pair) {
+  const RobotCollisionOptions& options = model.options();
+  const auto& capsules = model.robot().capsules;
+  if (options.check_floor) {
+    for (int c = 0; c < num_capsules; ++c) {
+      if (!model.floor_checked(c)) continue;
+      const math::Capsule& w = placed.capsule(c);
+      const double z = std::min(w.p_WA.z(), w.p_WB.z()) - w.radius;
+      if (z - options.floor_height < d) {
+        d = z - options.floor_height;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kFloor, capsules[c].link, -1, -1, c, -1};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  const auto& pairs = model.grouped_self_pairs();
+  for (const RobotCollisionModel::LinkPair& links : model.self_link_pairs()) {
+    const Eigen::Vector4d& group_b = placed.group(links.group_b);
+    if (SpheresCannotMatter(placed.group(links.group_a), group_b.head<3>(), group_b[3], d, stop_below)) continue;
+    for (size_t i = links.begin; i < links.end; ++i) {
+      const auto [a, b] = pairs[i];
+      const Eigen::Vector4d& sphere_b = placed.sphere(b);
+      if (SpheresCannotMatter(placed.sphere(a), sphere_b.head<3>(), sphere_b[3], d, stop_below)) continue;
+      const double distance = math::CapsuleCapsuleDistance(placed.capsule(a), placed.capsule(b)).distance;
+      if (distance < d) {
+        d = distance;
+        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
+      }
+      if (d <= stop_below) return d;
+    }
+  }
+  return d;
+}
+
+template <typename Placement>
+bool PlacedCollisionFree(const RobotCollisionModel& model, const Placement& placed,
+                         std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
+                         bool obstacles_only, ClearancePair* last_hit) {
+  ClearancePair& hit = *last_hit;
+  if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
+    const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
+    if (PairMayCollide(placed, obstacles, hit, margin) && PairDistance(model, placed, obstacles, hit) <= margin) {
+      return false;
+    }
+  }
+  ClearancePair pair;
+  if (ObstaclesClearance(model, placed, obstacles, obstacle_margin, kInf, &pair) <= obstacle_margin ||
+      (!obstacles_only &&
+       SelfClearance(model, placed, model.num_capsules(), self_margin, kInf, &pair) <= self_margin)) {
+    hit = pair;
+    return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -154,7 +297,9 @@ RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
     : kin(model.robot().model),
       capsule_W(model.num_capsules()),
       capsule_sphere(model.num_capsules()),
-      group_sphere(model.link_groups().size()) {}
+      group_sphere(model.link_groups().size()),
+      sphere_stamp(model.num_capsules(), 0),
+      capsule_stamp(model.num_capsules(), 0) {}
 
 void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                 RobotCollisionData* data) {
@@ -180,95 +325,18 @@ void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometr
 
 double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
                              const rmp::Obstacle& o, int index, double stop_below, double d, ClearancePair* pair) {
-  auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
-  const Eigen::Vector3d centre = rmp::Centre(o);
-  const double radius = rmp::BoundingRadius(o);
-  // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
-  // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
-  const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
-  math::Box box = o.box;
-  if (o.shape == rmp::ObstacleShape::kCylinder) {
-    box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
-  }
-  const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
-  // a sphere (centre, radius) that cannot come closer to the obstacle than what was found
-  auto sphere_out = [&](const Eigen::Vector4d& sphere) {
-    if (SpheresCannotMatter(sphere, centre, radius, d, stop_below)) return true;
-    if (!boxed) return false;
-    // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
-    const Eigen::Vector3d p = (X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
-    return cannot_matter(p.cwiseMax(0.0).norm() + std::min(p.maxCoeff(), 0.0) - sphere[3]);
-  };
-  const auto& groups = model.link_groups();
-  const auto& capsules = model.robot().capsules;
-  for (size_t g = 0; g < groups.size(); ++g) {
-    if (sphere_out(data.group_sphere[g])) continue;
-    for (int c : groups[g].capsules) {
-      if (sphere_out(data.capsule_sphere[c])) continue;
-      if (o.shape == rmp::ObstacleShape::kCylinder &&
-          cannot_matter(math::CapsuleBoxDistance(data.capsule_W[c], box).distance)) {
-        continue;
-      }
-      const double distance = rmp::CapsuleObstacleDistance(data.capsule_W[c], o).distance;
-      if (distance < d) {
-        d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index, c, -1};
-      }
-      if (d <= stop_below) return d;
-    }
-  }
-  return d;
+  return ObstacleClearance(model, EagerPlacement{data}, o, index, stop_below, d, pair);
 }
 
 double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
                              std::span<const rmp::Obstacle> obstacles, double stop_below, double d,
                              ClearancePair* pair) {
-  for (size_t k = 0; k < obstacles.size(); ++k) {
-    d = CalcObstacleClearance(model, data, obstacles[k], static_cast<int>(k), stop_below, d, pair);
-    if (d <= stop_below) return d;
-  }
-  return d;
+  return ObstaclesClearance(model, EagerPlacement{data}, obstacles, stop_below, d, pair);
 }
 
 double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionData& data, double stop_below,
                          double d, ClearancePair* pair) {
-  const RobotCollisionOptions& options = model.options();
-  const auto& capsules = model.robot().capsules;
-  if (options.check_floor) {
-    for (size_t c = 0; c < data.capsule_W.size(); ++c) {
-      if (!model.floor_checked(static_cast<int>(c))) continue;
-      const math::Capsule& w = data.capsule_W[c];
-      const double z = std::min(w.p_WA.z(), w.p_WB.z()) - w.radius;
-      if (z - options.floor_height < d) {
-        d = z - options.floor_height;
-        if (pair != nullptr) {
-          *pair = {d, ClearancePair::Kind::kFloor, capsules[c].link, -1, -1, static_cast<int>(c), -1};
-        }
-      }
-      if (d <= stop_below) return d;
-    }
-  }
-  const auto& pairs = model.grouped_self_pairs();
-  for (const RobotCollisionModel::LinkPair& links : model.self_link_pairs()) {
-    if (SpheresCannotMatter(data.group_sphere[links.group_a], data.group_sphere[links.group_b].head<3>(),
-                            data.group_sphere[links.group_b][3], d, stop_below)) {
-      continue;
-    }
-    for (size_t i = links.begin; i < links.end; ++i) {
-      const auto [a, b] = pairs[i];
-      if (SpheresCannotMatter(data.capsule_sphere[a], data.capsule_sphere[b].head<3>(), data.capsule_sphere[b][3], d,
-                              stop_below)) {
-        continue;
-      }
-      const double distance = math::CapsuleCapsuleDistance(data.capsule_W[a], data.capsule_W[b]).distance;
-      if (distance < d) {
-        d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
-      }
-      if (d <= stop_below) return d;
-    }
-  }
-  return d;
+  return SelfClearance(model, EagerPlacement{data}, static_cast<int>(data.capsule_W.size()), stop_below, d, pair);
 }
 
 double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data) {
@@ -291,26 +359,31 @@ ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::
 bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const rmp::Obstacle> obstacles,
                               double obstacle_margin, double self_margin, bool obstacles_only,
                               RobotCollisionData* data) {
-  ClearancePair& hit = data->last_hit;
-  if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
-    const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
-    if (PairMayCollide(*data, obstacles, hit, margin) && PairDistance(model, *data, obstacles, hit) <= margin) {
-      return false;
-    }
-  }
-  ClearancePair pair;
-  if (CalcObstacleClearance(model, *data, obstacles, obstacle_margin, kInf, &pair) <= obstacle_margin ||
-      (!obstacles_only && CalcSelfClearance(model, *data, self_margin, kInf, &pair) <= self_margin)) {
-    hit = pair;
-    return false;
-  }
-  return true;
+  return PlacedCollisionFree(model, EagerPlacement{*data}, obstacles, obstacle_margin, self_margin, obstacles_only,
+                             &data->last_hit);
 }
 
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data) {
-  PlaceRobot(model, q, data);
-  return CheckPlacedCollisionFree(model, obstacles, margin, margin, false, data);
+  return CheckConfigCollisionFree(model, q, obstacles, margin, margin, false, data);
+}
+
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
+                              bool obstacles_only, RobotCollisionData* data) {
+  kinematics::CalcForwardKinematics(model.robot().model, q, &data->kin);
+  const auto& groups = model.link_groups();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const Eigen::Vector4d& s = model.group_sphere_L(static_cast<int>(g));
+    data->group_sphere[g] << data->kin.X_WL[groups[g].link] * Eigen::Vector3d(s.head<3>()), s[3];
+  }
+  if (++data->stamp == 0) {  // wrapped around: no stamp may look current
+    std::fill(data->sphere_stamp.begin(), data->sphere_stamp.end(), 0);
+    std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);
+    data->stamp = 1;
+  }
+  return PlacedCollisionFree(model, LazyPlacement{model, *data}, obstacles, obstacle_margin, self_margin,
+                             obstacles_only, &data->last_hit);
 }
 
 bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,

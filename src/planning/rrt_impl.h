@@ -34,14 +34,14 @@ struct RrtPolicy::Impl {
   double SelfClearance(double stop_below, double d = rrt_internal::kInf, ClearancePair* pair = nullptr) const;
   // q valid for a PlanPath search: its obstacle distances beyond MarginAt(q), its floor and self distances beyond
   // self_margin (an arm that always keeps two of its links close, inside the margin, can still move)
+  // (both place only the capsules their check reaches: `placed` is then partly placed, Clearance places it whole)
   bool ValidRelaxed(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
-    collision::PlaceRobot(checker, q, &placed);
-    return collision::CheckPlacedCollisionFree(checker, obstacles, MarginAt(q), self_margin, obstacles_only, &placed);
+    return collision::CheckConfigCollisionFree(checker, q, obstacles, MarginAt(q), self_margin, obstacles_only,
+                                               &placed);
   }
   // every checked distance at q (only the obstacles' with obstacles_only) > margin
   bool CollisionFree(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
-    collision::PlaceRobot(checker, q, &placed);
-    return collision::CheckPlacedCollisionFree(checker, obstacles, margin, margin, obstacles_only, &placed);
+    return collision::CheckConfigCollisionFree(checker, q, obstacles, margin, margin, obstacles_only, &placed);
   }
   // q within the bounds of the current plan and every checked distance > margin.
   bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && CollisionFree(q, false); }

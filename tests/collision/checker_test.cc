@@ -8,7 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -167,6 +169,53 @@ TEST(RobotCollisionCheckerTest, ClearanceIsTheSmallestDistanceOfEveryCheckedPair
   EXPECT_GT(obstacle, 50);
   EXPECT_GT(self, 5);
   EXPECT_GT(touching, 30);
+}
+
+TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
+  // CheckConfigCollisionFree places only the capsules it reaches: its answer is the exhaustive one and that of
+  // PlaceRobot + CheckPlacedCollisionFree, for split margins and obstacles alone too, and what it placed is
+  // PlaceRobot's, bit for bit
+  std::mt19937_64 rng(17);
+  int reached = 0, total = 0, free = 0, checks = 0;
+  for (const std::string& name : kArms) {
+    const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
+    const RobotCollisionModel model(robot);
+    RobotCollisionData lazy(model), eager(model);
+    lazy.stamp = std::numeric_limits<std::uint32_t>::max() - 20;  // the stamp wraps around within the trials
+    for (int trial = 0; trial < 40; ++trial) {
+      const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      // every other trial without obstacles: free often, when the arm is clear of itself and the floor
+      const std::vector<rmp::Obstacle> obstacles =
+          trial % 2 == 1 ? std::vector<rmp::Obstacle>{} : ObstaclesNear(robot, q, rng);
+      const Exhaustive e = ExhaustiveClearance(robot, q, obstacles, true);
+      for (const auto& [obstacle_margin, self_margin] : {std::pair{0.0, 0.0}, {0.01, 0.0}, {0.05, 0.01}}) {
+        for (const bool obstacles_only : {false, true}) {
+          const bool expected =
+              e.obstacles > obstacle_margin && (obstacles_only || std::min(e.self, e.floor) > self_margin);
+          const bool answer =
+              CheckConfigCollisionFree(model, q, obstacles, obstacle_margin, self_margin, obstacles_only, &lazy);
+          PlaceRobot(model, q, &eager);
+          ASSERT_EQ(answer, expected) << name << " trial " << trial;
+          ASSERT_EQ(CheckPlacedCollisionFree(model, obstacles, obstacle_margin, self_margin, obstacles_only, &eager),
+                    expected);
+          free += answer;
+          ++checks;
+          for (int c = 0; c < model.num_capsules(); ++c) {
+            if (lazy.sphere_stamp[c] == lazy.stamp) EXPECT_EQ(lazy.capsule_sphere[c], eager.capsule_sphere[c]);
+            if (lazy.capsule_stamp[c] != lazy.stamp) continue;
+            EXPECT_EQ(lazy.capsule_W[c].p_WA, eager.capsule_W[c].p_WA);
+            EXPECT_EQ(lazy.capsule_W[c].p_WB, eager.capsule_W[c].p_WB);
+            ++reached;
+          }
+          total += model.num_capsules();
+        }
+      }
+    }
+  }
+  std::printf("[ checker ] lazy checks: %d of %d free, %d of %d capsules placed\n", free, checks, reached, total);
+  EXPECT_GT(free, checks / 5);
+  EXPECT_LT(free, checks * 4 / 5);
+  EXPECT_LT(reached, total);
 }
 
 TEST(RobotCollisionCheckerTest, AnEdgeIsFreeWhenEveryConfigurationAlongItIs) {

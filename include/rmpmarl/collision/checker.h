@@ -23,6 +23,7 @@
 /// tries the pair the last failing check on the same data failed on (a path's neighbouring configurations usually fail
 /// on the same pair); the answer does not depend on that order.
 #include <Eigen/Core>
+#include <cstdint>
 #include <limits>
 #include <span>
 #include <utility>
@@ -109,6 +110,10 @@ struct RobotCollisionData {
   std::vector<Eigen::Vector4d> capsule_sphere;  ///< per capsule: bounding sphere (centre, radius)
   std::vector<Eigen::Vector4d> group_sphere;    ///< per link group: a sphere around its capsules' spheres
   ClearancePair last_hit;  ///< the pair the last failing CheckPlacedCollisionFree failed on (kNone: none yet)
+  /// CheckConfigCollisionFree's lazy placement: a capsule's sphere and the capsule itself are up to date when their
+  /// stamp equals `stamp`, which each such check advances
+  std::vector<std::uint32_t> sphere_stamp, capsule_stamp;
+  std::uint32_t stamp = 0;
 };
 
 /// places the capsules at q (forward kinematics into data->kin). \pre q of the model's size (checked by callers at
@@ -151,6 +156,13 @@ ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::
 /// every checked distance at q exceeds `margin` (joint limits are the caller's).
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data);
+/// the answer of PlaceRobot(q) then CheckPlacedCollisionFree, placing only what the check reaches: the forward
+/// kinematics and the link groups' spheres first, a capsule's sphere when its group's sphere does not rule it out,
+/// the capsule itself when its sphere does not (the same arithmetic, so the same answer, bit for bit). Afterwards
+/// data->capsule_W and data->capsule_sphere hold only the capsules the check reached; PlaceRobot places them all.
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
+                              bool obstacles_only, RobotCollisionData* data);
 /// calls visit(k) for every k in 1..n once, coarse to fine — n first, then the multiples of the largest power of two
 /// not above n, then the odd multiples of each smaller power of two — and stops, returning false, as soon as visit
 /// does. An edge through an obstacle usually fails at one of its first, far apart states; a free one visits them all.
