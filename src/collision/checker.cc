@@ -116,24 +116,17 @@ double PairDistance(const RobotCollisionModel& model, const Placement& placed,
 
 template <typename Placement>
 double ObstacleClearance(const RobotCollisionModel& model, const Placement& placed, const rmp::Obstacle& o,
-                         int index, double stop_below, double d, ClearancePair* pair) {
+                         const ObstacleBounds& bounds, int index, double stop_below, double d, ClearancePair* pair) {
   auto cannot_matter = [&d, stop_below](double lower_bound) { return CannotMatter(lower_bound, d, stop_below); };
-  const Eigen::Vector3d centre = rmp::Centre(o);
-  const double radius = rmp::BoundingRadius(o);
-  // a box's (or a cylinder's enclosing box's) distance to the capsule's bounding sphere bounds the capsule's below,
-  // far tighter than the bounding spheres for a shelf's board; a cylinder's enclosing box bounds it below too
-  const bool boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
-  math::Box box = o.box;
-  if (o.shape == rmp::ObstacleShape::kCylinder) {
-    box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
-  }
-  const Eigen::Isometry3d X_BW = boxed ? box.X_WB.inverse() : Eigen::Isometry3d::Identity();
-  // a sphere (centre, radius) that cannot come closer to the obstacle than what was found
+  const math::Box& box = bounds.box;
+  // a sphere (centre, radius) that cannot come closer to the obstacle than what was found; for a box (or a
+  // cylinder's enclosing box) the box's distance to the sphere, far tighter than the bounding spheres for a shelf's
+  // board
   auto sphere_out = [&](const Eigen::Vector4d& sphere) {
-    if (SpheresCannotMatter(sphere, centre, radius, d, stop_below)) return true;
-    if (!boxed) return false;
+    if (SpheresCannotMatter(sphere, bounds.centre, bounds.radius, d, stop_below)) return true;
+    if (!bounds.boxed) return false;
     // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
-    const Eigen::Vector3d p = (X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
+    const Eigen::Vector3d p = (bounds.X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
     return cannot_matter(p.cwiseMax(0.0).norm() + std::min(p.maxCoeff(), 0.0) - sphere[3]);
   };
   const auto& groups = model.link_groups();
@@ -143,6 +136,7 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
     for (int c : groups[g].capsules) {
       if (sphere_out(placed.sphere(c))) continue;
       const math::Capsule& w = placed.capsule(c);
+      // a cylinder's enclosing box bounds it below
       if (o.shape == rmp::ObstacleShape::kCylinder && cannot_matter(math::CapsuleBoxDistance(w, box).distance)) {
         continue;
       }
@@ -157,11 +151,15 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
   return d;
 }
 
+// over every obstacle; `prepared` holds their bounds, or is empty (computed here)
 template <typename Placement>
 double ObstaclesClearance(const RobotCollisionModel& model, const Placement& placed,
-                          std::span<const rmp::Obstacle> obstacles, double stop_below, double d, ClearancePair* pair) {
+                          std::span<const rmp::Obstacle> obstacles, std::span<const ObstacleBounds> prepared,
+                          double stop_below, double d, ClearancePair* pair) {
   for (size_t k = 0; k < obstacles.size(); ++k) {
-    d = ObstacleClearance(model, placed, obstacles[k], static_cast<int>(k), stop_below, d, pair);
+    ObstacleBounds computed;
+    const ObstacleBounds& bounds = prepared.empty() ? (computed = BoundsOf(obstacles[k])) : prepared[k];
+    d = ObstacleClearance(model, placed, obstacles[k], bounds, static_cast<int>(k), stop_below, d, pair);
     if (d <= stop_below) return d;
   }
   return d;
@@ -205,8 +203,8 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
 
 template <typename Placement>
 bool PlacedCollisionFree(const RobotCollisionModel& model, const Placement& placed,
-                         std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
-                         bool obstacles_only, ClearancePair* last_hit) {
+                         std::span<const rmp::Obstacle> obstacles, std::span<const ObstacleBounds> prepared,
+                         double obstacle_margin, double self_margin, bool obstacles_only, ClearancePair* last_hit) {
   ClearancePair& hit = *last_hit;
   if (hit.kind != ClearancePair::Kind::kNone && !(obstacles_only && hit.kind != ClearancePair::Kind::kObstacle)) {
     const double margin = hit.kind == ClearancePair::Kind::kObstacle ? obstacle_margin : self_margin;
@@ -215,7 +213,7 @@ bool PlacedCollisionFree(const RobotCollisionModel& model, const Placement& plac
     }
   }
   ClearancePair pair;
-  if (ObstaclesClearance(model, placed, obstacles, obstacle_margin, kInf, &pair) <= obstacle_margin ||
+  if (ObstaclesClearance(model, placed, obstacles, prepared, obstacle_margin, kInf, &pair) <= obstacle_margin ||
       (!obstacles_only &&
        SelfClearance(model, placed, model.num_capsules(), self_margin, kInf, &pair) <= self_margin)) {
     hit = pair;
@@ -225,6 +223,25 @@ bool PlacedCollisionFree(const RobotCollisionModel& model, const Placement& plac
 }
 
 }  // namespace
+
+ObstacleBounds BoundsOf(const rmp::Obstacle& o) {
+  ObstacleBounds b;
+  b.centre = rmp::Centre(o);
+  b.radius = rmp::BoundingRadius(o);
+  b.boxed = o.shape == rmp::ObstacleShape::kBox || o.shape == rmp::ObstacleShape::kCylinder;
+  b.box = o.box;
+  if (o.shape == rmp::ObstacleShape::kCylinder) {
+    b.box = {o.cylinder.X_WC, Eigen::Vector3d(o.cylinder.radius, o.cylinder.radius, o.cylinder.half_length)};
+  }
+  b.X_BW = b.boxed ? b.box.X_WB.inverse() : Eigen::Isometry3d::Identity();
+  return b;
+}
+
+void PreparedObstacles::Assign(std::span<const rmp::Obstacle> obstacles) {
+  obstacles_.assign(obstacles.begin(), obstacles.end());
+  bounds_.resize(obstacles.size());
+  for (size_t k = 0; k < obstacles.size(); ++k) bounds_[k] = BoundsOf(obstacles[k]);
+}
 
 RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const RobotCollisionOptions& options)
     : robot_(robot), options_(options) {
@@ -325,13 +342,13 @@ void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometr
 
 double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
                              const rmp::Obstacle& o, int index, double stop_below, double d, ClearancePair* pair) {
-  return ObstacleClearance(model, EagerPlacement{data}, o, index, stop_below, d, pair);
+  return ObstacleClearance(model, EagerPlacement{data}, o, BoundsOf(o), index, stop_below, d, pair);
 }
 
 double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollisionData& data,
                              std::span<const rmp::Obstacle> obstacles, double stop_below, double d,
                              ClearancePair* pair) {
-  return ObstaclesClearance(model, EagerPlacement{data}, obstacles, stop_below, d, pair);
+  return ObstaclesClearance(model, EagerPlacement{data}, obstacles, {}, stop_below, d, pair);
 }
 
 double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionData& data, double stop_below,
@@ -359,8 +376,8 @@ ClearancePair CalcRobotClearance(const RobotCollisionModel& model, const Eigen::
 bool CheckPlacedCollisionFree(const RobotCollisionModel& model, std::span<const rmp::Obstacle> obstacles,
                               double obstacle_margin, double self_margin, bool obstacles_only,
                               RobotCollisionData* data) {
-  return PlacedCollisionFree(model, EagerPlacement{*data}, obstacles, obstacle_margin, self_margin, obstacles_only,
-                             &data->last_hit);
+  return PlacedCollisionFree(model, EagerPlacement{*data}, obstacles, {}, obstacle_margin, self_margin,
+                             obstacles_only, &data->last_hit);
 }
 
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
@@ -368,9 +385,11 @@ bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref
   return CheckConfigCollisionFree(model, q, obstacles, margin, margin, false, data);
 }
 
-bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
-                              std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
-                              bool obstacles_only, RobotCollisionData* data) {
+namespace {
+
+// the forward kinematics and the link groups' spheres at q, every capsule's sphere and the capsule left to first use
+LazyPlacement PlaceLazily(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                          RobotCollisionData* data) {
   kinematics::CalcForwardKinematics(model.robot().model, q, &data->kin);
   const auto& groups = model.link_groups();
   for (size_t g = 0; g < groups.size(); ++g) {
@@ -382,8 +401,23 @@ bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref
     std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);
     data->stamp = 1;
   }
-  return PlacedCollisionFree(model, LazyPlacement{model, *data}, obstacles, obstacle_margin, self_margin,
+  return LazyPlacement{model, *data};
+}
+
+}  // namespace
+
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
+                              bool obstacles_only, RobotCollisionData* data) {
+  return PlacedCollisionFree(model, PlaceLazily(model, q, data), obstacles, {}, obstacle_margin, self_margin,
                              obstacles_only, &data->last_hit);
+}
+
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              const PreparedObstacles& obstacles, double obstacle_margin, double self_margin,
+                              bool obstacles_only, RobotCollisionData* data) {
+  return PlacedCollisionFree(model, PlaceLazily(model, q, data), obstacles.obstacles(), obstacles.bounds(),
+                             obstacle_margin, self_margin, obstacles_only, &data->last_hit);
 }
 
 bool CheckEdgeCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q0,

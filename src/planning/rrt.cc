@@ -213,6 +213,7 @@ RrtPolicy::RrtPolicy(const kinematics::Robot& robot, const RrtOptions& options) 
     m.continuous[i] = !std::isfinite(m.limit_lower[i]) || !std::isfinite(m.limit_upper[i]);
   }
   m.obstacles.reserve(64);
+  m.prepared.Reserve(64);
   m.q_d.setZero(m.nq);
   m.qd_d.setZero(m.nq);
   m.previous_goal.setZero(m.nq);

@@ -36,12 +36,12 @@ struct RrtPolicy::Impl {
   // self_margin (an arm that always keeps two of its links close, inside the margin, can still move)
   // (both place only the capsules their check reaches: `placed` is then partly placed, Clearance places it whole)
   bool ValidRelaxed(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
-    return collision::CheckConfigCollisionFree(checker, q, obstacles, MarginAt(q), self_margin, obstacles_only,
+    return collision::CheckConfigCollisionFree(checker, q, prepared, MarginAt(q), self_margin, obstacles_only,
                                                &placed);
   }
   // every checked distance at q (only the obstacles' with obstacles_only) > margin
   bool CollisionFree(const Eigen::Ref<const Eigen::VectorXd>& q, bool obstacles_only) {
-    return collision::CheckConfigCollisionFree(checker, q, obstacles, margin, margin, obstacles_only, &placed);
+    return collision::CheckConfigCollisionFree(checker, q, prepared, margin, margin, obstacles_only, &placed);
   }
   // q within the bounds of the current plan and every checked distance > margin.
   bool Valid(const Eigen::Ref<const Eigen::VectorXd>& q) { return InBounds(q) && CollisionFree(q, false); }
@@ -57,7 +57,10 @@ struct RrtPolicy::Impl {
                     bool within_limits = false);
   // joint bounds of a plan starting at q: the limits, continuous joints within ±π of q.
   void SetBounds(const Eigen::Ref<const Eigen::VectorXd>& q);
-  void SetObstacles(const rmp::Scene& scene) { obstacles = scene.obstacles; }
+  void SetObstacles(const rmp::Scene& scene) {
+    obstacles = scene.obstacles;
+    prepared.Assign(obstacles);
+  }
   bool ObstaclesChanged(const rmp::Scene& scene) const;
   Eigen::Vector3d EndEffector(const Eigen::Ref<const Eigen::VectorXd>& q);
   IkResult SolveIk(const Eigen::Ref<const Eigen::VectorXd>& q_start, const Eigen::Vector3d& p_WT);
@@ -90,6 +93,7 @@ struct RrtPolicy::Impl {
   collision::RobotCollisionModel checker;    // the robot's capsules, their link groups and checked pairs
   collision::RobotCollisionData placed;      // the capsules at the configuration checked last
   std::vector<rmp::Obstacle> obstacles;         // the snapshot planning and path checks use
+  collision::PreparedObstacles prepared;        // the same, with their bounds for the validity checks
   double margin = 0.0;                          // validity margin in use (safety_margin, or less from a tight start)
   // a PlanPath search with end_margin_distance > 0 from or to an end inside the safety margin: the obstacles' margin
   // MarginAt(q), relaxed near such an end (relaxed_ends), the floor and self-collision margin self_margin; otherwise

@@ -172,9 +172,9 @@ TEST(RobotCollisionCheckerTest, ClearanceIsTheSmallestDistanceOfEveryCheckedPair
 }
 
 TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
-  // CheckConfigCollisionFree places only the capsules it reaches: its answer is the exhaustive one and that of
-  // PlaceRobot + CheckPlacedCollisionFree, for split margins and obstacles alone too, and what it placed is
-  // PlaceRobot's, bit for bit
+  // CheckConfigCollisionFree places only the capsules it reaches: its answer, against the obstacles or against them
+  // prepared, is the exhaustive one and that of PlaceRobot + CheckPlacedCollisionFree, for split margins and
+  // obstacles alone too, and what it placed is PlaceRobot's, bit for bit
   std::mt19937_64 rng(17);
   int reached = 0, total = 0, free = 0, checks = 0;
   for (const std::string& name : kArms) {
@@ -196,6 +196,9 @@ TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
               CheckConfigCollisionFree(model, q, obstacles, obstacle_margin, self_margin, obstacles_only, &lazy);
           PlaceRobot(model, q, &eager);
           ASSERT_EQ(answer, expected) << name << " trial " << trial;
+          ASSERT_EQ(CheckConfigCollisionFree(model, q, PreparedObstacles(obstacles), obstacle_margin, self_margin,
+                                             obstacles_only, &lazy),
+                    expected);
           ASSERT_EQ(CheckPlacedCollisionFree(model, obstacles, obstacle_margin, self_margin, obstacles_only, &eager),
                     expected);
           free += answer;

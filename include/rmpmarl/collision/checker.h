@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/math/geometry.h"
 #include "rmpmarl/rmp/scene.h"
 
 namespace rmpmarl::collision {
@@ -102,6 +103,39 @@ class RobotCollisionModel {
   std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
 };
 
+/// What the broad phase needs of an obstacle: its bounding sphere and, for a box or a cylinder, the box bounding it
+/// (the box itself, or the cylinder's) with its inverse pose.
+struct ObstacleBounds {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radius = 0.0;
+  bool boxed = false;
+  math::Box box;
+  Eigen::Isometry3d X_BW = Eigen::Isometry3d::Identity();
+};
+/// the bounds of one obstacle.
+ObstacleBounds BoundsOf(const rmp::Obstacle& obstacle);
+
+/// Obstacles prepared for many checks (a planner's scene): a copy of them and their bounds, computed once instead of
+/// at every check.
+class PreparedObstacles {
+ public:
+  PreparedObstacles() = default;
+  explicit PreparedObstacles(std::span<const rmp::Obstacle> obstacles) { Assign(obstacles); }
+  /// prepares `obstacles`, reusing this object's storage (no allocation once it has held as many)
+  void Assign(std::span<const rmp::Obstacle> obstacles);
+  /// storage for n obstacles
+  void Reserve(size_t n) {
+    obstacles_.reserve(n);
+    bounds_.reserve(n);
+  }
+  std::span<const rmp::Obstacle> obstacles() const { return obstacles_; }
+  std::span<const ObstacleBounds> bounds() const { return bounds_; }
+
+ private:
+  std::vector<rmp::Obstacle> obstacles_;
+  std::vector<ObstacleBounds> bounds_;
+};
+
 /// The robot's capsules placed at one configuration (preallocated for a model).
 struct RobotCollisionData {
   explicit RobotCollisionData(const RobotCollisionModel& model);
@@ -162,6 +196,10 @@ bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref
 /// data->capsule_W and data->capsule_sphere hold only the capsules the check reached; PlaceRobot places them all.
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
+                              bool obstacles_only, RobotCollisionData* data);
+/// the same against prepared obstacles (the same answer).
+bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                              const PreparedObstacles& obstacles, double obstacle_margin, double self_margin,
                               bool obstacles_only, RobotCollisionData* data);
 /// calls visit(k) for every k in 1..n once, coarse to fine — n first, then the multiples of the largest power of two
 /// not above n, then the odd multiples of each smaller power of two — and stops, returning false, as soon as visit
