@@ -17,6 +17,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // the broad phase's spheres are this much larger than what they bound [m], so that rounding in moving them with
 // their links never leaves a capsule poking out of its sphere
 constexpr double kSphereSlack = 1e-9;
+// a remembered self-pair bound is lowered by this much more [m], far above the rounding of the distances and poses
+// it compares (the bound holds for exact arithmetic)
+constexpr double kBoundSlack = 1e-9;
 
 // a pair whose distance is bounded below by `lower_bound` cannot lower the smallest distance d found so far, nor, in a
 // check with a threshold (a finite stop_below), make the answer <= stop_below when the bound exceeds stop_below
@@ -50,6 +53,9 @@ void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCo
 // PlaceRobot's, so the same values).
 struct EagerPlacement {
   const RobotCollisionData& data;
+  // self pairs: nothing remembered
+  bool SkipSelfPair(size_t /*pair*/, double /*d*/, double /*stop_below*/) const { return false; }
+  void RememberSelfPair(size_t /*pair*/, double /*lower_bound*/) const {}
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
   const Eigen::Vector4d& sphere(int c) const { return data.capsule_sphere[c]; }
   const math::Capsule& capsule(int c) const { return data.capsule_W[c]; }
@@ -58,6 +64,20 @@ struct EagerPlacement {
 struct LazyPlacement {
   const RobotCollisionModel& model;
   RobotCollisionData& data;
+  const double* q;  // the configuration placed
+  int nq;
+  // the link pair's remembered lower bound, less how far its links can have moved since, cannot matter
+  bool SkipSelfPair(size_t pair, double d, double stop_below) const {
+    double bound = data.self_bound[pair];
+    if (bound == -kInf) return false;
+    const double* q_then = &data.self_bound_q[pair * nq];
+    for (int i = 0; i < nq; ++i) bound -= model.self_pair_reach(pair, i) * std::abs(q[i] - q_then[i]);
+    return CannotMatter(bound - kBoundSlack, d, stop_below);
+  }
+  void RememberSelfPair(size_t pair, double lower_bound) const {
+    data.self_bound[pair] = lower_bound;
+    std::copy(q, q + nq, data.self_bound_q.begin() + static_cast<std::ptrdiff_t>(pair * nq));
+  }
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
   const Eigen::Vector4d& sphere(int c) const {
     if (data.sphere_stamp[c] != data.stamp) {
@@ -183,20 +203,36 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
     }
   }
   const auto& pairs = model.grouped_self_pairs();
-  for (const RobotCollisionModel::LinkPair& links : model.self_link_pairs()) {
-    const Eigen::Vector4d& group_b = placed.group(links.group_b);
-    if (SpheresCannotMatter(placed.group(links.group_a), group_b.head<3>(), group_b[3], d, stop_below)) continue;
+  const auto& link_pairs = model.self_link_pairs();
+  // the lower bound of two spheres' distance
+  auto sphere_gap = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
+    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3];
+  };
+  for (size_t p = 0; p < link_pairs.size(); ++p) {
+    const RobotCollisionModel::LinkPair& links = link_pairs[p];
+    if (placed.SkipSelfPair(p, d, stop_below)) continue;
+    const double group_gap = sphere_gap(placed.group(links.group_a), placed.group(links.group_b));
+    if (CannotMatter(group_gap, d, stop_below)) {
+      placed.RememberSelfPair(p, group_gap);
+      continue;
+    }
+    double lower_bound = kInf;  // of the link pair's distance: each capsule pair's distance or its spheres' gap
     for (size_t i = links.begin; i < links.end; ++i) {
       const auto [a, b] = pairs[i];
-      const Eigen::Vector4d& sphere_b = placed.sphere(b);
-      if (SpheresCannotMatter(placed.sphere(a), sphere_b.head<3>(), sphere_b[3], d, stop_below)) continue;
+      const double gap = sphere_gap(placed.sphere(a), placed.sphere(b));
+      if (CannotMatter(gap, d, stop_below)) {
+        lower_bound = std::min(lower_bound, gap);
+        continue;
+      }
       const double distance = math::CapsuleCapsuleDistance(placed.capsule(a), placed.capsule(b)).distance;
+      lower_bound = std::min(lower_bound, distance);
       if (distance < d) {
         d = distance;
         if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
       }
       if (d <= stop_below) return d;
     }
+    placed.RememberSelfPair(p, lower_bound);
   }
   return d;
 }
@@ -308,6 +344,50 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     group_sphere_L_.emplace_back();
     group_sphere_L_.back() << centre, radius + kSphereSlack;
   }
+  // how far each dof can move a link's capsule segments: walking up from the link, a joint's axis passes through its
+  // link's origin, whose distance to every segment point is at most the farthest segment end point from the link's own
+  // origin plus the joint offsets in between (triangle inequality, for every configuration)
+  nq_ = model.nq();
+  const int num_links = model.num_links();
+  std::vector<double> segment_reach(num_links, 0.0);
+  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+    segment_reach[c.link] = std::max({segment_reach[c.link], c.p_LA.norm(), c.p_LB.norm()});
+  }
+  // reach of the dofs moving `link` relative to `ancestor` (its ancestor or itself), added into `out`
+  auto add_reach = [&](int link, int ancestor, double* out) {
+    double r = segment_reach[link];
+    for (int m = link; m != ancestor && m > 0; m = model.link(m).parent) {
+      const kinematics::Link& joint = model.link(m);
+      const int dof = joint.q_index >= 0 ? joint.q_index : joint.mimic_dof;
+      if (joint.moving() && dof >= 0) {
+        const double factor = joint.q_index >= 0 ? 1.0 : std::abs(joint.mimic_multiplier);
+        out[dof] += factor * (joint.joint_type == kinematics::JointType::kPrismatic ? 1.0 : r);
+      }
+      r += joint.X_PJ.translation().norm();
+    }
+  };
+  auto ancestors = [&](int link) {
+    std::vector<int> chain;
+    for (int m = link; m >= 0; m = m > 0 ? model.link(m).parent : -1) chain.push_back(m);
+    return chain;
+  };
+  self_pair_reach_.assign(self_link_pairs_.size() * nq_, 0.0);
+  for (size_t p = 0; p < self_link_pairs_.size(); ++p) {
+    const int la = link_groups_[self_link_pairs_[p].group_a].link, lb = link_groups_[self_link_pairs_[p].group_b].link;
+    const std::vector<int> up_a = ancestors(la), up_b = ancestors(lb);
+    int common = 0;
+    for (int m : up_a) {
+      if (std::find(up_b.begin(), up_b.end(), m) != up_b.end()) {
+        common = m;
+        break;
+      }
+    }
+    double* reach = &self_pair_reach_[p * nq_];
+    add_reach(la, common, reach);
+    add_reach(lb, common, reach);
+    // rounding of the sums above must not make a reach too small
+    for (int i = 0; i < nq_; ++i) reach[i] *= 1.0 + 1e-12;
+  }
 }
 
 RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
@@ -316,7 +396,9 @@ RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
       capsule_sphere(model.num_capsules()),
       group_sphere(model.link_groups().size()),
       sphere_stamp(model.num_capsules(), 0),
-      capsule_stamp(model.num_capsules(), 0) {}
+      capsule_stamp(model.num_capsules(), 0),
+      self_bound(model.self_link_pairs().size(), -kInf),
+      self_bound_q(model.self_link_pairs().size() * model.robot().model.nq(), 0.0) {}
 
 void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                 RobotCollisionData* data) {
@@ -401,7 +483,7 @@ LazyPlacement PlaceLazily(const RobotCollisionModel& model, const Eigen::Ref<con
     std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);
     data->stamp = 1;
   }
-  return LazyPlacement{model, *data};
+  return LazyPlacement{model, *data, q.data(), static_cast<int>(q.size())};
 }
 
 }  // namespace

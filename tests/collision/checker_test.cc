@@ -221,6 +221,80 @@ TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
   EXPECT_LT(reached, total);
 }
 
+TEST(RobotCollisionCheckerTest, TwoLinksMoveApartNoFasterThanTheirReach) {
+  // the self-pair memory's bound: a link pair's distance at q' is at least its distance at q less
+  // Σ_i reach(pair, i) |q'_i − q_i|, at random nearby configurations of every arm (and the pairs' reach is not
+  // trivially large: the bound is also met within a factor of a few on some pairs)
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  int compared = 0, tight = 0;
+  for (const std::string& name : kArms) {
+    const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
+    const RobotCollisionModel model(robot);
+    RobotCollisionData at_q(model), at_q2(model);
+    const int nq = robot.model.nq();
+    auto link_pair_distance = [&](const RobotCollisionData& d, const RobotCollisionModel::LinkPair& links) {
+      double m = INFINITY;
+      for (size_t i = links.begin; i < links.end; ++i) {
+        const auto [a, b] = model.grouped_self_pairs()[i];
+        m = std::min(m, math::CapsuleCapsuleDistance(d.capsule_W[a], d.capsule_W[b]).distance);
+      }
+      return m;
+    };
+    for (int trial = 0; trial < 100; ++trial) {
+      const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      VectorXd q2 = q;
+      const double step = trial % 2 == 0 ? 0.02 : 0.3;
+      for (int i = 0; i < nq; ++i) q2[i] += step * U(rng);
+      PlaceRobot(model, q, &at_q);
+      PlaceRobot(model, q2, &at_q2);
+      for (size_t p = 0; p < model.self_link_pairs().size(); ++p) {
+        double moved = 0.0;
+        for (int i = 0; i < nq; ++i) moved += model.self_pair_reach(p, i) * std::abs(q2[i] - q[i]);
+        const double before = link_pair_distance(at_q, model.self_link_pairs()[p]);
+        const double after = link_pair_distance(at_q2, model.self_link_pairs()[p]);
+        ASSERT_GE(after, before - moved - 1e-12) << name << " trial " << trial << " pair " << p;
+        ASSERT_GE(before, after - moved - 1e-12) << name << " trial " << trial << " pair " << p;
+        ++compared;
+        tight += std::abs(after - before) > 0.2 * moved;
+      }
+    }
+  }
+  std::printf("[ checker ] %d link-pair moves within their reach, %d of them by more than a fifth of it\n", compared,
+              tight);
+  EXPECT_GT(tight, compared / 50);
+}
+
+TEST(RobotCollisionCheckerTest, ALazyCheckAlongAPathAnswersAsTheExhaustiveSearch) {
+  // small steps along straight paths, as a planner checks an edge: the self-pair memory skips pairs, the answers stay
+  // the exhaustive ones, near self-collision too
+  std::mt19937_64 rng(29);
+  int free = 0, checks = 0;
+  for (const std::string& name : kArms) {
+    const kinematics::Robot robot = kinematics::LoadShippedRobot(name);
+    const RobotCollisionModel model(robot);
+    RobotCollisionData lazy(model);
+    for (int path = 0; path < 6; ++path) {
+      const VectorXd a = testing::RandomConfiguration(robot.model, rng);
+      const VectorXd b = testing::RandomConfiguration(robot.model, rng);
+      for (int k = 0; k <= 200; ++k) {
+        const VectorXd q = a + (b - a) * (k / 200.0);
+        const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
+        for (double margin : {0.0, 0.01, 0.05}) {
+          const bool answer = CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, margin, margin,
+                                                       false, &lazy);
+          ASSERT_EQ(answer, std::min(e.self, e.floor) > margin) << name << " path " << path << " step " << k;
+          free += answer;
+          ++checks;
+        }
+      }
+    }
+  }
+  std::printf("[ checker ] along paths: %d of %d checks free\n", free, checks);
+  EXPECT_GT(free, checks / 5);
+  EXPECT_LT(free, checks * 4 / 5);
+}
+
 TEST(RobotCollisionCheckerTest, AnEdgeIsFreeWhenEveryConfigurationAlongItIs) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   const RobotCollisionModel model(robot);

@@ -91,6 +91,12 @@ class RobotCollisionModel {
   const Eigen::Vector4d& capsule_sphere_L(int capsule) const { return capsule_sphere_L_[capsule]; }
   /// per link group: a sphere around its capsules' spheres in the link's frame (centre, radius)
   const Eigen::Vector4d& group_sphere_L(int group) const { return group_sphere_L_[group]; }
+  /// per checked link pair p (self_link_pairs' order) and dof i: how fast the two links' capsule segments can move
+  /// relative to each other with q[i] [m/rad, m/m], for every configuration: the distance from the joint's axis to
+  /// the farthest segment point of the link it moves, bounded along the chain (1 for a prismatic joint; joints above
+  /// the pair's common ancestor move both alike: 0). The pair's distance at q' is then at least its distance at q
+  /// less Σ_i reach(p, i) |q'_i − q_i|.
+  double self_pair_reach(size_t pair, int dof) const { return self_pair_reach_[pair * nq_ + dof]; }
 
  private:
   kinematics::Robot robot_;
@@ -101,6 +107,8 @@ class RobotCollisionModel {
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<char> floor_checked_;
   std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
+  int nq_ = 0;
+  std::vector<double> self_pair_reach_;
 };
 
 /// What the broad phase needs of an obstacle: its bounding sphere and, for a box or a cylinder, the box bounding it
@@ -148,6 +156,10 @@ struct RobotCollisionData {
   /// stamp equals `stamp`, which each such check advances
   std::vector<std::uint32_t> sphere_stamp, capsule_stamp;
   std::uint32_t stamp = 0;
+  /// CheckConfigCollisionFree's memory of the self pairs: per checked link pair, a lower bound of its distance
+  /// (−inf: none yet) at the configuration stored beside it (self_bound_q, nq per pair); a later check skips the pair
+  /// when that bound, less how far the links can have moved since (RobotCollisionModel::self_pair_reach), cannot matter
+  std::vector<double> self_bound, self_bound_q;
 };
 
 /// places the capsules at q (forward kinematics into data->kin). \pre q of the model's size (checked by callers at
@@ -192,8 +204,11 @@ bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref
                               std::span<const rmp::Obstacle> obstacles, double margin, RobotCollisionData* data);
 /// the answer of PlaceRobot(q) then CheckPlacedCollisionFree, placing only what the check reaches: the forward
 /// kinematics and the link groups' spheres first, a capsule's sphere when its group's sphere does not rule it out,
-/// the capsule itself when its sphere does not (the same arithmetic, so the same answer, bit for bit). Afterwards
-/// data->capsule_W and data->capsule_sphere hold only the capsules the check reached; PlaceRobot places them all.
+/// the capsule itself when its sphere does not (the same arithmetic, so the same answer, bit for bit). A pair of
+/// links whose distance at an earlier check on the same data, less how far they can have moved since, exceeds the
+/// self margin is skipped (RobotCollisionData::self_bound): it cannot fail the check, so the answer is the same.
+/// Afterwards data->capsule_W and data->capsule_sphere hold only the capsules the check reached; PlaceRobot places
+/// them all.
 bool CheckConfigCollisionFree(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                               std::span<const rmp::Obstacle> obstacles, double obstacle_margin, double self_margin,
                               bool obstacles_only, RobotCollisionData* data);
