@@ -65,18 +65,20 @@ struct LazyPlacement {
   const RobotCollisionModel& model;
   RobotCollisionData& data;
   const double* q;  // the configuration placed
-  int nq;
   // the link pair's remembered lower bound, less how far its links can have moved since, cannot matter
   bool SkipSelfPair(size_t pair, double d, double stop_below) const {
     double bound = data.self_bound[pair];
     if (bound == -kInf) return false;
-    const double* q_then = &data.self_bound_q[pair * nq];
-    for (int i = 0; i < nq; ++i) bound -= model.self_pair_reach(pair, i) * std::abs(q[i] - q_then[i]);
+    const std::span<const RobotCollisionModel::DofReach> motion = model.self_pair_motion(pair);
+    const double* q_then = &data.self_bound_q[model.self_pair_motion_begin(pair)];
+    for (size_t k = 0; k < motion.size(); ++k) bound -= motion[k].reach * std::abs(q[motion[k].dof] - q_then[k]);
     return CannotMatter(bound - kBoundSlack, d, stop_below);
   }
   void RememberSelfPair(size_t pair, double lower_bound) const {
     data.self_bound[pair] = lower_bound;
-    std::copy(q, q + nq, data.self_bound_q.begin() + static_cast<std::ptrdiff_t>(pair * nq));
+    const std::span<const RobotCollisionModel::DofReach> motion = model.self_pair_motion(pair);
+    double* q_now = &data.self_bound_q[model.self_pair_motion_begin(pair)];
+    for (size_t k = 0; k < motion.size(); ++k) q_now[k] = q[motion[k].dof];
   }
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
   const Eigen::Vector4d& sphere(int c) const {
@@ -388,6 +390,13 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     // rounding of the sums above must not make a reach too small
     for (int i = 0; i < nq_; ++i) reach[i] *= 1.0 + 1e-12;
   }
+  self_pair_motion_begin_.assign(1, 0);
+  for (size_t p = 0; p < self_link_pairs_.size(); ++p) {
+    for (int i = 0; i < nq_; ++i) {
+      if (self_pair_reach_[p * nq_ + i] > 0.0) self_pair_motion_.push_back({i, self_pair_reach_[p * nq_ + i]});
+    }
+    self_pair_motion_begin_.push_back(self_pair_motion_.size());
+  }
 }
 
 RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
@@ -398,7 +407,7 @@ RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
       sphere_stamp(model.num_capsules(), 0),
       capsule_stamp(model.num_capsules(), 0),
       self_bound(model.self_link_pairs().size(), -kInf),
-      self_bound_q(model.self_link_pairs().size() * model.robot().model.nq(), 0.0) {}
+      self_bound_q(model.self_pair_motion_size(), 0.0) {}
 
 void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                 RobotCollisionData* data) {
@@ -483,7 +492,7 @@ LazyPlacement PlaceLazily(const RobotCollisionModel& model, const Eigen::Ref<con
     std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);
     data->stamp = 1;
   }
-  return LazyPlacement{model, *data, q.data(), static_cast<int>(q.size())};
+  return LazyPlacement{model, *data, q.data()};
 }
 
 }  // namespace

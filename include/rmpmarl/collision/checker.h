@@ -97,6 +97,20 @@ class RobotCollisionModel {
   /// the pair's common ancestor move both alike: 0). The pair's distance at q' is then at least its distance at q
   /// less Σ_i reach(p, i) |q'_i − q_i|.
   double self_pair_reach(size_t pair, int dof) const { return self_pair_reach_[pair * nq_ + dof]; }
+  /// The dofs that move a checked link pair relative to each other (reach > 0) and their reach, in dof order: the
+  /// range [begin, end) of self_pair_motion() for each pair.
+  struct DofReach {
+    int dof = 0;
+    double reach = 0.0;
+  };
+  std::span<const DofReach> self_pair_motion(size_t pair) const {
+    return std::span<const DofReach>(self_pair_motion_)
+        .subspan(self_pair_motion_begin_[pair], self_pair_motion_begin_[pair + 1] - self_pair_motion_begin_[pair]);
+  }
+  /// where pair's entries start in the flat list of every pair's (the layout of RobotCollisionData::self_bound_q)
+  size_t self_pair_motion_begin(size_t pair) const { return self_pair_motion_begin_[pair]; }
+  /// the flat list's length
+  size_t self_pair_motion_size() const { return self_pair_motion_.size(); }
 
  private:
   kinematics::Robot robot_;
@@ -109,6 +123,8 @@ class RobotCollisionModel {
   std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
   int nq_ = 0;
   std::vector<double> self_pair_reach_;
+  std::vector<DofReach> self_pair_motion_;
+  std::vector<size_t> self_pair_motion_begin_;
 };
 
 /// What the broad phase needs of an obstacle: its bounding sphere and, for a box or a cylinder, the box bounding it
@@ -157,8 +173,9 @@ struct RobotCollisionData {
   std::vector<std::uint32_t> sphere_stamp, capsule_stamp;
   std::uint32_t stamp = 0;
   /// CheckConfigCollisionFree's memory of the self pairs: per checked link pair, a lower bound of its distance
-  /// (−inf: none yet) at the configuration stored beside it (self_bound_q, nq per pair); a later check skips the pair
-  /// when that bound, less how far the links can have moved since (RobotCollisionModel::self_pair_reach), cannot matter
+  /// (−inf: none yet) at the configuration stored beside it (self_bound_q: the values of the pair's dofs,
+  /// RobotCollisionModel::self_pair_motion, in the same flat layout); a later check skips the pair when that bound,
+  /// less how far the links can have moved since, cannot matter
   std::vector<double> self_bound, self_bound_q;
 };
 
