@@ -204,7 +204,9 @@ TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
           free += answer;
           ++checks;
           for (int c = 0; c < model.num_capsules(); ++c) {
-            if (lazy.sphere_stamp[c] == lazy.stamp) EXPECT_EQ(lazy.capsule_sphere[c], eager.capsule_sphere[c]);
+            if (lazy.sphere_stamp[c] == lazy.stamp) {
+              EXPECT_EQ(lazy.capsule_sphere[c], eager.capsule_sphere[c]);
+            }
             if (lazy.capsule_stamp[c] != lazy.stamp) continue;
             EXPECT_EQ(lazy.capsule_W[c].p_WA, eager.capsule_W[c].p_WA);
             EXPECT_EQ(lazy.capsule_W[c].p_WB, eager.capsule_W[c].p_WB);
