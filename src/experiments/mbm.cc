@@ -229,6 +229,19 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   }
   const std::pair<const char*, const Eigen::VectorXd*> ends[] = {{"start", &p.scene.q_start},
                                                                  {"goal", &p.scene.q_goal}};
+  // the ends within the joint limits: the simulated arm cannot start beyond one, nor stop at a goal beyond one
+  for (const auto& [what, q] : ends) {
+    kinematics::CheckJointVector(robot.model, *q, what);
+    for (int i = 0; i < robot.model.nq(); ++i) {
+      const kinematics::DofLimits& limits = robot.model.limits()[i];
+      if (!((*q)[i] >= limits.lower && (*q)[i] <= limits.upper)) {
+        p.valid = false;
+        p.reason = fmt::format("{} outside the joint limits: {} = {:.6g}, limits [{:.6g}, {:.6g}]", what,
+                               robot.model.dof_name(i), (*q)[i], limits.lower, limits.upper);
+        return p;
+      }
+    }
+  }
 
   // valid, with the mesh referee: the collision meshes are clear of the cell at the start and the goal
   double mesh_clearance[2] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
@@ -262,7 +275,6 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   collision::RobotCollisionData placed(checker);
   for (int e = 0; e < 2; ++e) {
     const auto& [what, q] = ends[e];
-    kinematics::CheckJointVector(robot.model, *q, what);
     const collision::ClearancePair pair = collision::CalcRobotClearance(checker, *q, rmp_scene.obstacles, &placed);
     if (!(pair.distance > 0.0)) {
       const std::string why = fmt::format("{} in collision in the capsule model: {} ({:.1f} mm deep)", what,
@@ -468,9 +480,17 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
   auto work = [&]() {
     for (size_t p; (p = next.fetch_add(1)) < problems.size();) {
       try {
-        // the problem read, checked and its crossings drawn once; every method runs on it
+        // the problem read, checked and its crossings drawn once; every method runs on it. A problem whose files
+        // cannot be read or do not fit the robot is not valid, with why; the others still run
         const std::uint64_t key = MbmProblemKey(problems[p]);
-        const PreparedProblem prepared = Prepare(robot, problems[p], options, key);
+        PreparedProblem prepared;
+        try {
+          prepared = Prepare(robot, problems[p], options, key);
+        } catch (const InputError& e) {
+          prepared = PreparedProblem{};
+          prepared.valid = false;
+          prepared.reason = fmt::format("could not be read: {}", e.what());
+        }
         for (size_t k = 0; k < methods.size(); ++k) {
           results[p * methods.size() + k] = RunMethod(robot, problems[p], prepared, methods[k], options, key,
                                                       policy_file ? &*policy_file : nullptr);

@@ -249,6 +249,45 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
 
 // results.csv and report.md of hand-made results: a problem not valid on the meshes, one rejected by the model, and
 // one run with collisions on the capsules and the meshes
+TEST(MbmBenchmarkTest, EndsBeyondTheLimitsAndUnreadableFilesAreNotValidTheRestRuns) {
+  // a goal and a start beyond panda_joint4's limits [-3.0718, -0.0698] and a scene that is not YAML are not valid,
+  // each with why; the problem beside them still runs (one bad problem never loses the others)
+  const kinematics::Robot panda = kinematics::LoadShippedRobot("panda");
+  const fs::path dir = TempDir("limits");
+  const fs::path family = dir / "wall_panda";
+  Eigen::VectorXd beyond = WallGoal(panda);
+  beyond[3] = 0.5;
+  WriteWallProblem(family, 1, beyond);
+  WriteWallProblem(family, 2, WallGoal(panda));
+  {
+    std::ifstream in(family / "request0002.yaml");
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string request = text.str();
+    request.replace(request.find("-2.356194"), 9, "0.5");
+    Write(family / "request0002.yaml", request);
+  }
+  WriteWallProblem(family, 3, WallGoal(panda));
+  Write(family / "scene0003.yaml", "world: [collision_objects\n");
+  WriteWallProblem(family, 4, WallGoal(panda));
+  MbmOptions options = IterationBudget();
+  options.duration = 0.5;
+  const std::vector<MbmResult> results =
+      RunMbmBenchmark(panda, FindMbmProblems(dir), {MbmMethod::kRrtConnect}, options);
+  ASSERT_EQ(results.size(), 4u);
+  EXPECT_FALSE(results[0].valid);
+  EXPECT_NE(results[0].reason.find("goal outside the joint limits: panda_joint4 = 0.5, limits [-3.0718, -0.0698]"),
+            std::string::npos) << results[0].reason;
+  EXPECT_FALSE(results[1].valid);
+  EXPECT_NE(results[1].reason.find("start outside the joint limits: panda_joint4 = 0.5"), std::string::npos)
+      << results[1].reason;
+  EXPECT_FALSE(results[2].valid);
+  EXPECT_NE(results[2].reason.find("could not be read: "), std::string::npos) << results[2].reason;
+  EXPECT_NE(results[2].reason.find("scene0003.yaml"), std::string::npos) << results[2].reason;
+  EXPECT_TRUE(results[3].valid) << results[3].reason;
+  EXPECT_GE(results[3].plans, 1);
+}
+
 TEST(MbmBenchmarkTest, ResultsFilesCountBothReferees) {
   std::vector<MbmResult> results(3);
   for (int i = 0; i < 3; ++i) {
