@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <sstream>
+#include <thread>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
@@ -102,7 +103,7 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        "success: the end effector within {:g} mm of the goal's at the end and no collision event{}. "
                        "Learned controller: {}. Planner: RRT-Connect on the capsule model with shortcutting, {:g} s "
                        "budget{}, safety margin {:g} mm, seed {} + a key of the problem (its family and index). Plan follower: "
-                       "{}. Simulated servos: PD{}. Machine: {} threads.",
+                       "{}. Simulated servos: PD{}. Worker threads: {} (of {} hardware threads here).",
                        robot.name, robot.model.nq(), robot.capsules.size(),
                        robot.urdf_path.empty() ? "built in" : robot.urdf_path.filename().string(), problems.size(),
                        args.problems, fmt::join(names, ", "), options.duration, 1e3 * options.goal_tolerance,
@@ -113,7 +114,7 @@ void RunMbm(const MbmArgs& args, const std::string& command) {
                        args.follow.empty() ? "built in" : std::filesystem::path(args.follow).filename().string(),
                        options.servo_feedforward ? " with the inverse-dynamics feed-forward of the commanded acceleration"
                                                  : " alone",
-                       options.jobs);
+                       options.jobs, std::max(1u, std::thread::hardware_concurrency()));
   setup << referee;
   if (options.moving > 0) {
     setup << fmt::format(" Dynamic variant: {} sphere{} of radius {:g} m cross each problem's open-loop plan at "

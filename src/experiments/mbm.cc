@@ -102,8 +102,21 @@ std::vector<MbmProblem> FindMbmProblems(const fs::path& dir, const std::vector<s
     }
   }
   if (problems.empty()) {
+    // an archive of the problems beside nothing unpacked: say how to unpack it
+    std::string archive;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+      const std::string name = entry.path().filename().string();
+      for (const char* suffix : {".tar.bz2", ".tar.gz", ".tgz", ".tar.xz", ".tar"}) {
+        if (archive.empty() && name.ends_with(suffix)) archive = entry.path().string();
+      }
+    }
+    const std::string hint =
+        archive.empty() ? ""
+                        : fmt::format("; '{}' there is an archive: unpack it first (tar xf '{}' -C <folder>) and pass "
+                                      "the folder of family folders it makes (e.g. <folder>/problems)",
+                                      archive, archive);
     throw InputError(fmt::format("--problems: no sceneNNNN.yaml with a requestNNNN.yaml beside it in the folders of "
-                                 "'{}'", dir.string()));
+                                 "'{}'{}", dir.string(), hint));
   }
   return problems;
 }

@@ -112,6 +112,17 @@ TEST(MbmProblemsTest, FoundByFamilyInOrderWithLimitsAndClearErrors) {
   EXPECT_THROW(FindMbmProblems(dir, {"cage"}), InputError);
   EXPECT_THROW(FindMbmProblems(dir / "nowhere"), InputError);
   EXPECT_THROW(FindMbmProblems(TempDir("empty")), InputError);
+  // the set's archive not unpacked: the error says so and how
+  const fs::path packed = TempDir("packed");
+  Write(packed / "problems.tar.bz2", "BZh9");
+  try {
+    FindMbmProblems(packed);
+    ADD_FAILURE() << "found problems in a folder holding only an archive";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("problems.tar.bz2' there is an archive: unpack it first (tar xf"), std::string::npos) << what;
+  }
+  fs::remove_all(packed);
   try {
     ParseMbmMethod("plan+rrt");
     ADD_FAILURE() << "accepted an unknown method";
