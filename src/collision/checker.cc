@@ -27,25 +27,35 @@ bool CannotMatter(double lower_bound, double d, double stop_below) {
   return lower_bound >= d || (std::isfinite(stop_below) && lower_bound > stop_below);
 }
 
-// the same for the pair of a bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
-bool SpheresCannotMatter(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius, double d,
-                         double stop_below) {
-  return CannotMatter((a.head<3>() - centre).norm() - a[3] - radius, d, stop_below);
+// a lower bound of the distance between the bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
+double SphereGap(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+  return (a.head<3>() - centre).norm() - a[3] - radius;
 }
 
-// the bounding spheres of the placed capsules and of each link group: their link-frame spheres moved with the links
+// a sphere (centre, radius) fixed in a link's frame, moved with the link to X_WL
+Eigen::Vector4d MovedSphere(const Eigen::Vector4d& s_L, const Eigen::Isometry3d& X_WL) {
+  Eigen::Vector4d s_W;
+  s_W << X_WL * Eigen::Vector3d(s_L.head<3>()), s_L[3];
+  return s_W;
+}
+
+// the bounding spheres of the link groups: their link-frame spheres moved with the links
+template <typename Pose>
+void GroupSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCollisionData* data) {
+  const auto& groups = model.link_groups();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    data->group_sphere[g] = MovedSphere(model.group_sphere_L(static_cast<int>(g)), X_WL(groups[g].link));
+  }
+}
+
+// the bounding spheres of the placed capsules and of each link group
 template <typename Pose>
 void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCollisionData* data) {
   const auto& capsules = model.robot().capsules;
   for (size_t c = 0; c < capsules.size(); ++c) {
-    const Eigen::Vector4d& s = model.capsule_sphere_L(static_cast<int>(c));
-    data->capsule_sphere[c] << X_WL(capsules[c].link) * Eigen::Vector3d(s.head<3>()), s[3];
+    data->capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(static_cast<int>(c)), X_WL(capsules[c].link));
   }
-  const auto& groups = model.link_groups();
-  for (size_t g = 0; g < groups.size(); ++g) {
-    const Eigen::Vector4d& s = model.group_sphere_L(static_cast<int>(g));
-    data->group_sphere[g] << X_WL(groups[g].link) * Eigen::Vector3d(s.head<3>()), s[3];
-  }
+  GroupSpheres(model, X_WL, data);
 }
 
 // The placed capsules as a query reads them. Eager: PlaceRobot placed every one. Lazy: the forward kinematics and
@@ -83,8 +93,7 @@ struct LazyPlacement {
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
   const Eigen::Vector4d& sphere(int c) const {
     if (data.sphere_stamp[c] != data.stamp) {
-      const Eigen::Vector4d& s = model.capsule_sphere_L(c);
-      data.capsule_sphere[c] << data.kin.X_WL[model.robot().capsules[c].link] * Eigen::Vector3d(s.head<3>()), s[3];
+      data.capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(c), data.kin.X_WL[model.robot().capsules[c].link]);
       data.sphere_stamp[c] = data.stamp;
     }
     return data.capsule_sphere[c];
@@ -106,11 +115,11 @@ bool PairMayCollide(const Placement& placed, std::span<const rmp::Obstacle> obst
   if (pair.kind == ClearancePair::Kind::kObstacle) {
     if (pair.obstacle < 0 || pair.obstacle >= static_cast<int>(obstacles.size())) return false;
     const rmp::Obstacle& o = obstacles[pair.obstacle];
-    return (a.head<3>() - rmp::Centre(o)).norm() - a[3] - rmp::BoundingRadius(o) <= margin;
+    return SphereGap(a, rmp::Centre(o), rmp::BoundingRadius(o)) <= margin;
   }
   if (pair.kind == ClearancePair::Kind::kSelf) {
     const Eigen::Vector4d& b = placed.sphere(pair.other_capsule);
-    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3] <= margin;
+    return SphereGap(a, b.head<3>(), b[3]) <= margin;
   }
   return pair.kind == ClearancePair::Kind::kFloor;
 }
@@ -145,7 +154,7 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
   // cylinder's enclosing box) the box's distance to the sphere, far tighter than the bounding spheres for a shelf's
   // board
   auto sphere_out = [&](const Eigen::Vector4d& sphere) {
-    if (SpheresCannotMatter(sphere, bounds.centre, bounds.radius, d, stop_below)) return true;
+    if (cannot_matter(SphereGap(sphere, bounds.centre, bounds.radius))) return true;
     if (!bounds.boxed) return false;
     // the box's signed distance at the sphere's centre, less the sphere's radius (1-Lipschitz: a lower bound)
     const Eigen::Vector3d p = (bounds.X_BW * Eigen::Vector3d(sphere.head<3>())).cwiseAbs() - box.half_size;
@@ -206,10 +215,7 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
   }
   const auto& pairs = model.grouped_self_pairs();
   const auto& link_pairs = model.self_link_pairs();
-  // the lower bound of two spheres' distance
-  auto sphere_gap = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) {
-    return (a.head<3>() - b.head<3>()).norm() - a[3] - b[3];
-  };
+  auto sphere_gap = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) { return SphereGap(a, b.head<3>(), b[3]); };
   for (size_t p = 0; p < link_pairs.size(); ++p) {
     const RobotCollisionModel::LinkPair& links = link_pairs[p];
     if (placed.SkipSelfPair(p, d, stop_below)) continue;
@@ -349,7 +355,7 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
   // how far each dof can move a link's capsule segments: walking up from the link, a joint's axis passes through its
   // link's origin, whose distance to every segment point is at most the farthest segment end point from the link's own
   // origin plus the joint offsets in between (triangle inequality, for every configuration)
-  nq_ = model.nq();
+  const int nq = model.nq();
   const int num_links = model.num_links();
   std::vector<double> segment_reach(num_links, 0.0);
   for (const kinematics::LinkCapsule& c : robot_.capsules) {
@@ -373,7 +379,8 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     for (int m = link; m >= 0; m = m > 0 ? model.link(m).parent : -1) chain.push_back(m);
     return chain;
   };
-  self_pair_reach_.assign(self_link_pairs_.size() * nq_, 0.0);
+  self_pair_motion_begin_.assign(1, 0);
+  std::vector<double> reach(nq);
   for (size_t p = 0; p < self_link_pairs_.size(); ++p) {
     const int la = link_groups_[self_link_pairs_[p].group_a].link, lb = link_groups_[self_link_pairs_[p].group_b].link;
     const std::vector<int> up_a = ancestors(la), up_b = ancestors(lb);
@@ -384,16 +391,12 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
         break;
       }
     }
-    double* reach = &self_pair_reach_[p * nq_];
-    add_reach(la, common, reach);
-    add_reach(lb, common, reach);
+    std::fill(reach.begin(), reach.end(), 0.0);
+    add_reach(la, common, reach.data());
+    add_reach(lb, common, reach.data());
     // rounding of the sums above must not make a reach too small
-    for (int i = 0; i < nq_; ++i) reach[i] *= 1.0 + 1e-12;
-  }
-  self_pair_motion_begin_.assign(1, 0);
-  for (size_t p = 0; p < self_link_pairs_.size(); ++p) {
-    for (int i = 0; i < nq_; ++i) {
-      if (self_pair_reach_[p * nq_ + i] > 0.0) self_pair_motion_.push_back({i, self_pair_reach_[p * nq_ + i]});
+    for (int i = 0; i < nq; ++i) {
+      if (reach[i] > 0.0) self_pair_motion_.push_back({i, reach[i] * (1.0 + 1e-12)});
     }
     self_pair_motion_begin_.push_back(self_pair_motion_.size());
   }
@@ -482,11 +485,7 @@ namespace {
 LazyPlacement PlaceLazily(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                           RobotCollisionData* data) {
   kinematics::CalcForwardKinematics(model.robot().model, q, &data->kin);
-  const auto& groups = model.link_groups();
-  for (size_t g = 0; g < groups.size(); ++g) {
-    const Eigen::Vector4d& s = model.group_sphere_L(static_cast<int>(g));
-    data->group_sphere[g] << data->kin.X_WL[groups[g].link] * Eigen::Vector3d(s.head<3>()), s[3];
-  }
+  GroupSpheres(model, [data](int link) -> const Eigen::Isometry3d& { return data->kin.X_WL[link]; }, data);
   if (++data->stamp == 0) {  // wrapped around: no stamp may look current
     std::fill(data->sphere_stamp.begin(), data->sphere_stamp.end(), 0);
     std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);

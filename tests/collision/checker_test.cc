@@ -224,9 +224,9 @@ TEST(RobotCollisionCheckerTest, ALazyCheckAnswersAsPlacingEveryCapsule) {
 }
 
 TEST(RobotCollisionCheckerTest, TwoLinksMoveApartNoFasterThanTheirReach) {
-  // the self-pair memory's bound: a link pair's distance at q' is at least its distance at q less
-  // Σ_i reach(pair, i) |q'_i − q_i|, at random nearby configurations of every arm (and the pairs' reach is not
-  // trivially large: the bound is also met within a factor of a few on some pairs)
+  // the self-pair memory's bound: a link pair's distance at q' is at least its distance at q less Σ reach |q'_i − q_i|
+  // over the pair's dofs (self_pair_motion), at random nearby configurations of every arm (and the pairs' reach is
+  // not trivially large: the bound is also met within a factor of a few on some pairs)
   std::mt19937_64 rng(23);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   int compared = 0, tight = 0;
@@ -252,7 +252,7 @@ TEST(RobotCollisionCheckerTest, TwoLinksMoveApartNoFasterThanTheirReach) {
       PlaceRobot(model, q2, &at_q2);
       for (size_t p = 0; p < model.self_link_pairs().size(); ++p) {
         double moved = 0.0;
-        for (int i = 0; i < nq; ++i) moved += model.self_pair_reach(p, i) * std::abs(q2[i] - q[i]);
+        for (const auto& [dof, reach] : model.self_pair_motion(p)) moved += reach * std::abs(q2[dof] - q[dof]);
         const double before = link_pair_distance(at_q, model.self_link_pairs()[p]);
         const double after = link_pair_distance(at_q2, model.self_link_pairs()[p]);
         ASSERT_GE(after, before - moved - 1e-12) << name << " trial " << trial << " pair " << p;

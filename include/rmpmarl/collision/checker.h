@@ -91,14 +91,12 @@ class RobotCollisionModel {
   const Eigen::Vector4d& capsule_sphere_L(int capsule) const { return capsule_sphere_L_[capsule]; }
   /// per link group: a sphere around its capsules' spheres in the link's frame (centre, radius)
   const Eigen::Vector4d& group_sphere_L(int group) const { return group_sphere_L_[group]; }
-  /// per checked link pair p (self_link_pairs' order) and dof i: how fast the two links' capsule segments can move
-  /// relative to each other with q[i] [m/rad, m/m], for every configuration: the distance from the joint's axis to
-  /// the farthest segment point of the link it moves, bounded along the chain (1 for a prismatic joint; joints above
-  /// the pair's common ancestor move both alike: 0). The pair's distance at q' is then at least its distance at q
-  /// less Σ_i reach(p, i) |q'_i − q_i|.
-  double self_pair_reach(size_t pair, int dof) const { return self_pair_reach_[pair * nq_ + dof]; }
-  /// The dofs that move a checked link pair relative to each other (reach > 0) and their reach, in dof order: the
-  /// range [begin, end) of self_pair_motion() for each pair.
+  /// Per checked link pair p (self_link_pairs' order), the dofs i that move its two links relative to each other and
+  /// their reach: how fast the two links' capsule segments can move relative to each other with q[i] [m/rad, m/m],
+  /// for every configuration — the distance from the joint's axis to the farthest segment point of the link it moves,
+  /// bounded along the chain (1 for a prismatic joint; joints above the pair's common ancestor move both alike and are
+  /// not listed). The pair's distance at q' is then at least its distance at q less Σ reach |q'_i − q_i|. In dof
+  /// order.
   struct DofReach {
     int dof = 0;
     double reach = 0.0;
@@ -121,8 +119,6 @@ class RobotCollisionModel {
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<char> floor_checked_;
   std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
-  int nq_ = 0;
-  std::vector<double> self_pair_reach_;
   std::vector<DofReach> self_pair_motion_;
   std::vector<size_t> self_pair_motion_begin_;
 };
