@@ -28,12 +28,13 @@ bool CannotMatter(double lower_bound, double d, double stop_below) {
 }
 
 // a lower bound of the distance between the bounding sphere (centre, radius) `a` and a sphere of `centre` and `radius`
-double SphereGap(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
+// (both helpers sit in the check's innermost loops: inlined, as the copies they replace were)
+__attribute__((always_inline)) inline double SphereGap(const Eigen::Vector4d& a, const Eigen::Vector3d& centre, double radius) {
   return (a.head<3>() - centre).norm() - a[3] - radius;
 }
 
 // a sphere (centre, radius) fixed in a link's frame, moved with the link to X_WL
-Eigen::Vector4d MovedSphere(const Eigen::Vector4d& s_L, const Eigen::Isometry3d& X_WL) {
+__attribute__((always_inline)) inline Eigen::Vector4d MovedSphere(const Eigen::Vector4d& s_L, const Eigen::Isometry3d& X_WL) {
   Eigen::Vector4d s_W;
   s_W << X_WL * Eigen::Vector3d(s_L.head<3>()), s_L[3];
   return s_W;
