@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <map>
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
@@ -64,6 +65,7 @@ struct SetupArgs {
   double home_centering = kinematics::RobotSetupOptions{}.home_centering;
   double tolerance_mm = 1e3 * kinematics::CapsuleCoverOptions{}.tolerance;
   int max_capsules = kinematics::CapsuleCoverOptions{}.max_capsules;
+  kinematics::CoverMethod cover = kinematics::CapsuleCoverOptions{}.method;
 };
 
 void RunSetup(const SetupArgs& args) {
@@ -79,6 +81,7 @@ void RunSetup(const SetupArgs& args) {
   options.home_centering = args.home_centering;
   options.cover.tolerance = 1e-3 * args.tolerance_mm;
   options.cover.max_capsules = args.max_capsules;
+  options.cover.method = args.cover;
   if (!args.home.empty()) options.home = Eigen::Map<const Eigen::VectorXd>(args.home.data(), args.home.size());
   const std::filesystem::path urdf(args.urdf);
   const kinematics::RobotSetup setup = kinematics::SetupRobot(urdf, options);
@@ -169,6 +172,13 @@ void RegisterSetupRobot(CLI::App& app) {
   cmd->add_option("--max-capsules", args.max_capsules, "at most this many capsules per link")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  const std::map<std::string, kinematics::CoverMethod> covers = {{"cuts", kinematics::CoverMethod::kCuts},
+                                                                 {"inscribed", kinematics::CoverMethod::kInscribed}};
+  cmd->add_option("--cover", args.cover,
+                  "cuts: split the link's smallest capsule by planes; inscribed: capsules grown inside the solid, "
+                  "none sticking out farther than --tolerance (tight, more capsules)")
+      ->transform(CLI::CheckedTransformer(covers, CLI::ignore_case))
+      ->default_str("cuts");
   cmd->callback([] { RunSetup(args); });
 }
 

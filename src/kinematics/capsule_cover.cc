@@ -9,6 +9,7 @@
 #include <optional>
 #include <utility>
 
+#include "capsule_cover_internal.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/math/point_cloud.h"
 
@@ -134,6 +135,9 @@ int SphereSamples(double radius, double spacing) {
   return static_cast<int>(std::clamp(n, 32.0, 20000.0));
 }
 
+}  // namespace
+
+namespace internal {
 // samples of the geometry's surface: a grid on every triangle (its corners and edges included) no coarser than
 // `spacing`, and Fibonacci points on every ball; the spacing grows until there are at most kMaxSamples, or until it
 // is the size of the whole geometry (then every corner, at least, is a sample: a mesh of very many triangles).
@@ -162,6 +166,9 @@ std::vector<Eigen::Vector3d> SurfaceSamples(const CoverGeometry& g, double* spac
   for (const Ball& b : g.balls) AppendSpherePoints(b.p_F, b.radius, SphereSamples(b.radius, *spacing), &p);
   return p;
 }
+}  // namespace internal
+
+namespace {
 
 // How densely a capsule's surface is sampled for its excess: the final measure, or a quick one for candidate cuts.
 enum class Resolution { kFine, kQuick };
@@ -205,14 +212,14 @@ struct ExcessStats {
 };
 
 ExcessStats CapsuleExcess(const std::vector<math::Capsule>& capsules, size_t k, const math::PointCloudIndex& surface,
-                          Resolution resolution) {
+                          Resolution resolution, const SolidTest* solid = nullptr) {
   ExcessStats stats;
   for (const Eigen::Vector3d& p : CapsuleSurfacePoints(capsules[k], resolution)) {
     bool inside_other = false;
     for (size_t o = 0; o < capsules.size() && !inside_other; ++o) {
       inside_other = o != k && CapsuleSignedDistance(capsules[o], p) < -1e-9;
     }
-    if (inside_other) continue;
+    if (inside_other || (solid != nullptr && solid->Inside(p))) continue;
     const double d = surface.NearestToSegment(p, p).distance;
     stats.max = std::max(stats.max, d);
     stats.sum += d;
@@ -332,8 +339,11 @@ math::Capsule SphereIfShort(const math::Capsule& c) {
   return {centre, centre, c.radius + 0.5 * length};
 }
 
+}  // namespace
+
+namespace internal {
 CapsuleCover Measure(std::vector<math::Capsule> capsules, const std::vector<Eigen::Vector3d>& samples,
-                     const math::PointCloudIndex& index, double spacing, double tolerance) {
+                     const math::PointCloudIndex& index, double spacing, double tolerance, const SolidTest* solid) {
   CapsuleCover cover;
   cover.capsules = std::move(capsules);
   for (math::Capsule& c : cover.capsules) c = SphereIfShort(c);
@@ -341,7 +351,7 @@ CapsuleCover Measure(std::vector<math::Capsule> capsules, const std::vector<Eige
   cover.sample_spacing = spacing;
   ExcessStats all;
   for (size_t k = 0; k < cover.capsules.size(); ++k) {
-    const ExcessStats e = CapsuleExcess(cover.capsules, k, index, Resolution::kFine);
+    const ExcessStats e = CapsuleExcess(cover.capsules, k, index, Resolution::kFine, solid);
     cover.excess.push_back(e.max);
     all += e;
   }
@@ -362,8 +372,11 @@ Eigen::Matrix3Xd AsMatrix(const std::vector<Eigen::Vector3d>& p) {
   for (size_t i = 0; i < p.size(); ++i) m.col(i) = p[i];
   return m;
 }
+}  // namespace internal
 
-}  // namespace
+using internal::AsMatrix;
+using internal::Measure;
+using internal::SurfaceSamples;
 
 CapsuleCover MeasureCapsuleCover(const CoverGeometry& geometry, std::vector<math::Capsule> capsules,
                                  const CapsuleCoverOptions& options) {
@@ -379,7 +392,11 @@ CapsuleCover MeasureCapsuleCover(const CoverGeometry& geometry, std::vector<math
   double spacing = options.sample_spacing;
   const std::vector<Eigen::Vector3d> samples = SurfaceSamples(geometry, &spacing);
   const math::PointCloudIndex index(AsMatrix(samples));
-  return Measure(std::move(capsules), samples, index, spacing, options.tolerance);
+  if (options.method == CoverMethod::kInscribed) {
+    const SolidTest solid(geometry);
+    return Measure(std::move(capsules), samples, index, spacing, options.tolerance, &solid);
+  }
+  return Measure(std::move(capsules), samples, index, spacing, options.tolerance, nullptr);
 }
 
 CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOptions& options) {
@@ -387,6 +404,19 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
   double spacing = options.sample_spacing;
   const std::vector<Eigen::Vector3d> samples = SurfaceSamples(geometry, &spacing);
   const math::PointCloudIndex index(AsMatrix(samples));
+  if (options.method == CoverMethod::kInscribed) {
+    const SolidTest solid(geometry);
+    std::optional<std::vector<math::Capsule>> inscribed =
+        internal::FitInscribedCapsules(geometry, options, samples, index, solid);
+    if (inscribed) return Measure(std::move(*inscribed), samples, index, spacing, options.tolerance, &solid);
+    // more capsules than allowed: the plane cuts' cover, within the same limit, measured the same way
+    CapsuleCoverOptions cuts = options;
+    cuts.method = CoverMethod::kCuts;
+    CapsuleCover cover = FitCapsuleCover(geometry, cuts);
+    cover = Measure(std::move(cover.capsules), samples, index, spacing, options.tolerance, &solid);
+    cover.reached_max_capsules = !cover.within_tolerance;
+    return cover;
+  }
 
   std::vector<Part> parts(1);
   for (const Eigen::Vector3i& t : geometry.triangles) {
@@ -429,7 +459,7 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
     settled[worst] = false;
     settled.push_back(false);
   }
-  CapsuleCover cover = Measure(std::move(capsules), samples, index, spacing, options.tolerance);
+  CapsuleCover cover = Measure(std::move(capsules), samples, index, spacing, options.tolerance, nullptr);
   cover.reached_max_capsules = reached_max && !cover.within_tolerance;
   return cover;
 }

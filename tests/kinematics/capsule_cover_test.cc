@@ -183,6 +183,121 @@ TEST(CapsuleCover, MaxCapsulesBoundsTheCoverAndSaysWhenTheToleranceIsNotMet) {
   EXPECT_LE(cover.max_outside, 1e-9);
 }
 
+// the farthest point of the capsules' surfaces (outside the other capsules) from a shape whose exact signed
+// distance is `distance` (> 0 outside), over random surface points: how far the cover sticks out of the solid
+template <typename Distance>
+double ExactExcessOutside(const std::vector<math::Capsule>& capsules, Distance&& distance, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double worst = 0.0;
+  for (size_t k = 0; k < capsules.size(); ++k) {
+    const math::Capsule& c = capsules[k];
+    const Eigen::Vector3d ab = c.p_WB - c.p_WA;
+    const Eigen::Vector3d axis = ab.norm() > 1e-12 ? Eigen::Vector3d(ab.normalized()) : Eigen::Vector3d::UnitZ();
+    for (int i = 0; i < 4000; ++i) {
+      Eigen::Vector3d dir = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+      Eigen::Vector3d p;
+      if (u(rng) * (ab.norm() + 2.0 * c.radius) < ab.norm()) {
+        dir = (dir - dir.dot(axis) * axis).normalized();
+        p = c.p_WA + u(rng) * ab + c.radius * dir;
+      } else {
+        p = (dir.dot(axis) >= 0.0 ? c.p_WB : c.p_WA) + c.radius * dir;
+      }
+      bool inside_other = false;
+      for (size_t o = 0; o < capsules.size() && !inside_other; ++o) {
+        inside_other = o != k && CapsuleSignedDistance(capsules[o], p) < -1e-9;
+      }
+      if (!inside_other) worst = std::max(worst, distance(p));
+    }
+  }
+  return worst;
+}
+
+TEST(CapsuleCover, AnInscribedCoverSticksOutOfABoxNoMoreThanTheToleranceByAnExactReference) {
+  // a 20 x 10 x 6 cm block: its 90° edges and corners are what a round capsule follows worst
+  const Eigen::Vector3d size(0.2, 0.1, 0.06), h = 0.5 * size;
+  CoverGeometry g;
+  AppendBoxSurface(Eigen::Isometry3d::Identity(), size, &g);
+  CapsuleCoverOptions options;
+  options.method = CoverMethod::kInscribed;
+  options.tolerance = 0.008;
+  options.max_capsules = 64;
+  const CapsuleCover cover = FitCapsuleCover(g, options);
+  EXPECT_TRUE(cover.within_tolerance) << cover.max_excess << " " << cover.max_outside;
+  EXPECT_FALSE(cover.reached_max_capsules);
+  // every random surface point inside, up to the gaps between the fit's 2 mm samples (far below 0.5 mm)
+  EXPECT_LE(FarthestOutside(cover.capsules, RandomSurfacePoints(g, 20000, 5)), 2e-4);
+  // no capsule sticks out of the block by more than the tolerance (the fit's samples make it ~0.2 mm coarse)
+  auto outside_box = [&](const Eigen::Vector3d& p) {
+    return (p.cwiseAbs() - h).maxCoeff() > 0.0 ? BoxSurfaceDistance(h, p) : 0.0;
+  };
+  const double outside = ExactExcessOutside(cover.capsules, outside_box, 9);
+  EXPECT_LE(outside, options.tolerance + 0.0005);
+  EXPECT_NEAR(cover.max_excess, outside, 0.0015);
+  // the plane cuts at the same tolerance and limit stick out much farther: their capsules hold the block's corners
+  CapsuleCoverOptions cuts = options;
+  cuts.method = CoverMethod::kCuts;
+  const CapsuleCover c = FitCapsuleCover(g, cuts);
+  EXPECT_GT(ExactExcessOutside(c.capsules, outside_box, 9), 2.0 * options.tolerance);
+}
+
+TEST(CapsuleCover, TheSolidTestReadsOverlappingInsideOutAndHoledMeshesAsABruteForceReferenceDoes) {
+  // a cross of two overlapping bars: ray parity alone reads their overlap as outside
+  const Eigen::Vector3d h1(0.08, 0.025, 0.025), h2(0.025, 0.08, 0.025);
+  CoverGeometry cross;
+  AppendBoxSurface(Eigen::Isometry3d::Identity(), 2.0 * h1, &cross);
+  AppendBoxSurface(Eigen::Isometry3d::Identity(), 2.0 * h2, &cross);
+  CoverGeometry flipped = cross;
+  for (Eigen::Vector3i& t : flipped.triangles) std::swap(t[1], t[2]);
+  CoverGeometry holed = cross;  // one triangle of the first bar's top face missing
+  for (size_t t = 0; t < holed.triangles.size(); ++t) {
+    const Eigen::Vector3d c = (holed.vertices[holed.triangles[t][0]] + holed.vertices[holed.triangles[t][1]] +
+                               holed.vertices[holed.triangles[t][2]]) / 3.0;
+    if (std::abs(c.z() - 0.025) < 1e-9 && std::abs(c.x()) > 0.03) {
+      holed.triangles.erase(holed.triangles.begin() + static_cast<long>(t));
+      break;
+    }
+  }
+  holed.balls.push_back({Eigen::Vector3d(0.0, 0.0, 0.1), 0.02});
+  const SolidTest a(cross), b(flipped), c(holed);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-0.1, 0.13);
+  int inside = 0, disagree_holed = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const bool truth = ((p.cwiseAbs() - h1).maxCoeff() < 0.0) || ((p.cwiseAbs() - h2).maxCoeff() < 0.0);
+    inside += truth;
+    ASSERT_EQ(a.Inside(p), truth) << p.transpose();
+    ASSERT_EQ(b.Inside(p), truth) << p.transpose();
+    const bool in_ball = (p - Eigen::Vector3d(0.0, 0.0, 0.1)).norm() < 0.02;
+    disagree_holed += c.Inside(p) != (truth || in_ball);
+  }
+  EXPECT_GT(inside, 200);
+  // a hole misleads one ray of three at most, except where two rays pass through it: none of these points
+  EXPECT_EQ(disagree_holed, 0);
+}
+
+TEST(CapsuleCover, AnInscribedCoverNeedingMoreCapsulesThanAllowedFallsBackToCutsAndSaysSo) {
+  CoverGeometry g;
+  AppendBoxSurface(Eigen::Isometry3d::Identity(), Eigen::Vector3d(0.3, 0.3, 0.02), &g);
+  CapsuleCoverOptions options;
+  options.method = CoverMethod::kInscribed;
+  options.tolerance = 0.002;
+  options.max_capsules = 4;
+  const CapsuleCover cover = FitCapsuleCover(g, options);
+  EXPECT_LE(cover.capsules.size(), 4u);
+  EXPECT_FALSE(cover.within_tolerance);
+  EXPECT_TRUE(cover.reached_max_capsules);
+  EXPECT_LE(cover.max_outside, 1e-9);
+  // a sphere is its own capsule whatever the method
+  CoverGeometry sphere;
+  sphere.balls.push_back({Eigen::Vector3d(0.1, 0.2, 0.3), 0.05});
+  const CapsuleCover s = FitCapsuleCover(sphere, options);
+  ASSERT_EQ(s.capsules.size(), 1u);
+  EXPECT_EQ(s.capsules[0].radius, 0.05);
+}
+
 TEST(CapsuleCover, RejectsBadInputNamingIt) {
   EXPECT_THROW(FitCapsuleCover(CoverGeometry{}), InputError);
   CoverGeometry g;

@@ -31,8 +31,49 @@ struct CoverGeometry {
   std::vector<Ball> balls;                   ///< spheres, each covered whole
 };
 
+/// Whether a point lies inside the solid the geometry bounds (CoverMethod::kInscribed uses it): inside a ball, or
+/// inside the triangles by rays along +x, +y and +z (at least two of the three agree: a ray counts as inside when it crosses an odd number of triangles
+/// or its signed crossings do not cancel, so overlapping closed meshes and flipped normals both read as solid). A
+/// mesh with holes is read approximately; what depends on the answer is only how tight a cover is, never whether it
+/// covers.
+class SolidTest {
+ public:
+  explicit SolidTest(const CoverGeometry& g);
+  bool Inside(const Eigen::Vector3d& p) const;
+
+ private:
+  struct AxisGrid {
+    int a = 0, b = 1, c = 2;   // the ray's axis and the two it is projected on
+    double lo_b = 0, lo_c = 0, cell = 1;
+    int nb = 1, nc = 1;
+    std::vector<std::vector<int>> cells;  // triangle indices per (b, c) cell
+  };
+  bool InsideAlong(const AxisGrid& grid, const Eigen::Vector3d& p) const;
+
+  std::vector<Eigen::Vector3d> vertices_;
+  std::vector<Eigen::Vector3i> triangles_;
+  std::vector<Ball> balls_;
+  AxisGrid grids_[3];
+};
+
+
+/// How FitCapsuleCover places its capsules.
+enum class CoverMethod {
+  /// plane cuts: the whole link's smallest capsule, split where it sticks out farthest (the file comment); each
+  /// capsule holds a convex piece whole, so flat faces and corners are overhung by about a capsule radius
+  kCuts,
+  /// capsules grown inside the solid: a segment at depth ≥ d below the surface carries radius d + tolerance, so no
+  /// capsule sticks out of the solid by more than the tolerance; segments are chosen greedily to cover the surface
+  /// samples. Tight at the price of more capsules (flat faces get several side by side); a link needing more than
+  /// max_capsules gets the plane cuts' cover instead (reached_max_capsules then says so when it is not within the
+  /// tolerance). The excess then counts only capsule surface outside the solid. Needs closed meshes to be tight;
+  /// what it covers never depends on that.
+  kInscribed,
+};
+
 /// Options of FitCapsuleCover.
 struct CapsuleCoverOptions {
+  CoverMethod method = CoverMethod::kCuts;
   /// a capsule sticking out farther than this beyond the geometry is split [m]
   double tolerance = 0.01;
   int max_capsules = 8;             ///< at most this many capsules
