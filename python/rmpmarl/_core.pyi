@@ -132,9 +132,15 @@ def rmpflow(robot: Union[Robot, str], max_obstacles: int = 16, config: Optional[
 
 def plan_and_react(robot: Union[Robot, str], layer: str = "rmpflow", max_obstacles: int = 16,
                    planning_budget: float = 1.0, planning_iterations: int = 0, safety_margin: float = 0.01,
-                   seed: int = 0) -> Controller:
+                   seed: int = 0, floor_height: Optional[float] = None) -> Controller:
     """a global joint path (RRT-Connect) to the scene's joint_target followed by the reactive layer ('rmpflow' or a
-    controller file), replanning when stalled or blocked"""
+    controller file), replanning when stalled or blocked; a floor only when floor_height is given; update()'s
+    info['plan'] says whether a path is followed"""
+def read_planning_scene(path: str) -> dict[str, FloatArray]:
+    """a MoveIt planning scene's collision objects as update()'s keyword arguments (spheres, boxes, box_rotations,
+    cylinders, cylinder_rotations; only the kinds present)"""
+def read_motion_plan_request(path: str, robot: Union[Robot, str]) -> dict[str, Any]:
+    """a MoveIt motion-plan request in the robot's joint order: start [nq], joint_target [nq], tolerance [nq], group"""
 
 class VecEnv:
     """The batched C++ engine (use rmpmarl.make_vec_env). Arrays are read-only views, overwritten by step/reset."""

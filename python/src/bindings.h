@@ -24,9 +24,14 @@ std::shared_ptr<RobotHandle> LoadRobotArgument(const std::string& robot);
 /// raises FileNotFoundError "<name>: expected <what>, got '<path>' (no such file)".
 [[noreturn]] void FileNotFound(const std::string& path, const char* name, const char* what);
 
+/// the robot of a `robot` argument: an rmpmarl.Robot, a shipped robot's name or a .urdf path (None: `fallback`);
+/// TypeError otherwise.
+std::shared_ptr<RobotHandle> RobotOf(const py::handle& robot, const std::string& fallback);
+
 void BindRobot(py::module_& m);
 void BindControllers(py::module_& m);
 void BindEnvs(py::module_& m);
 void BindPolicies(py::module_& m);
+void BindScenes(py::module_& m);
 
 }  // namespace rmpmarl::python

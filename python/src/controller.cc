@@ -31,6 +31,7 @@ struct ControllerHandle {
   std::shared_ptr<const sim::WorldModel> world;  // the robot the policy references, and the servo model
   std::unique_ptr<control::ReactiveController> controller;
   control::LearnedController* learned = nullptr;  // owned by controller; null for RMPflow
+  const planning::PlanFollowPolicy* follower = nullptr;  // owned by controller; null unless plan_and_react
   rmp::Scene scene;
   int max_obstacles = 0;
   // the point cloud's obstacles (made at the first cloud): the last cloud's stay until a new one or clear_cloud()
@@ -41,13 +42,6 @@ struct ControllerHandle {
   std::string file;
 };
 
-std::shared_ptr<RobotHandle> RobotOf(const py::handle& robot, const std::string& fallback) {
-  if (robot.is_none()) return LoadRobotArgument(fallback);
-  if (py::isinstance<RobotHandle>(robot)) return robot.cast<std::shared_ptr<RobotHandle>>();
-  if (py::isinstance<py::str>(robot)) return LoadRobotArgument(robot.cast<std::string>());
-  BadArgument(fmt::format("robot: expected an rmpmarl.Robot, a robot name or a .urdf path, got {}",
-                          std::string(py::str(py::type::of(robot).attr("__name__")))));
-}
 
 void CheckMaxObstacles(int max_obstacles) {
   if (max_obstacles < 0 || max_obstacles > 4096) {
@@ -115,6 +109,28 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
                                               const std::optional<std::string>& config) {
   Unfinished u = RmpflowParts(robot, max_obstacles, config);
   return Finish(u.handle, std::move(u.policy), u.options);
+}
+
+/// the plan follower's state for update()'s info (see its doc).
+py::dict PlanInfo(const planning::PlanFollowPolicy& follower) {
+  const planning::PlanFollowStats& s = follower.stats();
+  const std::vector<Eigen::VectorXd>& path = follower.path();
+  double length = 0.0;
+  for (size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
+  py::dict plan;
+  plan["status"] = planning::PlanOutcomeName(s.last_outcome);
+  plan["following"] = !path.empty();
+  plan["attempts"] = s.plans_attempted;
+  plan["succeeded"] = s.plans_succeeded;
+  plan["planning_ms"] = s.planning_times_s.empty() ? std::numeric_limits<double>::quiet_NaN()
+                                                   : 1e3 * s.planning_times_s.back();
+  plan["path_length"] = length;
+  py::dict replans;
+  replans["stalled"] = s.replans_stalled;
+  replans["blocked"] = s.replans_blocked;
+  replans["goal_moved"] = s.replans_moved;
+  plan["replans"] = replans;
+  return plan;
 }
 
 /// fills h.scene from the keyword arguments (ValueError naming the argument; the policy is not called then).
@@ -274,6 +290,14 @@ clear_cloud(). Give a cloud when the sensor has a new frame, not at every step.)
 
 }  // namespace
 
+std::shared_ptr<RobotHandle> RobotOf(const py::handle& robot, const std::string& fallback) {
+  if (robot.is_none()) return LoadRobotArgument(fallback);
+  if (py::isinstance<RobotHandle>(robot)) return robot.cast<std::shared_ptr<RobotHandle>>();
+  if (py::isinstance<py::str>(robot)) return LoadRobotArgument(robot.cast<std::string>());
+  BadArgument(fmt::format("robot: expected an rmpmarl.Robot, a robot name or a .urdf path, got {}",
+                          std::string(py::str(py::type::of(robot).attr("__name__")))));
+}
+
 void BindControllerMakers(py::module_& m);
 
 void BindControllers(py::module_& m) {
@@ -359,11 +383,17 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
         info["velocity_clamps"] = r.velocity_clamps;
         info["compute_us"] = r.compute_us;
         info["qdd_cmd"] = VectorToNumpy(h.controller->qdd_cmd());
+        if (h.follower != nullptr) info["plan"] = PlanInfo(*h.follower);
         return py::make_tuple(VectorToNumpy(h.controller->q_cmd()), VectorToNumpy(h.controller->qd_cmd()), info);
       }, py::arg("q"), py::arg("qd"), RMPMARL_SCENE_ARGS,
            (std::string("one control step: returns (q_cmd [nq], qd_cmd [nq], info). A non-finite q̈ holds position "
                         "(info['finite'] False); info['qdd_cmd'] is the commanded acceleration over the period (for a "
-                        "torque or inverse-dynamics feed-forward).") + kSceneDoc).c_str())
+                        "torque or inverse-dynamics feed-forward). plan_and_react adds info['plan']: 'status' of the "
+                        "last attempt ('not yet', 'planned', 'no goal configuration', 'goal in collision', 'no path "
+                        "within the budget'), 'following' (a path is being followed; False: the reactive layer goes "
+                        "for the goal alone), 'attempts', 'succeeded', 'planning_ms' (the last attempt; NaN: none), "
+                        "'path_length' (of the path followed, joint space [rad or m]; 0: none) and 'replans' "
+                        "(stalled, blocked, goal moved).") + kSceneDoc).c_str())
       .def("clear_cloud", [](ControllerHandle& h) {
         if (h.cloud) h.cloud->Reset();
       }, "forgets the last cloud's obstacles and tracks")
@@ -449,8 +479,12 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
 // plan, then react: RRT-Connect's joint path followed by RMPflow ("rmpflow") or a controller file's learned agents
 std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, const std::string& layer,
                                                    int max_obstacles, double planning_budget, int planning_iterations,
-                                                   double safety_margin, std::uint64_t seed) {
+                                                   double safety_margin, std::uint64_t seed,
+                                                   std::optional<double> floor_height) {
   CheckMaxObstacles(max_obstacles);
+  if (floor_height && !std::isfinite(*floor_height)) {
+    BadArgument(fmt::format("floor_height: expected a finite height [m] or None, got {}", *floor_height));
+  }
   if (layer != "rmpflow" && !fs::is_regular_file(layer)) {
     FileNotFound(layer, "layer", "'rmpflow' or a controller file (.rmpp)");
   }
@@ -462,7 +496,12 @@ std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, cons
   plan.planner.planning_iterations = planning_iterations;
   plan.planner.safety_margin = safety_margin;
   plan.planner.seed = seed;
+  // the planner keeps the arm above a floor only when the user puts one there (a cell has its own surfaces, and a
+  // box below the base would otherwise make every goal beside it unplannable)
+  plan.planner.check_floor = floor_height.has_value();
+  plan.planner.floor_height = floor_height.value_or(0.0);
   auto follower = planning::MakePlanFollower(u.handle->world->robot(), std::move(u.policy), u.options, plan);
+  u.handle->follower = follower.get();
   u.handle->file = layer;
   return Finish(u.handle, std::move(follower), u.options);
 }
@@ -485,12 +524,15 @@ void BindControllerMakers(py::module_& m) {
         "RMPflow on `robot` with its configs/rmpflow settings (or `config`, an RMPflow YAML)");
   m.def("plan_and_react", &MakePlanAndReact, py::arg("robot"), py::arg("layer") = "rmpflow",
         py::arg("max_obstacles") = 16, py::arg("planning_budget") = 1.0, py::arg("planning_iterations") = 0,
-        py::arg("safety_margin") = 0.01, py::arg("seed") = 0,
+        py::arg("safety_margin") = 0.01, py::arg("seed") = 0, py::arg("floor_height") = py::none(),
         "plan, then react (docs/benchmarks.md): a global joint path (RRT-Connect on the capsule model, shortcut) to "
         "the scene's joint_target (or an IK solution of its target), followed by the reactive layer — 'rmpflow' or a "
         "controller file's learned agents — which dodges what moves; replans when progress stalls or the path is "
         "blocked. planning_budget [s] and planning_iterations (0: no cap) end a search; safety_margin [m] is the "
-        "planner's clearance. The same Controller interface as rmpflow() and load_controller().");
+        "planner's clearance. floor_height: a floor plane z = h [m] the planner keeps the arm above (default none: "
+        "only the scene's obstacles, as benchmark mbm plans; give the table's height when the arm stands on one). "
+        "update()'s info['plan'] says whether a path is followed and why not. The same Controller interface as "
+        "rmpflow() and load_controller().");
 }
 
 }  // namespace rmpmarl::python

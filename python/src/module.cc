@@ -21,6 +21,7 @@ PYBIND11_MODULE(_core, m) {
   rmpmarl::python::BindControllers(m);
   rmpmarl::python::BindEnvs(m);
   rmpmarl::python::BindPolicies(m);
+  rmpmarl::python::BindScenes(m);
   m.def("models_directory", [] { return rmpmarl::kinematics::ModelsDirectory().string(); },
         "the shipped models (robots, policies); RMPMARL_MODELS_DIR overrides it");
 }

@@ -57,6 +57,11 @@ void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCo
     data->capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(static_cast<int>(c)), X_WL(capsules[c].link));
   }
   GroupSpheres(model, X_WL, data);
+  const auto& clusters = model.clusters();
+  for (size_t k = 0; k < clusters.size(); ++k) {
+    data->cluster_sphere[k] =
+        MovedSphere(model.cluster_sphere_L(static_cast<int>(k)), X_WL(model.link_groups()[clusters[k].group].link));
+  }
 }
 
 // The placed capsules as a query reads them. Eager: PlaceRobot placed every one. Lazy: the forward kinematics and
@@ -68,6 +73,7 @@ struct EagerPlacement {
   bool SkipSelfPair(size_t /*pair*/, double /*d*/, double /*stop_below*/) const { return false; }
   void RememberSelfPair(size_t /*pair*/, double /*lower_bound*/) const {}
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
+  const Eigen::Vector4d& cluster(int k) const { return data.cluster_sphere[k]; }
   const Eigen::Vector4d& sphere(int c) const { return data.capsule_sphere[c]; }
   const math::Capsule& capsule(int c) const { return data.capsule_W[c]; }
 };
@@ -92,6 +98,14 @@ struct LazyPlacement {
     for (size_t k = 0; k < motion.size(); ++k) q_now[k] = q[motion[k].dof];
   }
   const Eigen::Vector4d& group(size_t g) const { return data.group_sphere[g]; }
+  const Eigen::Vector4d& cluster(int k) const {
+    if (data.cluster_stamp[k] != data.stamp) {
+      const int link = model.link_groups()[model.clusters()[k].group].link;
+      data.cluster_sphere[k] = MovedSphere(model.cluster_sphere_L(k), data.kin.X_WL[link]);
+      data.cluster_stamp[k] = data.stamp;
+    }
+    return data.cluster_sphere[k];
+  }
   const Eigen::Vector4d& sphere(int c) const {
     if (data.sphere_stamp[c] != data.stamp) {
       data.capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(c), data.kin.X_WL[model.robot().capsules[c].link]);
@@ -163,21 +177,27 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
   };
   const auto& groups = model.link_groups();
   const auto& capsules = model.robot().capsules;
+  const auto& clusters = model.clusters();
   for (size_t g = 0; g < groups.size(); ++g) {
     if (sphere_out(placed.group(g))) continue;
-    for (int c : groups[g].capsules) {
-      if (sphere_out(placed.sphere(c))) continue;
-      const math::Capsule& w = placed.capsule(c);
-      // a cylinder's enclosing box bounds it below
-      if (o.shape == rmp::ObstacleShape::kCylinder && cannot_matter(math::CapsuleBoxDistance(w, box).distance)) {
-        continue;
+    // a group of one cluster: the cluster's sphere is the group's
+    const bool one_cluster = groups[g].clusters.size() == 1;
+    for (int k : groups[g].clusters) {
+      if (!one_cluster && sphere_out(placed.cluster(k))) continue;
+      for (int c : one_cluster ? groups[g].capsules : clusters[k].capsules) {
+        if (sphere_out(placed.sphere(c))) continue;
+        const math::Capsule& w = placed.capsule(c);
+        // a cylinder's enclosing box bounds it below
+        if (o.shape == rmp::ObstacleShape::kCylinder && cannot_matter(math::CapsuleBoxDistance(w, box).distance)) {
+          continue;
+        }
+        const double distance = rmp::CapsuleObstacleDistance(w, o).distance;
+        if (distance < d) {
+          d = distance;
+          if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index, c, -1};
+        }
+        if (d <= stop_below) return d;
       }
-      const double distance = rmp::CapsuleObstacleDistance(w, o).distance;
-      if (distance < d) {
-        d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kObstacle, capsules[c].link, -1, index, c, -1};
-      }
-      if (d <= stop_below) return d;
     }
   }
   return d;
@@ -216,6 +236,8 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
   }
   const auto& pairs = model.grouped_self_pairs();
   const auto& link_pairs = model.self_link_pairs();
+  const auto& groups = model.link_groups();
+  const auto& clusters = model.clusters();
   auto sphere_gap = [](const Eigen::Vector4d& a, const Eigen::Vector4d& b) { return SphereGap(a, b.head<3>(), b[3]); };
   for (size_t p = 0; p < link_pairs.size(); ++p) {
     const RobotCollisionModel::LinkPair& links = link_pairs[p];
@@ -225,13 +247,14 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
       placed.RememberSelfPair(p, group_gap);
       continue;
     }
-    double lower_bound = kInf;  // of the link pair's distance: each capsule pair's distance or its spheres' gap
-    for (size_t i = links.begin; i < links.end; ++i) {
-      const auto [a, b] = pairs[i];
+    // of the link pair's distance: each capsule pair's distance, its spheres' gap or its clusters' gap
+    double lower_bound = kInf;
+    // one capsule pair; true when the check is decided
+    auto capsule_pair = [&](int a, int b) {
       const double gap = sphere_gap(placed.sphere(a), placed.sphere(b));
       if (CannotMatter(gap, d, stop_below)) {
         lower_bound = std::min(lower_bound, gap);
-        continue;
+        return false;
       }
       const double distance = math::CapsuleCapsuleDistance(placed.capsule(a), placed.capsule(b)).distance;
       lower_bound = std::min(lower_bound, distance);
@@ -239,7 +262,30 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
         d = distance;
         if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
       }
-      if (d <= stop_below) return d;
+      return d <= stop_below;
+    };
+    const std::vector<int>& clusters_a = groups[links.group_a].clusters;
+    const std::vector<int>& clusters_b = groups[links.group_b].clusters;
+    if (clusters_a.size() == 1 && clusters_b.size() == 1) {
+      // one cluster each: their spheres are the groups' (already tested); the pairs in their flat list
+      for (size_t i = links.begin; i < links.end; ++i) {
+        if (capsule_pair(pairs[i].first, pairs[i].second)) return d;
+      }
+    } else {
+      for (int ka : clusters_a) {
+        for (int kb : clusters_b) {
+          const double gap = sphere_gap(placed.cluster(ka), placed.cluster(kb));
+          if (CannotMatter(gap, d, stop_below)) {
+            lower_bound = std::min(lower_bound, gap);
+            continue;
+          }
+          for (int a : clusters[ka].capsules) {
+            for (int b : clusters[kb].capsules) {
+              if (capsule_pair(a, b)) return d;
+            }
+          }
+        }
+      }
     }
     placed.RememberSelfPair(p, lower_bound);
   }
@@ -353,6 +399,42 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     group_sphere_L_.emplace_back();
     group_sphere_L_.back() << centre, radius + kSphereSlack;
   }
+  // clusters: each group halved recursively along the widest spread of its capsules' sphere centres
+  auto sphere_around = [&](const std::vector<int>& members) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (int c : members) centre += capsule_sphere_L_[c].head<3>();
+    centre /= static_cast<double>(members.size());
+    double radius = 0.0;
+    for (int c : members) {
+      radius = std::max(radius, (capsule_sphere_L_[c].head<3>() - centre).norm() + capsule_sphere_L_[c][3]);
+    }
+    Eigen::Vector4d sphere;
+    sphere << centre, radius + kSphereSlack;
+    return sphere;
+  };
+  for (size_t g = 0; g < link_groups_.size(); ++g) {
+    std::vector<std::vector<int>> pending = {link_groups_[g].capsules};
+    while (!pending.empty()) {
+      std::vector<int> members = std::move(pending.back());
+      pending.pop_back();
+      if (static_cast<int>(members.size()) <= kClusterSize) {
+        link_groups_[g].clusters.push_back(static_cast<int>(clusters_.size()));
+        cluster_sphere_L_.push_back(sphere_around(members));
+        clusters_.push_back({static_cast<int>(g), std::move(members)});
+        continue;
+      }
+      Eigen::AlignedBox3d box;
+      for (int c : members) box.extend(Eigen::Vector3d(capsule_sphere_L_[c].head<3>()));
+      int axis = 0;
+      box.sizes().maxCoeff(&axis);
+      std::stable_sort(members.begin(), members.end(), [&](int a, int b) {
+        return capsule_sphere_L_[a][axis] < capsule_sphere_L_[b][axis];
+      });
+      const auto half = members.begin() + static_cast<long>(members.size() / 2);
+      pending.emplace_back(half, members.end());
+      pending.emplace_back(members.begin(), half);
+    }
+  }
   // how far each dof can move a link's capsule segments: walking up from the link, a joint's axis passes through its
   // link's origin, whose distance to every segment point is at most the farthest segment end point from the link's own
   // origin plus the joint offsets in between (triangle inequality, for every configuration)
@@ -408,8 +490,10 @@ RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
       capsule_W(model.num_capsules()),
       capsule_sphere(model.num_capsules()),
       group_sphere(model.link_groups().size()),
+      cluster_sphere(model.clusters().size()),
       sphere_stamp(model.num_capsules(), 0),
       capsule_stamp(model.num_capsules(), 0),
+      cluster_stamp(model.clusters().size(), 0),
       self_bound(model.self_link_pairs().size(), -kInf),
       self_bound_q(model.self_pair_motion_size(), 0.0) {}
 
@@ -490,6 +574,7 @@ LazyPlacement PlaceLazily(const RobotCollisionModel& model, const Eigen::Ref<con
   if (++data->stamp == 0) {  // wrapped around: no stamp may look current
     std::fill(data->sphere_stamp.begin(), data->sphere_stamp.end(), 0);
     std::fill(data->capsule_stamp.begin(), data->capsule_stamp.end(), 0);
+    std::fill(data->cluster_stamp.begin(), data->cluster_stamp.end(), 0);
     data->stamp = 1;
   }
   return LazyPlacement{model, *data, q.data()};

@@ -88,6 +88,22 @@ void PlanFollowPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) {
   has_goal_ = false;
 }
 
+const char* PlanOutcomeName(PlanOutcome outcome) {
+  switch (outcome) {
+    case PlanOutcome::kPlanned:
+      return "planned";
+    case PlanOutcome::kNoGoal:
+      return "no goal configuration";
+    case PlanOutcome::kGoalInCollision:
+      return "goal in collision";
+    case PlanOutcome::kNoPath:
+      return "no path within the budget";
+    case PlanOutcome::kNone:
+      break;
+  }
+  return "not yet";
+}
+
 bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
   const auto start = std::chrono::steady_clock::now();
   ++stats_.plans_attempted;
@@ -107,6 +123,7 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
   }
   if (!has_goal_) {
     ++stats_.goal_failures;
+    stats_.last_outcome = PlanOutcome::kNoGoal;
   } else {
     p_WG_ = EndEffectorAt(q_goal_);
     // from the arm; from a start too close to something (the reactive layer holds a few cm), from the reference
@@ -115,8 +132,13 @@ bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rm
       path = planner_.PlanPath(q_d_, q_goal_, scene);
     }
     plan_margin_ = planner_.last_plan_margin();  // the path is checked against what it was planned with
-    if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) ++stats_.goal_failures;
+    stats_.last_outcome = PlanOutcome::kNoPath;
+    if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) {
+      ++stats_.goal_failures;
+      stats_.last_outcome = PlanOutcome::kGoalInCollision;
+    }
     if (!path.empty()) {
+      stats_.last_outcome = PlanOutcome::kPlanned;
       path_ = std::move(path);
       path_times_ = PathArrivalTimes(path_, v_path_);
       path_s_ = PathArcLengths(path_);

@@ -297,6 +297,82 @@ TEST(RobotCollisionCheckerTest, ALazyCheckAlongAPathAnswersAsTheExhaustiveSearch
   EXPECT_LT(free, checks * 4 / 5);
 }
 
+// the robot with each capsule cut into `pieces` along its segment: the same union, many capsules per link (as a tight
+// cover has), so that the checker's clusters come into play
+kinematics::Robot Sliced(kinematics::Robot robot, int pieces) {
+  std::vector<kinematics::LinkCapsule> sliced;
+  for (const kinematics::LinkCapsule& c : robot.capsules) {
+    for (int k = 0; k < pieces; ++k) {
+      kinematics::LinkCapsule piece = c;
+      piece.p_LA = c.p_LA + (c.p_LB - c.p_LA) * (static_cast<double>(k) / pieces);
+      piece.p_LB = c.p_LA + (c.p_LB - c.p_LA) * (static_cast<double>(k + 1) / pieces);
+      sliced.push_back(piece);
+    }
+  }
+  robot.capsules = std::move(sliced);
+  return robot;
+}
+
+TEST(RobotCollisionCheckerTest, ClustersOfManyCapsulesPerLinkAnswerAsTheExhaustiveSearch) {
+  std::mt19937_64 rng(41);
+  int free = 0, checks = 0;
+  for (const std::string& name : {std::string("panda"), std::string("ur5e")}) {
+    const kinematics::Robot robot = Sliced(kinematics::LoadShippedRobot(name), 12);
+    const RobotCollisionModel model(robot);
+    // the clusters partition each group, hold at most kClusterSize capsules, and their spheres hold the capsules'
+    size_t clustered = 0;
+    for (const RobotCollisionModel::LinkGroup& g : model.link_groups()) {
+      std::vector<int> members;
+      for (int k : g.clusters) {
+        const RobotCollisionModel::Cluster& cluster = model.clusters()[k];
+        EXPECT_LE(static_cast<int>(cluster.capsules.size()), RobotCollisionModel::kClusterSize);
+        EXPECT_EQ(model.link_groups()[cluster.group].link, g.link);
+        const Eigen::Vector4d& s = model.cluster_sphere_L(k);
+        for (int c : cluster.capsules) {
+          const Eigen::Vector4d& cs = model.capsule_sphere_L(c);
+          EXPECT_LE((cs.head<3>() - s.head<3>()).norm() + cs[3], s[3]);
+        }
+        members.insert(members.end(), cluster.capsules.begin(), cluster.capsules.end());
+      }
+      std::sort(members.begin(), members.end());
+      EXPECT_EQ(members, g.capsules);
+      clustered += g.clusters.size() > 1;
+    }
+    EXPECT_GE(clustered, 5u) << name;
+    RobotCollisionData data(model), lazy(model);
+    for (int trial = 0; trial < 30; ++trial) {
+      const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      const std::vector<rmp::Obstacle> obstacles = ObstaclesNear(robot, q, rng);
+      const Exhaustive e = ExhaustiveClearance(robot, q, obstacles, true);
+      const ClearancePair pair = CalcRobotClearance(model, q, obstacles, &data);
+      ASSERT_EQ(pair.distance, e.all()) << name << " trial " << trial;
+      ASSERT_EQ(PairDistance(robot, q, obstacles, pair), pair.distance) << name << " trial " << trial;
+      EXPECT_EQ(CalcSelfClearance(model, data), std::min(e.self, e.floor));
+      for (double margin : {0.0, 0.01, 0.05}) {
+        EXPECT_EQ(CheckConfigCollisionFree(model, q, obstacles, margin, &lazy), e.all() > margin);
+      }
+    }
+    // along straight paths, where the self-pair memory skips link pairs
+    for (int path = 0; path < 3; ++path) {
+      const VectorXd a = testing::RandomConfiguration(robot.model, rng);
+      const VectorXd b = testing::RandomConfiguration(robot.model, rng);
+      for (int k = 0; k <= 100; ++k) {
+        const VectorXd q = a + (b - a) * (k / 100.0);
+        const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
+        for (double margin : {0.0, 0.02}) {
+          const bool answer = CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, margin, margin,
+                                                       false, &lazy);
+          ASSERT_EQ(answer, std::min(e.self, e.floor) > margin) << name << " path " << path << " step " << k;
+          free += answer;
+          ++checks;
+        }
+      }
+    }
+  }
+  EXPECT_GT(free, checks / 10);
+  EXPECT_LT(free, checks * 9 / 10);
+}
+
 TEST(RobotCollisionCheckerTest, AnEdgeIsFreeWhenEveryConfigurationAlongItIs) {
   const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
   const RobotCollisionModel model(robot);

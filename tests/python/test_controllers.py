@@ -1,5 +1,7 @@
 """rmpmarl.load_controller and rmpmarl.rmpflow: the same numbers as the C++ controllers on the same inputs, the
 scene's bad input refused, and a loop at the control rate that tracks a target past an obstacle."""
+import os
+
 import numpy as np
 import pytest
 
@@ -326,3 +328,94 @@ def test_plan_and_react_goes_around_a_wall_to_a_joint_target():
     assert np.linalg.norm(robot.end_effector_position(q) - target) > 0.1
     with pytest.raises(FileNotFoundError, match="layer: expected 'rmpflow' or a controller file"):
         rmpmarl.plan_and_react(robot, "nowhere.rmpp")
+
+
+def test_read_planning_scene_and_request_give_what_update_takes(tmp_path):
+    """rmpmarl.read_planning_scene / read_motion_plan_request on hand-written MoveIt YAML: MoveIt's full box sizes
+    become half sizes, a cylinder's [height, radius] becomes (radius, half length), a quaternion [x, y, z, w] its
+    rotation matrix (checked by hand: 90° about z), an object's pose composes with its primitive's; the request's
+    joints come out in the robot's order whatever the file's, with the smaller tolerance; a missing joint is named."""
+    robot = rmpmarl.Robot("panda")
+    s = np.sqrt(0.5)
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(f"""
+world:
+  collision_objects:
+    - id: shelf
+      pose: {{position: [0.1, 0.0, 0.0], orientation: [0, 0, {s}, {s}]}}
+      primitives: [{{type: box, dimensions: [0.4, 0.2, 0.02]}}]
+      primitive_poses: [{{position: [0.0, 0.5, 0.3], orientation: [0, 0, 0, 1]}}]
+    - id: can
+      primitives: [{{type: cylinder, dimensions: [0.14, 0.03]}}, {{type: sphere, dimensions: [0.05]}}]
+      primitive_poses: [{{position: [0.5, 0.2, 0.1], orientation: [0, 0, 0, 1]}},
+                        {{position: [0.5, 0.2, 0.3], orientation: [0, 0, 0, 1]}}]
+""")
+    args = rmpmarl.read_planning_scene(str(scene))
+    assert sorted(args) == ["box_rotations", "boxes", "cylinder_rotations", "cylinders", "spheres"]
+    # the shelf: the object's 90° turn about z takes the primitive's offset (0, 0.5) to (−0.5, 0), then + (0.1, 0, 0)
+    assert np.allclose(args["boxes"], [[-0.4, 0.0, 0.3, 0.2, 0.1, 0.01]])
+    assert np.allclose(args["box_rotations"][0], [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    assert np.allclose(args["cylinders"], [[0.5, 0.2, 0.1, 0.03, 0.07]])
+    assert np.allclose(args["spheres"], [[0.5, 0.2, 0.3, 0.05]])
+    names = [f"panda_joint{i}" for i in range(7, 0, -1)]
+    request = tmp_path / "request.yaml"
+    request.write_text(f"""
+group_name: panda_arm
+start_state: {{joint_state: {{name: {names + ["panda_finger_joint1"]}, position: [7, 6, 5, 4, 3, 2, 1, 0.04]}}}}
+goal_constraints:
+  - joint_constraints:
+""" + "".join(f"""      - {{joint_name: {n}, position: {0.1 * (7 - i)}, tolerance_below: 0.001, tolerance_above: 0.002}}
+""" for i, n in enumerate(names)))
+    req = rmpmarl.read_motion_plan_request(str(request), robot)
+    assert np.allclose(req["start"], [1, 2, 3, 4, 5, 6, 7])
+    assert np.allclose(req["joint_target"], 0.1 * np.arange(1, 8))
+    assert np.allclose(req["tolerance"], 0.001)
+    assert req["group"] == "panda_arm"
+    # what update() takes, as it is
+    controller = rmpmarl.rmpflow(robot, max_obstacles=4)
+    q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
+    controller.reset(q0, np.zeros(7))
+    controller.update(q0, np.zeros(7), joint_target=req["joint_target"], **args)
+    # the start state without panda_joint3
+    text = request.read_text().replace("'panda_joint3', ", "").replace("[7, 6, 5, 4, 3, 2, 1, 0.04]", "[7, 6, 5, 4, 2, 1, 0.04]")
+    request.write_text(text)
+    with pytest.raises(ValueError, match="panda_joint3"):
+        rmpmarl.read_motion_plan_request(str(request), robot)
+    with pytest.raises(FileNotFoundError, match="nowhere.yaml"):
+        rmpmarl.read_planning_scene(str(tmp_path / "nowhere.yaml"))
+
+
+def test_plan_and_react_plans_an_mbm_box_problem_whose_cell_lies_below_the_base():
+    """A user's loop over MotionBenchMaker's box problem 1 (its cell's base board 49 cm below the robot's base): with
+    no floor (the default, as benchmark mbm plans) a path is planned and followed to the request's goal, which
+    info['plan'] says; with a floor at z = 0 put there by the user the same goal cannot be planned for, and
+    info['plan'] says that too — the reactive layer then goes for the goal alone."""
+    problems = os.environ.get("RMPMARL_MBM_PROBLEMS")
+    if not problems:
+        pytest.skip("MotionBenchMaker's Panda set is not here (RMPMARL_MBM_PROBLEMS)")
+    folder = os.path.join(problems, "box_panda")
+    robot = rmpmarl.Robot("panda")
+    scene = rmpmarl.read_planning_scene(os.path.join(folder, "scene0001.yaml"))
+    request = rmpmarl.read_motion_plan_request(os.path.join(folder, "request0001.yaml"), robot)
+    assert scene["boxes"][:, 2].min() < -0.4  # the cell's base board, below z = 0
+    n = len(scene["boxes"]) + len(scene.get("cylinders", [])) + len(scene.get("spheres", []))
+
+    def run(floor_height, seconds):
+        controller = rmpmarl.plan_and_react(robot, "rmpflow", max_obstacles=n, seed=1, floor_height=floor_height)
+        q, qd = request["start"].copy(), np.zeros(7)
+        controller.reset(q, qd)
+        info = None
+        for _ in range(int(seconds * controller.control_rate)):
+            q, qd, info = controller.update(q, qd, joint_target=request["joint_target"], **scene)
+            assert info["finite"]
+        return q, info["plan"]
+
+    q, plan = run(None, 6.0)
+    assert plan["status"] == "planned" and plan["succeeded"] >= 1, plan
+    assert plan["planning_ms"] > 0.0 and plan["path_length"] > 0.0
+    assert np.abs(q - request["joint_target"]).max() < 0.05, q - request["joint_target"]
+    _, plan = run(0.0, 0.2)
+    assert plan["status"] in ("goal in collision", "no path within the budget"), plan
+    assert plan["succeeded"] == 0 and not plan["following"]
+    with pytest.raises(ValueError, match="floor_height"):
+        rmpmarl.plan_and_react(robot, floor_height=float("nan"))

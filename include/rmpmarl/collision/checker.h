@@ -69,11 +69,24 @@ class RobotCollisionModel {
   const RobotCollisionOptions& options() const { return options_; }
   int num_capsules() const { return static_cast<int>(robot_.capsules.size()); }
 
-  /// The capsules of one link with capsules (a link's cover can hold many).
+  /// The capsules of one link with capsules (a link's cover can hold many), split into clusters of at most
+  /// kClusterSize neighbouring capsules, each with its own bounding sphere: a tight cover holds dozens of capsules
+  /// per link, and a cluster far from an obstacle or from another link's cluster rules out all of its capsules at once.
   struct LinkGroup {
     int link = -1;
     std::vector<int> capsules;
+    std::vector<int> clusters;  ///< indices into clusters(); one (all its capsules) when it holds ≤ kClusterSize
   };
+  static constexpr int kClusterSize = 8;
+  /// A cluster of one link group's capsules (recursive halving of the group along the widest spread of their
+  /// spheres' centres; the group's own order when it is a single cluster).
+  struct Cluster {
+    int group = -1;
+    std::vector<int> capsules;
+  };
+  const std::vector<Cluster>& clusters() const { return clusters_; }
+  /// per cluster: a sphere around its capsules' spheres in the link's frame (centre, radius)
+  const Eigen::Vector4d& cluster_sphere_L(int cluster) const { return cluster_sphere_L_[cluster]; }
   /// A checked pair of link groups and its capsule pairs, the range [begin, end) of grouped_self_pairs().
   struct LinkPair {
     int group_a = 0, group_b = 0;
@@ -118,7 +131,8 @@ class RobotCollisionModel {
   std::vector<std::pair<int, int>> grouped_self_pairs_;
   std::vector<std::pair<int, int>> self_pairs_;
   std::vector<char> floor_checked_;
-  std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_;
+  std::vector<Cluster> clusters_;
+  std::vector<Eigen::Vector4d> capsule_sphere_L_, group_sphere_L_, cluster_sphere_L_;
   std::vector<DofReach> self_pair_motion_;
   std::vector<size_t> self_pair_motion_begin_;
 };
@@ -163,10 +177,11 @@ struct RobotCollisionData {
   std::vector<math::Capsule> capsule_W;        ///< per capsule, in world
   std::vector<Eigen::Vector4d> capsule_sphere;  ///< per capsule: bounding sphere (centre, radius)
   std::vector<Eigen::Vector4d> group_sphere;    ///< per link group: a sphere around its capsules' spheres
+  std::vector<Eigen::Vector4d> cluster_sphere;  ///< per cluster: a sphere around its capsules' spheres
   ClearancePair last_hit;  ///< the pair the last failing CheckPlacedCollisionFree failed on (kNone: none yet)
   /// CheckConfigCollisionFree's lazy placement: a capsule's sphere and the capsule itself are up to date when their
   /// stamp equals `stamp`, which each such check advances
-  std::vector<std::uint32_t> sphere_stamp, capsule_stamp;
+  std::vector<std::uint32_t> sphere_stamp, capsule_stamp, cluster_stamp;
   std::uint32_t stamp = 0;
   /// CheckConfigCollisionFree's memory of the self pairs: per checked link pair, a lower bound of its distance
   /// (−inf: none yet) at the configuration stored beside it (self_bound_q: the values of the pair's dofs,

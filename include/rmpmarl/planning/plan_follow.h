@@ -98,8 +98,22 @@ void ValidatePlanFollowOptions(const PlanFollowOptions& options);
 /// wrong kind or out of range throws InputError naming the file and key.
 PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanFollowOptions options = {});
 
+/// How the last planning attempt ended.
+enum class PlanOutcome {
+  kNone,             ///< no attempt yet
+  kPlanned,          ///< a path was found and is followed
+  kNoGoal,           ///< no goal configuration: the scene has neither a joint goal nor a target, or IK found none
+  kGoalInCollision,  ///< the goal configuration is in collision (or within the safety margin) in the capsule model
+  kNoPath,           ///< no path within the planning budget
+};
+
+/// a short phrase for an outcome ("planned", "no goal configuration", "goal in collision", "no path within the
+/// budget", "not yet")
+const char* PlanOutcomeName(PlanOutcome outcome);
+
 /// Counters since the last Reset.
 struct PlanFollowStats {
+  PlanOutcome last_outcome = PlanOutcome::kNone;  ///< of the last attempt
   int plans_attempted = 0;
   int plans_succeeded = 0;
   int replans_stalled = 0;   ///< replans started because progress stalled
