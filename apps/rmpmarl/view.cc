@@ -38,6 +38,7 @@ struct ViewArgs {
   double fps = 30.0;
   std::string replay;
   std::string scene, request;  // a MoveIt planning scene and motion-plan request instead of the scenario
+  std::vector<std::string> package_paths;  // where package:// meshes are looked up
   std::string web_root;
   double duration = 0.0;  // wall seconds to serve; 0: until interrupted
   bool paused = false;
@@ -55,15 +56,18 @@ void RunView(const ViewArgs& args) {
     what = fmt::format("replay of '{}' ({} frames)", args.replay, replay->num_frames());
     source = std::move(replay);
   } else {
-    const kinematics::Robot robot = !args.urdf.empty() ? LoadUserRobot(args.urdf, args.collision).robot
-                                                       : kinematics::LoadShippedRobot(args.robot);
+    const kinematics::Robot robot = !args.urdf.empty()
+                                        ? LoadUserRobot(args.urdf, args.collision, args.package_paths).robot
+                                        : kinematics::LoadShippedRobot(args.robot);
     std::shared_ptr<const control::PolicyFile> file;
     std::string policy_path;
     if (args.policy != "rmpflow") {
       policy_path = !args.policy.empty() ? args.policy : ShippedDefaultPolicyPath().string();
       file = std::make_shared<const control::PolicyFile>(control::LoadPolicyFile(policy_path));
     }
-    viewer::RobotVisuals visuals = viewer::LoadRobotVisuals(robot);
+    viewer::VisualOptions visual_options;
+    visual_options.package_paths = args.package_paths;
+    viewer::RobotVisuals visuals = viewer::LoadRobotVisuals(robot, visual_options);
     for (const std::string& w : visuals.warnings) fmt::print("rmpmarl view: visuals: {}\n", w);
     extra_files = std::move(visuals.files);
     viewer::LiveSimOptions options;
@@ -172,6 +176,8 @@ void RegisterView(CLI::App& app) {
   cmd->add_option("--replay", args.replay, "play back a replay file (rmpmarl demo --record, or the page's record)");
   cmd->add_option("--scene", args.scene, "a MoveIt planning scene (YAML: world.collision_objects with box, sphere and "
                                          "cylinder primitives) instead of the scenario");
+  cmd->add_option("--package-path", args.package_paths,
+                  "with --urdf: folders holding the packages of its package:// meshes (as benchmark mbm takes them)");
   cmd->add_option("--request", args.request, "with --scene: a MoveIt motion-plan request whose start the arm takes "
                                              "and whose goal's end effector is the target");
   cmd->add_option("--web-root", args.web_root, "directory of the built page (default: the build's or installed one)");

@@ -136,6 +136,10 @@ LiveSim::~LiveSim() = default;
 std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, const Eigen::VectorXd& q,
                                                const Eigen::VectorXd& qd) const {
   auto arm = std::make_unique<Arm>();
+  // a planning scene has its own surfaces (a cell's boards may lie below the base): the planner checks its obstacles
+  // only, as benchmark mbm plans; a built-in scenario stands on the floor at z = 0
+  planning::PlanFollowOptions plan;
+  plan.planner.check_floor = !options_.scene.has_value();
   arm->controller = controller;
   arm->world = std::make_unique<sim::World>(model_);
   arm->world->Reset(q, qd);
@@ -147,13 +151,15 @@ std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, co
     arm->learned = learned.get();
     arm->label = policy_label_;
     std::unique_ptr<control::AccelerationPolicy> policy = std::move(learned);
-    if (options_.plan) policy = planning::MakePlanFollower(robot_, std::move(policy), options);
+    if (options_.plan) policy = planning::MakePlanFollower(robot_, std::move(policy), options, plan);
     arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(policy), options);
   } else {
     arm->label = "RMPflow";
     std::unique_ptr<control::AccelerationPolicy> policy =
         std::make_unique<control::RmpflowAccelerationPolicy>(robot_, max_obstacles);
-    if (options_.plan) policy = planning::MakePlanFollower(robot_, std::move(policy), control::ControllerOptions{});
+    if (options_.plan) {
+      policy = planning::MakePlanFollower(robot_, std::move(policy), control::ControllerOptions{}, plan);
+    }
     arm->control = std::make_unique<control::ReactiveController>(model_->servos(), std::move(policy));
   }
   if (options_.plan) arm->label = "plan + " + arm->label;
@@ -252,6 +258,8 @@ void LiveSim::FillScene(rmp::Scene* scene) const {
   scene->has_target = true;
   scene->p_WT = p_WT_;
   scene->v_WT = target_held_ ? Eigen::Vector3d::Zero() : v_WT_;
+  // a motion-plan request's joint goal (--request): the controllers and the planner go for it, as a benchmark does
+  scene->q_T = scenario_->joint_goal();
 }
 
 void LiveSim::AdvanceShared(double dt) {

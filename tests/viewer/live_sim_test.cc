@@ -10,7 +10,9 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/control/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/viewer/live_sim.h"
 
 namespace rmpmarl::viewer {
@@ -224,6 +226,34 @@ TEST(LiveSimTest, AnObstacleDraggedOntoTheArmShowsTheAgentsWitnessPoints) {
     EXPECT_NEAR((a - b).norm(), std::abs(w["d"].get<double>()), 2e-4);
   }
   EXPECT_TRUE(std::isfinite(f["arms"][0]["clearance"].get<double>()));
+}
+
+TEST(LiveSimTest, AScenesRequestIsPlannedToItsJointGoalAsTheBenchmarkPlans) {
+  // rmpmarl view --scene --request --plan on MotionBenchMaker's box problem 1, whose cell's base board lies 49 cm
+  // below the robot's base: the arm goes to the request's joint goal (a floor at z = 0 would make it unplannable, and
+  // an IK solution of its end effector is another posture)
+  const std::filesystem::path problems = RMPMARL_MBM_PROBLEMS;
+  if (problems.empty()) GTEST_SKIP() << "MotionBenchMaker's Panda set is not here";
+  const kinematics::Robot robot = kinematics::LoadShippedRobot("panda");
+  const control::PlanningScene scene = control::ReadPlanningScene(problems / "box_panda" / "scene0001.yaml");
+  const control::MotionPlanRequest request =
+      control::ReadMotionPlanRequest(problems / "box_panda" / "request0001.yaml");
+  LiveSimOptions options;
+  options.controller = "rmpflow";
+  options.plan = true;
+  options.scene = sim::StaticSceneOf(robot, scene, &request, "request0001.yaml");
+  options.max_obstacles = static_cast<int>(options.scene->obstacles.size()) + 8;
+  const Eigen::VectorXd q_goal = options.scene->q_goal;
+  LiveSim sim(robot, nullptr, "", options);
+  double error = 1e9;
+  while (sim.time() < 8.0 && error > 0.02) {
+    sim.ControlStep();
+    error = (sim.world(0).q() - q_goal).cwiseAbs().maxCoeff();
+  }
+  EXPECT_LT(error, 0.02) << "at " << sim.world(0).q().transpose() << ", goal " << q_goal.transpose();
+  EXPECT_EQ(sim.collisions(0), 0);
+  std::printf("view --scene --request --plan on box 1: at the joint goal (within 0.02 rad) after %.2f s\n",
+              sim.time());
 }
 
 TEST(LiveSimTest, BadOptionsAreRefused) {
