@@ -317,6 +317,39 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
 }
 
 // one method on a prepared problem; `policy` is the learned controller's file (learned methods only)
+// why a run that was not a success failed, most telling first: it collided (capsules, meshes); a plan-based method
+// never had a plan (and why); it did not reach the goal in time because the plan's execution at the path speed takes
+// longer than the run, or because it stopped short
+std::string FailureReason(const kinematics::Robot& robot, const MbmResult& r, const sim::EpisodeMetrics& m,
+                          const planning::PlanFollowPolicy* follower, const MbmOptions& options) {
+  if (r.collisions > 0 || r.mesh_collisions > 0) {
+    return r.mesh_collisions >= 0
+               ? fmt::format("collided: {} collision events on the capsules, {} control steps in collision on the "
+                             "meshes", r.collisions, r.mesh_collisions)
+               : fmt::format("collided: {} collision events on the capsules", r.collisions);
+  }
+  if (follower != nullptr && follower->stats().plans_succeeded == 0) {
+    const planning::PlanFollowStats& s = follower->stats();
+    return fmt::format("no plan: {} ({} attempts)", planning::PlanOutcomeName(s.last_outcome), s.plans_attempted);
+  }
+  if (follower != nullptr && !follower->path().empty()) {
+    Eigen::VectorXd speeds(robot.model.nq());
+    for (int i = 0; i < robot.model.nq(); ++i) {
+      speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
+    }
+    const double needs = planning::PathArrivalTimes(follower->path(), speeds).back();
+    if (!r.reached && r.planning_time >= 0.0 && r.planning_time + needs > options.duration) {
+      return fmt::format("timed out: the plan takes {:.1f} s at {:.0f} % of the velocity limits, the run lasts {:.1f} s "
+                         "(--duration)", needs, 100.0 * options.plan.planner.path_speed_fraction, options.duration);
+    }
+  }
+  if (!r.reached) {
+    return fmt::format("stopped short: the end effector {:.1f} mm from the goal's at the end (tolerance {:.1f} mm)",
+                       1e3 * m.final_tracking_error, 1e3 * options.goal_tolerance);
+  }
+  return fmt::format("not settled: reached, but {:.1f} mm from the goal's at the end", 1e3 * m.final_tracking_error);
+}
+
 MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, const PreparedProblem& prepared,
                     MbmMethod method, const MbmOptions& options, std::uint64_t key,
                     const control::PolicyFile* policy_file) {
@@ -411,6 +444,7 @@ MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, c
     r.plans = s.plans_attempted;
     if (!s.planning_times_s.empty()) r.planning_time = s.planning_times_s.front();
   }
+  if (!r.success) r.reason = FailureReason(robot, r, m, follower, options);
   return r;
 }
 

@@ -177,6 +177,21 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   options.jobs = 1;
   const std::vector<MbmResult> again = RunMbmBenchmark(panda, problems, {MbmMethod::kPlanRmpflow}, options);
   EXPECT_DOUBLE_EQ(again[0].final_error, results[3].final_error);
+  // why a run failed (results.csv's reason), none for a success
+  for (const MbmResult& r : results) {
+    if (r.success) EXPECT_EQ(r.reason, "") << r.method;
+    if (r.valid && !r.success) EXPECT_FALSE(r.reason.empty()) << r.method;
+  }
+  MbmOptions hurried = options;
+  hurried.duration = 0.3;
+  const MbmResult late = RunMbmBenchmark(panda, {problems[0]}, {MbmMethod::kPlanRmpflow}, hurried)[0];
+  EXPECT_FALSE(late.success);
+  EXPECT_EQ(late.reason.rfind("timed out: the plan takes ", 0), 0u) << late.reason;
+  EXPECT_NE(late.reason.find("the run lasts 0.3 s (--duration)"), std::string::npos) << late.reason;
+  MbmOptions starved = options;
+  starved.plan.planner.planning_iterations = 1;
+  const MbmResult none = RunMbmBenchmark(panda, {problems[0]}, {MbmMethod::kPlanRmpflow}, starved)[0];
+  EXPECT_EQ(none.reason.rfind("no plan: no path within the budget (", 0), 0u) << none.reason;
 
   // the dynamic variant: spheres timed to meet the open-loop plan's end effector — the plan executed open loop hits
   // one; the draw is the problem's, the same for every method and run
@@ -186,6 +201,7 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   const std::vector<MbmResult> crossed = RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic);
   EXPECT_GE(crossed[0].collisions, 1);
   EXPECT_FALSE(crossed[0].success);
+  EXPECT_EQ(crossed[0].reason.rfind("collided: ", 0), 0u) << crossed[0].reason;
   EXPECT_EQ(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic)[0].final_error, crossed[0].final_error);
   dynamic.speed_min = 0.0;
   EXPECT_THROW(RunMbmBenchmark(panda, first, {MbmMethod::kRrtConnect}, dynamic), InputError);
