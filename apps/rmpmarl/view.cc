@@ -82,7 +82,7 @@ void RunView(const ViewArgs& args) {
     options.plan = args.plan;
     std::string scene_name = fmt::format("scenario '{}'", args.scenario);
     if (!args.scene.empty()) {
-      const control::PlanningScene scene = control::ReadPlanningScene(args.scene);
+      const control::PlanningScene scene = control::ReadPlanningScene(args.scene, robot.model.link(0).name);
       std::optional<control::MotionPlanRequest> request;
       if (!args.request.empty()) request = control::ReadMotionPlanRequest(args.request);
       options.scene = sim::StaticSceneOf(robot, scene, request ? &*request : nullptr, args.request);

@@ -136,7 +136,7 @@ def plan_and_react(robot: Union[Robot, str], layer: str = "rmpflow", max_obstacl
     """a global joint path (RRT-Connect) to the scene's joint_target followed by the reactive layer ('rmpflow' or a
     controller file), replanning when stalled or blocked; a floor only when floor_height is given; update()'s
     info['plan'] says whether a path is followed"""
-def read_planning_scene(path: str) -> dict[str, FloatArray]:
+def read_planning_scene(path: str, robot: Union[Robot, str, None] = None) -> dict[str, FloatArray]:
     """a MoveIt planning scene's collision objects as update()'s keyword arguments (spheres, boxes, box_rotations,
     cylinders, cylinder_rotations; only the kinds present)"""
 def read_motion_plan_request(path: str, robot: Union[Robot, str]) -> dict[str, Any]:

@@ -78,15 +78,17 @@ void CheckFile(const std::string& path, const char* what) {
 }  // namespace
 
 void BindScenes(py::module_& m) {
-  m.def("read_planning_scene", [](const std::string& path) {
+  m.def("read_planning_scene", [](const std::string& path, const py::handle& robot) {
     CheckFile(path, "a MoveIt planning scene (.yaml)");
-    return SceneArguments(control::ReadPlanningScene(path).Obstacles());
-  }, py::arg("path"),
+    const std::string base = robot.is_none() ? std::string() : RobotOf(robot, "")->robot->model.link(0).name;
+    return SceneArguments(control::ReadPlanningScene(path, base).Obstacles());
+  }, py::arg("path"), py::arg("robot") = py::none(),
         "the collision objects of a MoveIt planning scene (YAML of moveit_msgs/PlanningScene, as MotionBenchMaker "
         "writes them) as Controller.update()'s keyword arguments: a dict with 'spheres' [K, 4], 'boxes' [K, 6] "
         "(centre, half sizes) and 'box_rotations' [K, 3, 3], 'cylinders' [K, 5] (centre, radius, half length) and "
         "'cylinder_rotations', only the kinds present, in the robot's base frame: controller.update(q, qd, "
-        "joint_target=..., **scene). MoveIt's full box sizes and cylinder [height, radius] are converted; meshes, "
+        "joint_target=..., **scene). The scene's frames are applied (the virtual joint's pose, fixed_frame_transforms, "
+        "objects given in `robot`'s base link when it is passed); an unknown frame is refused by name. MoveIt's full box sizes and cylinder [height, radius] are converted; meshes, "
         "planes and cones are refused by object id (ValueError).");
   m.def("read_motion_plan_request", [](const std::string& path, const py::handle& robot) {
     CheckFile(path, "a MoveIt motion-plan request (.yaml)");

@@ -51,20 +51,92 @@ Eigen::VectorXd Numbers(const YamlReader& r, const YAML::Node& node, const std::
   return v;
 }
 
+// a unit quaternion [x, y, z, w] (or a mapping) as a rotation matrix
+Eigen::Matrix3d Rotation(const YamlReader& r, const YAML::Node& node, const std::string& key) {
+  const Eigen::VectorXd q = Numbers(r, node, key, {"x", "y", "z", "w"});
+  if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
+    r.Fail(node, key, fmt::format("expected a unit quaternion [x, y, z, w], got norm {:.6g}", q.norm()));
+  }
+  return Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
+}
+
 // a pose {position, orientation [x, y, z, w]}; an absent pose is the identity
 Eigen::Isometry3d Pose(const YamlReader& r, const YAML::Node& node, const std::string& key) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
   if (Absent(node)) return X;
   if (!IsMap(node)) r.Fail(node, key, "expected a pose {position, orientation}");
   if (const YAML::Node p = node["position"]) X.translation() = Numbers(r, p, key + ".position", {"x", "y", "z"});
-  if (const YAML::Node o = node["orientation"]) {
-    const Eigen::VectorXd q = Numbers(r, o, key + ".orientation", {"x", "y", "z", "w"});
-    if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
-      r.Fail(o, key + ".orientation", fmt::format("expected a unit quaternion [x, y, z, w], got norm {:.6g}", q.norm()));
-    }
-    X.linear() = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
-  }
+  if (const YAML::Node o = node["orientation"]) X.linear() = Rotation(r, o, key + ".orientation");
   return X;
+}
+
+// a geometry_msgs/Transform {translation, rotation [x, y, z, w]}; an absent one is the identity
+Eigen::Isometry3d Transform(const YamlReader& r, const YAML::Node& node, const std::string& key) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  if (Absent(node)) return X;
+  if (!IsMap(node)) r.Fail(node, key, "expected a transform {translation, rotation}");
+  if (const YAML::Node p = node["translation"]) X.translation() = Numbers(r, p, key + ".translation", {"x", "y", "z"});
+  if (const YAML::Node o = node["rotation"]) X.linear() = Rotation(r, o, key + ".rotation");
+  return X;
+}
+
+// The frames a scene's objects may be given in, each as its pose in the robot's base frame R. MoveIt's planning frame
+// P is the parent of the robot's virtual joint, whose transform (robot_state.multi_dof_joint_state, one joint) is the
+// base link's pose in P; fixed_frame_transforms give more frames (child_frame_id) by their pose in P.
+struct Frames {
+  std::vector<std::pair<std::string, Eigen::Isometry3d>> X_RF;  // name → pose in R
+  const Eigen::Isometry3d* Find(const std::string& name) const {
+    for (const auto& [n, X] : X_RF) {
+      if (n == name) return &X;
+    }
+    return nullptr;
+  }
+  std::string Names() const {
+    std::vector<std::string> names;
+    for (const auto& [n, X] : X_RF) names.push_back(n.empty() ? "'' (the planning frame)" : "'" + n + "'");
+    return fmt::format("{}", fmt::join(names, ", "));
+  }
+};
+
+Frames ReadFrames(const YamlReader& r, const YAML::Node& root, std::string_view base_link) {
+  Eigen::Isometry3d X_PR = Eigen::Isometry3d::Identity();
+  const YAML::Node state = root["robot_state"];
+  const YAML::Node multi = IsMap(state) ? state["multi_dof_joint_state"] : YAML::Node();
+  if (IsMap(multi) && IsSeq(multi["transforms"]) && multi["transforms"].size() > 0) {
+    if (multi["transforms"].size() != 1) {
+      r.Fail(multi["transforms"], "robot_state.multi_dof_joint_state.transforms",
+             fmt::format("expected the virtual joint's one transform, got {}", multi["transforms"].size()));
+    }
+    X_PR = Transform(r, multi["transforms"][0], "robot_state.multi_dof_joint_state.transforms[0]");
+  }
+  const Eigen::Isometry3d X_RP = X_PR.inverse();
+  Frames frames;
+  frames.X_RF.emplace_back("", X_RP);
+  if (!base_link.empty()) frames.X_RF.emplace_back(std::string(base_link), Eigen::Isometry3d::Identity());
+  const YAML::Node fixed = root["fixed_frame_transforms"];
+  if (IsSeq(fixed)) {
+    for (size_t i = 0; i < fixed.size(); ++i) {
+      const std::string key = fmt::format("fixed_frame_transforms[{}]", i);
+      const YAML::Node t = fixed[i];
+      if (!IsMap(t)) r.Fail(t, key, "expected a transform {header, child_frame_id, transform}");
+      // the planning frame's own name, where the file gives it
+      const YAML::Node header = t["header"];
+      if (IsMap(header) && IsScalar(header["frame_id"]) && !header["frame_id"].Scalar().empty() &&
+          frames.Find(header["frame_id"].Scalar()) == nullptr) {
+        frames.X_RF.emplace_back(header["frame_id"].Scalar(), X_RP);
+      }
+      const std::string child = r.String(t["child_frame_id"], key + ".child_frame_id");
+      const Eigen::Isometry3d X_RC = X_RP * Transform(r, t["transform"], key + ".transform");
+      if (const Eigen::Isometry3d* known = frames.Find(child)) {
+        if (!known->isApprox(X_RC, 1e-9)) {
+          r.Fail(t, key, fmt::format("frame '{}' given twice, at different poses", child));
+        }
+        continue;
+      }
+      frames.X_RF.emplace_back(child, X_RC);
+    }
+  }
+  return frames;
 }
 
 double Positive(const YamlReader& r, const YAML::Node& node, const std::string& key) {
@@ -104,7 +176,7 @@ rmp::Obstacle Primitive(const YamlReader& r, const YAML::Node& node, const std::
   r.Fail(node["type"], key + ".type", fmt::format("expected box, sphere or cylinder, got '{}'", type));
 }
 
-SceneObject Object(const YamlReader& r, const YAML::Node& node, const std::string& key) {
+SceneObject Object(const YamlReader& r, const YAML::Node& node, const std::string& key, const Frames& frames) {
   if (!IsMap(node)) r.Fail(node, key, "expected a collision object");
   SceneObject object;
   object.id = node["id"] ? r.String(node["id"], key + ".id") : "";
@@ -122,7 +194,19 @@ SceneObject Object(const YamlReader& r, const YAML::Node& node, const std::strin
              fmt::format("{} are not read (give the object's primitives, or its surface as a point cloud)", shapes));
     }
   }
-  const Eigen::Isometry3d X_WO = Pose(r, node["pose"], name + ".pose");
+  // the frame its poses are in: its header's, else the planning frame
+  const Eigen::Isometry3d* X_RF = frames.Find("");
+  const YAML::Node header = node["header"];
+  if (IsMap(header) && !Absent(header["frame_id"])) {
+    const std::string frame = r.String(header["frame_id"], name + ".header.frame_id");
+    X_RF = frames.Find(frame);
+    if (X_RF == nullptr) {
+      r.Fail(header["frame_id"], name + ".header.frame_id",
+             fmt::format("unknown frame '{}': the scene's frames are {} (an object attached to a robot link is not "
+                         "read)", frame, frames.Names()));
+    }
+  }
+  const Eigen::Isometry3d X_WO = *X_RF * Pose(r, node["pose"], name + ".pose");
   const YAML::Node prims = node["primitives"];
   const YAML::Node poses = node["primitive_poses"];
   if (Absent(prims)) return object;
@@ -204,7 +288,7 @@ std::vector<rmp::Obstacle> PlanningScene::Obstacles() const {
   return all;
 }
 
-PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view source) {
+PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view source, std::string_view base_link) {
   const YamlReader r{std::string(source)};
   const YAML::Node root = internal::LoadYamlText(yaml, std::string(source));
   if (!IsMap(root)) r.Fail(root, "<root>", "expected a planning scene (a mapping with `world`)");
@@ -212,11 +296,12 @@ PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view sourc
   if (root["name"] && IsScalar(root["name"])) scene.name = root["name"].Scalar();
   const YAML::Node world = root["world"];
   if (!IsMap(world)) r.Fail(world, "world", "expected a mapping with collision_objects");
+  const Frames frames = ReadFrames(r, root, base_link);
   const YAML::Node objects = world["collision_objects"];
   if (!Absent(objects)) {
     if (!IsSeq(objects)) r.Fail(objects, "world.collision_objects", "expected a list");
     for (size_t i = 0; i < objects.size(); ++i) {
-      scene.objects.push_back(Object(r, objects[i], fmt::format("world.collision_objects[{}]", i)));
+      scene.objects.push_back(Object(r, objects[i], fmt::format("world.collision_objects[{}]", i), frames));
     }
   }
   const YAML::Node octomap = world["octomap"];
@@ -232,8 +317,8 @@ PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view sourc
   return scene;
 }
 
-PlanningScene ReadPlanningScene(const std::filesystem::path& path) {
-  return ParsePlanningScene(ReadText(path, "planning scene"), path.string());
+PlanningScene ReadPlanningScene(const std::filesystem::path& path, std::string_view base_link) {
+  return ParsePlanningScene(ReadText(path, "planning scene"), path.string(), base_link);
 }
 
 MotionPlanRequest ParseMotionPlanRequest(const std::string& yaml, std::string_view source) {

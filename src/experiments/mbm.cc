@@ -227,7 +227,7 @@ std::string CapsulePairName(const kinematics::Robot& robot, const planning::Clea
 PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& problem, const MbmOptions& options,
                         std::uint64_t key) {
   PreparedProblem p;
-  const control::PlanningScene scene = control::ReadPlanningScene(problem.scene);
+  const control::PlanningScene scene = control::ReadPlanningScene(problem.scene, robot.model.link(0).name);
   const control::MotionPlanRequest request = control::ReadMotionPlanRequest(problem.request);
   p.scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
   rmp::Scene rmp_scene;

@@ -93,6 +93,59 @@ TEST(PlanningSceneTest, RefusesWhatItCannotReadByName) {
   ExpectRefused("robot_state: {}\n", "world");
 }
 
+TEST(PlanningSceneTest, AppliesTheVirtualJointFixedFramesAndObjectFramesAndRefusesAnUnknownOne) {
+  // the robot's base stands at (1, 2, 0) in the planning frame 'world', turned 90° about z; a fixed frame 'table' sits
+  // at (0, 0, 0.7) in 'world'. Hand-derived: a point p_W is at R_z(−90°) (p_W − (1, 2, 0)) in the base frame, so
+  // (x, y, z) ↦ (y − 2, 1 − x, z).
+  const double s = std::sqrt(0.5);
+  const std::string head = fmt::format(R"(
+robot_state:
+  multi_dof_joint_state:
+    joint_names: [virtual_joint]
+    transforms: [{{translation: [1, 2, 0], rotation: [0, 0, {0}, {0}]}}]
+fixed_frame_transforms:
+  - header: {{frame_id: world}}
+    child_frame_id: table
+    transform: {{translation: [0, 0, 0.7], rotation: [0, 0, 0, 1]}}
+world:
+  collision_objects:
+    - id: in_world
+      primitives: [{{type: sphere, dimensions: [0.05]}}]
+      primitive_poses: [{{position: [1.5, 2.0, 0.3], orientation: [0, 0, 0, 1]}}]
+    - id: on_table
+      header: {{frame_id: table}}
+      primitives: [{{type: box, dimensions: [0.2, 0.1, 0.04]}}]
+      primitive_poses: [{{position: [1.0, 2.5, 0.02], orientation: [0, 0, 0, 1]}}]
+    - id: named_world
+      header: {{frame_id: world}}
+      primitives: [{{type: sphere, dimensions: [0.05]}}]
+      primitive_poses: [{{position: [1.0, 3.0, 0.0], orientation: [0, 0, 0, 1]}}]
+    - id: in_base
+      header: {{frame_id: base}}
+      primitives: [{{type: sphere, dimensions: [0.05]}}]
+      primitive_poses: [{{position: [0.4, 0.1, 0.2], orientation: [0, 0, 0, 1]}}]
+)", s);
+  const PlanningScene scene = ParsePlanningScene(head, "framed.yaml", "base");
+  ASSERT_EQ(scene.objects.size(), 4u);
+  EXPECT_TRUE(scene.objects[0].primitives[0].sphere.p_WC.isApprox(Eigen::Vector3d(0.0, -0.5, 0.3), 1e-12));
+  const math::Box& box = scene.objects[1].primitives[0].box;
+  EXPECT_TRUE(box.X_WB.translation().isApprox(Eigen::Vector3d(0.5, 0.0, 0.72), 1e-12)) << box.X_WB.translation();
+  // the box's x axis (world x) is the base frame's −y
+  EXPECT_TRUE((box.X_WB.linear() * Eigen::Vector3d::UnitX()).isApprox(-Eigen::Vector3d::UnitY(), 1e-12));
+  EXPECT_TRUE(scene.objects[2].primitives[0].sphere.p_WC.isApprox(Eigen::Vector3d(1.0, 0.0, 0.0), 1e-12));
+  EXPECT_TRUE(scene.objects[3].primitives[0].sphere.p_WC.isApprox(Eigen::Vector3d(0.4, 0.1, 0.2), 1e-12));
+  // without the base link named, the object in it is refused, naming the frame and the ones the scene has
+  try {
+    ParsePlanningScene(head, "framed.yaml");
+    ADD_FAILURE() << "accepted an unknown frame";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("('in_base').header.frame_id"), std::string::npos) << what;
+    EXPECT_NE(what.find("unknown frame 'base'"), std::string::npos) << what;
+    EXPECT_NE(what.find("'world', 'table'"), std::string::npos) << what;
+  }
+}
+
 const char* kRequest = R"(
 group_name: arm
 start_state:

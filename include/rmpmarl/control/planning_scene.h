@@ -2,8 +2,8 @@
 /// Scenes and problems as the field writes them: a MoveIt planning scene (YAML of moveit_msgs/PlanningScene:
 /// `world.collision_objects`, each with box / sphere / cylinder `primitives` and their `primitive_poses`, under an
 /// optional object `pose`) and a MoveIt motion-plan request (moveit_msgs/MotionPlanRequest: `start_state.joint_state`
-/// and the joint constraints of `goal_constraints[0]`) — the files of MotionBenchMaker's problem sets. Poses are in
-/// the robot's base frame (the frame of the planning scene's root link); a pose is a position [x, y, z] and a
+/// and the joint constraints of `goal_constraints[0]`) — the files of MotionBenchMaker's problem sets. Obstacles come out in
+/// the robot's base frame (the frames the file gives are applied: ParsePlanningScene); a pose is a position [x, y, z] and a
 /// quaternion [x, y, z, w] (lists, or mappings with those keys). MoveIt's dimensions: a box [x, y, z] (full side
 /// lengths), a sphere [radius], a cylinder [height, radius] (its axis along the primitive's z).
 ///
@@ -58,9 +58,15 @@ struct MotionPlanRequest {
   JointGoal goal;
 };
 
-/// reads a planning scene from YAML text / a file. Throws InputError naming the source, the object and the key.
-PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view source);
-PlanningScene ReadPlanningScene(const std::filesystem::path& path);
+/// reads a planning scene from YAML text / a file, its obstacles in the robot's base frame. Frames: an object's poses
+/// are in its `header.frame_id` — absent or empty: MoveIt's planning frame; a `fixed_frame_transforms` child frame
+/// (its transform from the planning frame applied); `base_link` (the robot's root link, when the caller names it).
+/// The planning frame is the parent of the robot's virtual joint, whose pose `robot_state.multi_dof_joint_state`
+/// gives (one joint): objects in the planning frame are brought into the base frame by its inverse. An unknown frame
+/// (a robot link: objects attached to links are not read) is refused by name with the scene's frames listed. Throws
+/// InputError naming the source, the object and the key.
+PlanningScene ParsePlanningScene(const std::string& yaml, std::string_view source, std::string_view base_link = "");
+PlanningScene ReadPlanningScene(const std::filesystem::path& path, std::string_view base_link = "");
 
 /// reads a motion-plan request. Throws InputError naming the source and the key; a request whose goal is not a set of
 /// joint constraints (position or orientation constraints only) is refused with that said.
