@@ -39,8 +39,15 @@ configure: deps $(BUILD_DIR)/build.ninja
 build: configure
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
-demo: build
-	./$(BUILD_DIR)/rmpmarl demo --video $(BUILD_DIR)/demo.mp4
+# the product at work: plan + the shipped controller for cells (marl-rmp-gated), plan + RMPflow and the plan alone
+# (open loop) on the same DEMO_EPISODES generated cells (shelves, boxes, tables, under tables) with a cube crossing: a
+# success table with 95 % intervals and a video of the first episode of each. Builds the command-line program only.
+# The one-episode comparison in the crossing scene: ./build/rmpmarl demo
+DEMO_EPISODES ?= 50
+demo: configure
+	cmake --build $(BUILD_DIR) --target rmpmarl_cli -j $(JOBS)
+	./$(BUILD_DIR)/rmpmarl demo --scenario cells --plan --episodes $(DEMO_EPISODES) \
+	  --policy models/policies/marl-rmp-gated.rmpp --video $(BUILD_DIR)/demo.mp4
 
 # the live viewer in the browser (docs/viewer.md); VIEW_ARGS="--robot ur5e --side-by-side" etc.
 VIEW_ARGS ?=

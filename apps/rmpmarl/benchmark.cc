@@ -180,13 +180,17 @@ void RegisterBenchmark(CLI::App& app, int argc, char** argv) {
   mbm->add_option("--jobs", args->jobs, "worker threads")->check(CLI::Range(1, 256));
   mbm->add_option("--moving", args->moving, "the dynamic variant: this many spheres cross each problem's way, timed to "
                                             "meet the plan executed open loop (each clear of the arm at the start "
-                                            "and the goal: avoidable)")
-      ->check(CLI::Range(0, 64));
+                                            "and the goal: avoidable); spheres of 5 cm, --speed and --crossing-seed "
+                                            "say how fast and where")
+      ->check(CLI::Range(0, 64))
+      ->capture_default_str();
   mbm->add_option("--speed", args->speed, "the crossing spheres' speed, or a range MIN MAX drawn from [m/s]")
       ->expected(1, 2)
-      ->check(CLI::Range(1e-3, 20.0));
+      ->check(CLI::Range(1e-3, 20.0))
+      ->default_str("0.5 1.5");
   mbm->add_option("--crossing-seed", args->crossing_seed, "seed of the crossings (each problem its own draw)")
-      ->check(SeedCheck());
+      ->check(SeedCheck())
+      ->capture_default_str();
   mbm->add_flag("--servo-feedforward,!--no-servo-feedforward", args->servo_feedforward,
                "the simulated arm's servos add the inverse-dynamics feed-forward of the commanded acceleration, as a "
                "model-based joint controller does (default on; off: the PD alone)");

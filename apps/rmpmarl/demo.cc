@@ -5,7 +5,9 @@
 #include <fmt/ranges.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -23,6 +25,7 @@
 #include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/control/controller.h"
+#include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/render.h"
 #include "rmpmarl/sim/scenario.h"
@@ -46,6 +49,7 @@ struct DemoArgs {
   std::string policy;  // a controller file (.rmpp) beside RMPflow, or "rmpflow" alone
   std::string record;  // a replay file for `rmpmarl view --replay` ("" none)
   bool plan = false;   // both controllers follow an RRT-Connect plan (planning::PlanFollowPolicy)
+  int episodes = 1;    // > 1: that many episodes per controller (seeds seed, seed + 1, ...) and a success table
   PerceptionArgs perception;
 };
 
@@ -272,6 +276,62 @@ void PrintDemoTable(const std::vector<DemoRun>& runs, const tasks::TaskConfig& c
   }
 }
 
+// Many episodes of each controller (seeds args.seed, args.seed + 1, …: the same episodes for every controller): a
+// success — the goal reached without a collision, as the benchmarks count it — with its Wilson 95 % interval, and
+// the medians of what the successes took.
+struct DemoSeries {
+  std::string label;
+  std::vector<tasks::EpisodeMetrics> episodes;
+  std::string video;  // of the first episode
+};
+
+void PrintDemoSeries(const std::vector<DemoSeries>& series, const tasks::TaskConfig& config) {
+  const double tolerance = tasks::TaskLoopOptions(config).reach_tolerance;
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
+  auto row = [&](const std::string& name, const auto& cell) {
+    std::string line = fmt::format("  {:<30}", name);
+    for (const DemoSeries& s : series) line += fmt::format("{:>30}", cell(s));
+    fmt::print("{}\n", line);
+  };
+  auto succeeded = [](const tasks::EpisodeMetrics& m) { return m.reached && m.collisions == 0 && !m.invalid; };
+  fmt::print("\n");
+  std::string header = fmt::format("  {:<30}", "");
+  for (const DemoSeries& s : series) header += fmt::format("{:>30}", s.label);
+  fmt::print("{}\n", header);
+  row(fmt::format("success [95 % CI]"), [&](const DemoSeries& s) {
+    const int n = static_cast<int>(s.episodes.size());
+    const int k = static_cast<int>(std::count_if(s.episodes.begin(), s.episodes.end(), succeeded));
+    const experiments::Interval ci = experiments::WilsonInterval(k, n);
+    return fmt::format("{}/{} {:.0f} % [{:.0f}, {:.0f}]", k, n, 100.0 * k / n, 100.0 * ci.low, 100.0 * ci.high);
+  });
+  row(fmt::format("reached (within {:.0f} mm)", 1000.0 * tolerance), [](const DemoSeries& s) {
+    return fmt::format("{}", std::count_if(s.episodes.begin(), s.episodes.end(),
+                                           [](const tasks::EpisodeMetrics& m) { return m.reached; }));
+  });
+  row("with a collision", [](const DemoSeries& s) {
+    return fmt::format("{}", std::count_if(s.episodes.begin(), s.episodes.end(),
+                                           [](const tasks::EpisodeMetrics& m) { return m.collisions > 0; }));
+  });
+  row("time to reach (median, successes)", [&](const DemoSeries& s) {
+    std::vector<double> t;
+    for (const tasks::EpisodeMetrics& m : s.episodes) {
+      if (succeeded(m)) t.push_back(m.time_to_reach);
+    }
+    const double v = median(t);
+    return std::isfinite(v) ? fmt::format("{:.2f} s", v) : std::string("–");
+  });
+  row("control step (mean)", [](const DemoSeries& s) {
+    double sum = 0.0;
+    for (const tasks::EpisodeMetrics& m : s.episodes) sum += m.mean_control_us;
+    return fmt::format("{:.1f} µs", sum / static_cast<double>(s.episodes.size()));
+  });
+}
+
 // the demo: one episode of the scene, with the learned agents of a controller file and RMPflow side by side (or
 // RMPflow alone), each through tasks::ControllerEpisodes on the same task; summaries, videos and a replay.
 void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path) {
@@ -308,7 +368,7 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
   }
 
   // one video per controller: the path given for one, <stem>-<controller><ext> beside it for two
-  const bool two = policy_path.has_value();
+  const bool two = policy_path.has_value() || args.plan;
   auto video_for = [&](const std::string& suffix) {
     if (args.video.empty() || !two) return args.video;
     const std::filesystem::path v(args.video);
@@ -317,8 +377,22 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
   const bool record = !args.record.empty();
   std::vector<DemoRun> runs;
   std::vector<viewer::ArmLabel> arms;
+  const std::string prefix = args.plan ? "plan + " : "";
+  std::vector<DemoSeries> series;
+  // --episodes N: N episodes of `runner`, the video of the first
+  auto run_series = [&](tasks::ControllerEpisodes& runner, const std::string& label, const std::string& video) {
+    DemoSeries s{label, {}, ""};
+    for (int k = 0; k < args.episodes; ++k) {
+      DemoArgs episode = args;
+      episode.seed = args.seed + static_cast<std::uint64_t>(k);
+      DemoRun run = RunDemoEpisode(runner, label, k == 0 ? video : std::string(), episode, false);
+      if (k == 0) s.video = run.video;
+      s.episodes.push_back(run.metrics);
+    }
+    series.push_back(std::move(s));
+  };
   if (policy_path) {
-    const std::string label = std::filesystem::path(*policy_path).stem().string();
+    const std::string label = prefix + std::filesystem::path(*policy_path).stem().string();
     control::LearnedController* learned_policy = nullptr;  // owned by the runner's controller
     tasks::ControllerMaker agents;
     agents.options = config.controller;
@@ -331,7 +405,12 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
       return MaybePlanned(args, r, std::move(policy), options);
     };
     tasks::ControllerEpisodes runner(context, agents);
-    runs.push_back(RunDemoEpisode(runner, label, video_for(label), args, record, &learned_policy));
+    const std::string video = video_for(std::filesystem::path(*policy_path).stem().string());
+    if (args.episodes > 1) {
+      run_series(runner, label, video);
+    } else {
+      runs.push_back(RunDemoEpisode(runner, label, video, args, record, &learned_policy));
+    }
     arms.push_back({label, "learned"});
   }
   tasks::ControllerMaker rmpflow;
@@ -344,8 +423,37 @@ void RunDemo(const DemoArgs& args, const std::optional<std::string>& policy_path
                         options);
   };
   tasks::ControllerEpisodes rmpflow_runner(context, rmpflow);
-  runs.push_back(RunDemoEpisode(rmpflow_runner, "RMPflow", video_for("rmpflow"), args, record));
-  arms.push_back({"RMPflow", "rmpflow"});
+  if (args.episodes > 1) {
+    run_series(rmpflow_runner, prefix + "RMPflow", video_for("rmpflow"));
+  } else {
+    runs.push_back(RunDemoEpisode(rmpflow_runner, prefix + "RMPflow", video_for("rmpflow"), args, record));
+  }
+  arms.push_back({prefix + "RMPflow", "rmpflow"});
+  if (args.plan) {
+    // the plan alone, executed open loop (the RRT-Connect baseline of the benchmarks)
+    tasks::ControllerMaker open_loop;
+    open_loop.make_policy = [&](const kinematics::Robot& r) -> std::unique_ptr<control::AccelerationPolicy> {
+      control::ControllerOptions options = open_loop.options;
+      options.control_rate = config.episode.control_rate;
+      return planning::MakePlanFollower(r, nullptr, options);
+    };
+    tasks::ControllerEpisodes open_loop_runner(context, open_loop);
+    if (args.episodes > 1) {
+      run_series(open_loop_runner, "plan, open loop", video_for("open-loop"));
+    } else {
+      runs.push_back(RunDemoEpisode(open_loop_runner, "plan, open loop", video_for("open-loop"), args, record));
+    }
+    arms.push_back({"plan, open loop", "rmpflow"});
+  }
+  if (!series.empty()) {
+    PrintDemoSeries(series, config);
+    for (const DemoSeries& s : series) {
+      if (!s.video.empty()) fmt::print("  video {:<24}{} (the first episode)\n", s.label, s.video);
+    }
+    fmt::print("  wall time           {:.1f} s\n",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count());
+    return;
+  }
 
   std::optional<viewer::Recorder> recorder;
   if (record) {
@@ -395,6 +503,12 @@ void RegisterDemo(CLI::App& app) {
   cmd->add_option("--obstacles", args.num_obstacles, "number of obstacles")->check(CLI::Range(0, 64));
   cmd->add_flag("--plan", args.plan, "plan, then react: both controllers follow an RRT-Connect joint path to the "
                                      "target, replanned when stalled, blocked or the target moved (docs/benchmarks.md)");
+  cmd->add_option("--episodes", args.episodes,
+                  "run this many episodes of each controller (seeds --seed, --seed + 1, ...: the same for all) and "
+                  "print their success rates with 95 % intervals instead of one episode's details; --video shows the "
+                  "first")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
   cmd->add_option("--policy", args.policy,
                   "a controller file (.rmpp): its learned agents and RMPflow on the same episode (default: the shipped "
                   "models/policies/marl-rmp-residual.rmpp); rmpflow: RMPflow alone (also the static-reach and "
@@ -405,6 +519,9 @@ void RegisterDemo(CLI::App& app) {
                   "played at --camera-rate): the controllers know only its obstacles");
   cmd->callback([] {
     if (args.urdf.empty() && !args.collision.empty()) throw InputError("--collision needs --urdf");
+    if (args.episodes > 1 && !args.record.empty()) {
+      throw InputError("--record: one episode only (it replays the controllers side by side); drop --episodes");
+    }
     if (!args.policy.empty() && args.policy != "rmpflow" && !std::filesystem::exists(args.policy)) {
       throw InputError(fmt::format("--policy {}: no such controller file (expected a .rmpp file, or `rmpflow` for "
                                    "RMPflow alone)", args.policy));

@@ -614,7 +614,7 @@ std::string MbmSummaryTable(const std::vector<MbmResult>& results) {
         collided += r.collisions > 0;
         mesh_judged += r.mesh_collisions >= 0;
         mesh_collided += r.mesh_collisions > 0;
-        if (r.time_to_goal >= 0.0) times.push_back(r.time_to_goal);
+        if (r.success && r.time_to_goal >= 0.0) times.push_back(r.time_to_goal);  // as the path length: successes
         if (r.success) lengths.push_back(r.path_length);
         if (r.planning_time >= 0.0) plans.push_back(1e3 * r.planning_time);
       }
@@ -629,6 +629,42 @@ std::string MbmSummaryTable(const std::vector<MbmResult>& results) {
   }
   return md;
 }
+
+namespace {
+
+// why the runs of each method failed: a count per kind (the reason's words before its colon) and each run that
+// failed while it ran (not the problems the model rejected, listed above); "" when every run succeeded
+std::string FailureTable(const std::vector<MbmResult>& results) {
+  const std::vector<std::string> kinds = {"rejected by the model", "collided", "no plan", "timed out", "stopped short",
+                                          "not settled"};
+  std::vector<std::string> methods;
+  std::map<std::string, std::vector<int>> counts;
+  std::vector<std::string> runs;
+  for (const MbmResult& r : results) {
+    if (!r.valid || r.success) continue;
+    if (std::find(methods.begin(), methods.end(), r.method) == methods.end()) {
+      methods.push_back(r.method);
+      counts[r.method].assign(kinds.size(), 0);
+    }
+    const std::string kind = r.reason.substr(0, r.reason.find(':'));
+    const auto k = std::find(kinds.begin(), kinds.end(), kind);
+    if (k != kinds.end()) ++counts[r.method][static_cast<size_t>(k - kinds.begin())];
+    if (!r.rejected) runs.push_back(fmt::format("{} {} {}: {}", r.family, r.index, r.method, r.reason));
+  }
+  if (methods.empty()) return "";
+  std::string out = fmt::format("Why runs failed (results.csv's reason):\n\n| method | {} |\n|---|",
+                                fmt::join(kinds, " | "));
+  for (size_t i = 0; i < kinds.size(); ++i) out += "---|";
+  out += "\n";
+  for (const std::string& m : methods) out += fmt::format("| {} | {} |\n", m, fmt::join(counts[m], " | "));
+  if (!runs.empty()) {
+    out += fmt::format("\nRuns that failed ({}):\n\n", runs.size());
+    for (const std::string& s : runs) out += "- " + s + "\n";
+  }
+  return out;
+}
+
+}  // namespace
 
 void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out, const std::string& command,
                      const std::string& setup) {
@@ -680,7 +716,9 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
   if (!rejected.empty()) {
     md << "Problems rejected by the model, not run, counted as failures (" << rejected.size() << "):\n\n";
     for (const std::string& s : rejected) md << "- " << s << "\n";
+    md << "\n";
   }
+  md << FailureTable(results);
   if (!md) throw InputError(fmt::format("could not write '{}'", (out / "report.md").string()));
 }
 

@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -108,6 +110,42 @@ TEST(CliTest, DefaultDemoRunsTheShippedResidualBesideRmpflow) {
   // what happened, in words: both reached the target and neither touched an obstacle
   EXPECT_EQ(Cells(r.output, "reached (within 20 mm)"), (std::vector<std::string>{"yes", "yes"})) << r.output;
   EXPECT_EQ(Cells(r.output, "collision-free"), (std::vector<std::string>{"yes", "yes"})) << r.output;
+}
+
+// `make demo`'s job: plan + the controller for cells, plan + RMPflow and the plan open loop on the same generated
+// cells; each success rate with its Wilson interval (checked against the formula) and no more successes than goals
+// reached; --record is for one episode only
+TEST(CliTest, DemoEpisodesPrintsSuccessRatesOfThreeWaysOnTheSameCells) {
+  const CommandResult r =
+      RunCli("demo --scenario cells --plan --episodes 3 --policy " +
+             (ModelsDirectory() / "policies" / "marl-rmp-gated.rmpp").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::smatch header;
+  ASSERT_TRUE(std::regex_search(r.output, header,
+                                std::regex(R"(plan \+ marl-rmp-gated +plan \+ RMPflow +plan, open loop)")))
+      << r.output;
+  std::smatch row;
+  ASSERT_TRUE(std::regex_search(r.output, row, std::regex(R"(success \[95 % CI\] +(.*))"))) << r.output;
+  const std::string cells = row[1];
+  const std::regex cell(R"((\d+)/3 (\d+) % \[(\d+), (\d+)\])");
+  std::vector<int> successes;
+  for (auto it = std::sregex_iterator(cells.begin(), cells.end(), cell); it != std::sregex_iterator(); ++it) {
+    const int k = std::stoi((*it)[1]);
+    successes.push_back(k);
+    // Wilson's score interval at z = 1.96, by hand
+    const double n = 3.0, p = k / n, z = 1.959963984540054;
+    const double centre = (p + z * z / (2 * n)) / (1 + z * z / n);
+    const double half = z * std::sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n);
+    EXPECT_EQ(std::stoi((*it)[3]), static_cast<int>(std::lround(100 * (centre - half))));
+    EXPECT_EQ(std::stoi((*it)[4]), static_cast<int>(std::lround(100 * (centre + half))));
+  }
+  ASSERT_EQ(successes.size(), 3u) << cells;
+  const std::vector<std::string> reached = Cells(r.output, "reached (within 20 mm)");
+  ASSERT_EQ(reached.size(), 3u) << r.output;
+  for (int i = 0; i < 3; ++i) EXPECT_LE(successes[i], std::stoi(reached[i])) << r.output;
+  const CommandResult refused = RunCli("demo --episodes 2 --record /tmp/never.json");
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("--record: one episode only"), std::string::npos) << refused.output;
 }
 
 // a run stopped by --duration reports what it did, not an empty episode (it printed 0.0 mm, "–" and 0.0 µs)

@@ -360,6 +360,17 @@ TEST(MbmBenchmarkTest, ResultsFilesCountBothReferees) {
   EXPECT_NE(report.str().find("counted as failures (1):\n\n- shelf 2: rejected by the model: goal"),
             std::string::npos) << report.str();
   fs::remove_all(out);
+  // why runs failed: a count per kind and method, and the runs that failed while they ran
+  results[2].reason = "collided: 2 collision events on the capsules, 7 control steps in collision on the meshes";
+  WriteMbmResults(results, out, "rmpmarl benchmark mbm", "setup");
+  std::stringstream again;
+  again << std::ifstream(out / "report.md").rdbuf();
+  EXPECT_NE(again.str().find("| method | rejected by the model | collided | no plan | timed out | stopped short | not "
+                             "settled |\n|---|---|---|---|---|---|---|\n| rmpflow | 1 | 1 | 0 | 0 | 0 | 0 |"),
+            std::string::npos) << again.str();
+  EXPECT_NE(again.str().find("Runs that failed (1):\n\n- shelf 3 rmpflow: collided: 2 collision events"),
+            std::string::npos) << again.str();
+  fs::remove_all(out);
 }
 
 // MotionBenchMaker's own problems with the robot model they were made with (hand and fingers): RRT-Connect and the
