@@ -46,13 +46,13 @@ build: configure
 DEMO_EPISODES ?= 50
 demo: configure
 	cmake --build $(BUILD_DIR) --target rmpmarl_cli -j $(JOBS)
-	./$(BUILD_DIR)/rmpmarl demo --scenario cells --plan --episodes $(DEMO_EPISODES) \
+	$(BUILD_DIR)/rmpmarl demo --scenario cells --plan --episodes $(DEMO_EPISODES) \
 	  --policy models/policies/marl-rmp-gated.rmpp --video $(BUILD_DIR)/demo.mp4
 
 # the live viewer in the browser (docs/viewer.md); VIEW_ARGS="--robot ur5e --side-by-side" etc.
 VIEW_ARGS ?=
 view: build
-	./$(BUILD_DIR)/rmpmarl view $(VIEW_ARGS)
+	$(BUILD_DIR)/rmpmarl view $(VIEW_ARGS)
 
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900

@@ -362,7 +362,7 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     const int link = robot_.capsules[c].link;
     if (group_of_link[link] < 0) {
       group_of_link[link] = static_cast<int>(link_groups_.size());
-      link_groups_.push_back({link, {}});
+      link_groups_.push_back({link, {}, {}});
     }
     link_groups_[group_of_link[link]].capsules.push_back(c);
   }
