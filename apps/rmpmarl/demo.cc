@@ -17,6 +17,7 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
+#include "rmpmarl/math/interval.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/tasks/task_context.h"
 #include "rmpmarl/tasks/task_episode.h"
@@ -25,7 +26,6 @@
 #include "rmpmarl/planning/plan_follow.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/control/controller.h"
-#include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/render.h"
 #include "rmpmarl/sim/scenario.h"
@@ -306,7 +306,7 @@ void PrintDemoSeries(const std::vector<DemoSeries>& series, const tasks::TaskCon
   row(fmt::format("success [95 % CI]"), [&](const DemoSeries& s) {
     const int n = static_cast<int>(s.episodes.size());
     const int k = static_cast<int>(std::count_if(s.episodes.begin(), s.episodes.end(), succeeded));
-    const experiments::Interval ci = experiments::WilsonInterval(k, n);
+    const math::Interval ci = math::WilsonInterval(k, n);
     return fmt::format("{}/{} {:.0f} % [{:.0f}, {:.0f}]", k, n, 100.0 * k / n, 100.0 * ci.low, 100.0 * ci.high);
   });
   row(fmt::format("reached (within {:.0f} mm)", 1000.0 * tolerance), [](const DemoSeries& s) {

@@ -11,15 +11,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }
 
-Interval WilsonInterval(int successes, int trials, double z) {
-  if (trials <= 0) return {kNaN, kNaN, kNaN};
-  const double n = trials, p = static_cast<double>(successes) / n, z2 = z * z;
-  const double denominator = 1.0 + z2 / n;
-  const double centre = (p + z2 / (2.0 * n)) / denominator;
-  const double half = z * std::sqrt(p * (1.0 - p) / n + z2 / (4.0 * n * n)) / denominator;
-  return {p, std::max(0.0, centre - half), std::min(1.0, centre + half)};
-}
-
 Interval BootstrapMeanInterval(const std::vector<double>& values, std::uint64_t seed, int resamples,
                                double confidence) {
   std::vector<double> x;

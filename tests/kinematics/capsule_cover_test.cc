@@ -103,6 +103,39 @@ TEST(CapsuleCover, AnLShapedMeshIsSplitAndEveryRandomSurfacePointIsInside) {
   EXPECT_GT(MeasureCapsuleCover(g, {FitCapsuleToBalls(corners)}).max_excess, 0.1);
 }
 
+// the largest `distance` (an exact distance to the covered shape) over random points of the capsules' surfaces that
+// lie outside the other capsules: how far the cover sticks out
+template <typename Distance>
+double ExactExcessOutside(const std::vector<math::Capsule>& capsules, Distance&& distance, std::uint32_t seed,
+                          int samples_per_capsule = 4000) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double worst = 0.0;
+  for (size_t k = 0; k < capsules.size(); ++k) {
+    const math::Capsule& c = capsules[k];
+    const Eigen::Vector3d ab = c.p_WB - c.p_WA;
+    const Eigen::Vector3d axis = ab.norm() > 1e-12 ? Eigen::Vector3d(ab.normalized()) : Eigen::Vector3d::UnitZ();
+    for (int i = 0; i < samples_per_capsule; ++i) {
+      // uniform on the surface: the cylinder (area 2πrL) or a hemisphere cap (area 2πr² each), then a direction
+      Eigen::Vector3d dir = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+      Eigen::Vector3d p;
+      if (u(rng) * (ab.norm() + 2.0 * c.radius) < ab.norm()) {
+        dir = (dir - dir.dot(axis) * axis).normalized();
+        p = c.p_WA + u(rng) * ab + c.radius * dir;
+      } else {
+        p = (dir.dot(axis) >= 0.0 ? c.p_WB : c.p_WA) + c.radius * dir;
+      }
+      bool inside_other = false;
+      for (size_t o = 0; o < capsules.size() && !inside_other; ++o) {
+        inside_other = o != k && CapsuleSignedDistance(capsules[o], p) < -1e-9;
+      }
+      if (!inside_other) worst = std::max(worst, distance(p));
+    }
+  }
+  return worst;
+}
+
 TEST(CapsuleCover, AThinPlateIsSplitAcrossItsWidthAndItsExcessMatchesAnExactReference) {
   // 20 x 10 x 1 cm: one capsule along x needs a radius of ~5 cm and sticks out ~4.5 cm above and below
   const Eigen::Vector3d size(0.2, 0.1, 0.01), h = 0.5 * size;
@@ -116,31 +149,8 @@ TEST(CapsuleCover, AThinPlateIsSplitAcrossItsWidthAndItsExcessMatchesAnExactRefe
   EXPECT_TRUE(cover.within_tolerance) << cover.max_excess;
   EXPECT_LE(FarthestOutside(cover.capsules, RandomSurfacePoints(g, 20000, 11)), 1e-9);
   // the excess against the exact box distance on random points of each capsule's surface outside the others
-  std::mt19937 rng(3);
-  std::normal_distribution<double> normal;
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  double worst = 0.0;
-  for (size_t k = 0; k < cover.capsules.size(); ++k) {
-    const math::Capsule& c = cover.capsules[k];
-    const Eigen::Vector3d ab = c.p_WB - c.p_WA;
-    const Eigen::Vector3d axis = ab.norm() > 1e-12 ? Eigen::Vector3d(ab.normalized()) : Eigen::Vector3d::UnitZ();
-    for (int i = 0; i < 40000; ++i) {
-      // uniform on the surface: the cylinder (area 2πrL) or a hemisphere cap (area 2πr² each), then a direction
-      Eigen::Vector3d dir = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
-      Eigen::Vector3d p;
-      if (u(rng) * (ab.norm() + 2.0 * c.radius) < ab.norm()) {
-        dir = (dir - dir.dot(axis) * axis).normalized();
-        p = c.p_WA + u(rng) * ab + c.radius * dir;
-      } else {
-        p = (dir.dot(axis) >= 0.0 ? c.p_WB : c.p_WA) + c.radius * dir;
-      }
-      bool inside_other = false;
-      for (size_t o = 0; o < cover.capsules.size(); ++o) {
-        inside_other |= o != k && CapsuleSignedDistance(cover.capsules[o], p) < -1e-9;
-      }
-      if (!inside_other) worst = std::max(worst, std::abs(BoxSurfaceDistance(h, p)));
-    }
-  }
+  const double worst = ExactExcessOutside(
+      cover.capsules, [&](const Eigen::Vector3d& p) { return std::abs(BoxSurfaceDistance(h, p)); }, 3, 40000);
   // the cover measures on surface samples 2 mm apart: at most ~1.5 mm below the exact value
   EXPECT_NEAR(cover.max_excess, worst, 0.002);
   EXPECT_LE(worst, options.tolerance + 0.002);
@@ -181,37 +191,6 @@ TEST(CapsuleCover, MaxCapsulesBoundsTheCoverAndSaysWhenTheToleranceIsNotMet) {
   EXPECT_FALSE(cover.within_tolerance);
   EXPECT_GT(cover.max_excess, options.tolerance);
   EXPECT_LE(cover.max_outside, 1e-9);
-}
-
-// the farthest point of the capsules' surfaces (outside the other capsules) from a shape whose exact signed
-// distance is `distance` (> 0 outside), over random surface points: how far the cover sticks out of the solid
-template <typename Distance>
-double ExactExcessOutside(const std::vector<math::Capsule>& capsules, Distance&& distance, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> normal;
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  double worst = 0.0;
-  for (size_t k = 0; k < capsules.size(); ++k) {
-    const math::Capsule& c = capsules[k];
-    const Eigen::Vector3d ab = c.p_WB - c.p_WA;
-    const Eigen::Vector3d axis = ab.norm() > 1e-12 ? Eigen::Vector3d(ab.normalized()) : Eigen::Vector3d::UnitZ();
-    for (int i = 0; i < 4000; ++i) {
-      Eigen::Vector3d dir = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
-      Eigen::Vector3d p;
-      if (u(rng) * (ab.norm() + 2.0 * c.radius) < ab.norm()) {
-        dir = (dir - dir.dot(axis) * axis).normalized();
-        p = c.p_WA + u(rng) * ab + c.radius * dir;
-      } else {
-        p = (dir.dot(axis) >= 0.0 ? c.p_WB : c.p_WA) + c.radius * dir;
-      }
-      bool inside_other = false;
-      for (size_t o = 0; o < capsules.size() && !inside_other; ++o) {
-        inside_other = o != k && CapsuleSignedDistance(capsules[o], p) < -1e-9;
-      }
-      if (!inside_other) worst = std::max(worst, distance(p));
-    }
-  }
-  return worst;
 }
 
 TEST(CapsuleCover, AnInscribedCoverSticksOutOfABoxNoMoreThanTheToleranceByAnExactReference) {

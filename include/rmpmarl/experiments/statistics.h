@@ -5,20 +5,13 @@
 #include <string>
 #include <vector>
 
+#include "rmpmarl/math/interval.h"
+
 namespace rmpmarl::experiments {
 
-/// a point estimate with its interval [low, high].
-struct Interval {
-  double value = 0.0;
-  double low = 0.0;
-  double high = 0.0;
-};
-
-/// Wilson score interval of `successes` out of `trials` at normal quantile z (1.96: 95 %). E. B. Wilson, "Probable
-/// inference, the law of succession, and statistical inference", JASA 22 (1927):
-///   centre = (p̂ + z²/2n) / (1 + z²/n),  half width = z √(p̂(1 − p̂)/n + z²/4n²) / (1 + z²/n).
-/// trials = 0 gives NaNs.
-Interval WilsonInterval(int successes, int trials, double z = 1.959963984540054);
+/// a point estimate with its interval, and Wilson's score interval for rates (math/interval.h)
+using math::Interval;
+using math::WilsonInterval;
 
 /// mean of the finite `values` with a percentile-bootstrap interval (Efron & Tibshirani 1993, ch. 13) from
 /// `resamples` resamples drawn with std::mt19937_64(seed). No finite value: NaNs.
