@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <limits>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -17,7 +16,7 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/math/interval.h"
+#include "rmpmarl/math/statistics.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/tasks/task_context.h"
 #include "rmpmarl/tasks/task_episode.h"
@@ -287,12 +286,6 @@ struct DemoSeries {
 
 void PrintDemoSeries(const std::vector<DemoSeries>& series, const tasks::TaskConfig& config) {
   const double tolerance = tasks::TaskLoopOptions(config).reach_tolerance;
-  auto median = [](std::vector<double> v) {
-    if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-    std::sort(v.begin(), v.end());
-    const size_t n = v.size();
-    return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-  };
   auto row = [&](const std::string& name, const auto& cell) {
     std::string line = fmt::format("  {:<30}", name);
     for (const DemoSeries& s : series) line += fmt::format("{:>30}", cell(s));
@@ -322,7 +315,7 @@ void PrintDemoSeries(const std::vector<DemoSeries>& series, const tasks::TaskCon
     for (const tasks::EpisodeMetrics& m : s.episodes) {
       if (succeeded(m)) t.push_back(m.time_to_reach);
     }
-    const double v = median(t);
+    const double v = math::FiniteMedian(t);
     return std::isfinite(v) ? fmt::format("{:.2f} s", v) : std::string("–");
   });
   row("control step (mean)", [](const DemoSeries& s) {

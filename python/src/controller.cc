@@ -114,17 +114,14 @@ std::shared_ptr<ControllerHandle> MakeRmpflow(const py::handle& robot, int max_o
 /// the plan follower's state for update()'s info (see its doc).
 py::dict PlanInfo(const planning::PlanFollowPolicy& follower) {
   const planning::PlanFollowStats& s = follower.stats();
-  const std::vector<Eigen::VectorXd>& path = follower.path();
-  double length = 0.0;
-  for (size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
   py::dict plan;
   plan["status"] = planning::PlanOutcomeName(s.last_outcome);
-  plan["following"] = !path.empty();
+  plan["following"] = !follower.path().empty();
   plan["attempts"] = s.plans_attempted;
   plan["succeeded"] = s.plans_succeeded;
   plan["planning_ms"] = s.planning_times_s.empty() ? std::numeric_limits<double>::quiet_NaN()
                                                    : 1e3 * s.planning_times_s.back();
-  plan["path_length"] = length;
+  plan["path_length"] = follower.path_length();
   py::dict replans;
   replans["stalled"] = s.replans_stalled;
   replans["blocked"] = s.replans_blocked;

@@ -184,7 +184,7 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
     const bool one_cluster = groups[g].clusters.size() == 1;
     for (int k : groups[g].clusters) {
       if (!one_cluster && sphere_out(placed.cluster(k))) continue;
-      for (int c : one_cluster ? groups[g].capsules : clusters[k].capsules) {
+      for (int c : clusters[k].capsules) {
         if (sphere_out(placed.sphere(c))) continue;
         const math::Capsule& w = placed.capsule(c);
         // a cylinder's enclosing box bounds it below
@@ -388,18 +388,7 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     capsule_sphere_L_.emplace_back();
     capsule_sphere_L_.back() << 0.5 * (c.p_LA + c.p_LB), 0.5 * (c.p_LB - c.p_LA).norm() + c.radius + kSphereSlack;
   }
-  for (const LinkGroup& g : link_groups_) {
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (int c : g.capsules) centre += capsule_sphere_L_[c].head<3>();
-    centre /= static_cast<double>(g.capsules.size());
-    double radius = 0.0;
-    for (int c : g.capsules) {
-      radius = std::max(radius, (capsule_sphere_L_[c].head<3>() - centre).norm() + capsule_sphere_L_[c][3]);
-    }
-    group_sphere_L_.emplace_back();
-    group_sphere_L_.back() << centre, radius + kSphereSlack;
-  }
-  // clusters: each group halved recursively along the widest spread of its capsules' sphere centres
+  // a sphere around the spheres of `members`: at their centres' mean, reaching the farthest
   auto sphere_around = [&](const std::vector<int>& members) {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (int c : members) centre += capsule_sphere_L_[c].head<3>();
@@ -412,6 +401,8 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     sphere << centre, radius + kSphereSlack;
     return sphere;
   };
+  for (const LinkGroup& g : link_groups_) group_sphere_L_.push_back(sphere_around(g.capsules));
+  // clusters: each group halved recursively along the widest spread of its capsules' sphere centres
   for (size_t g = 0; g < link_groups_.size(); ++g) {
     std::vector<std::vector<int>> pending = {link_groups_[g].capsules};
     while (!pending.empty()) {

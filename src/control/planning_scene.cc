@@ -60,24 +60,26 @@ Eigen::Matrix3d Rotation(const YamlReader& r, const YAML::Node& node, const std:
   return Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix();
 }
 
-// a pose {position, orientation [x, y, z, w]}; an absent pose is the identity
-Eigen::Isometry3d Pose(const YamlReader& r, const YAML::Node& node, const std::string& key) {
+// a rigid transform written under two keys, an offset `at` and a unit quaternion `turn` [x, y, z, w] (a pose's position
+// and orientation, a geometry_msgs/Transform's translation and rotation); absent: the identity
+Eigen::Isometry3d Rigid(const YamlReader& r, const YAML::Node& node, const std::string& key, const char* what,
+                        const char* at, const char* turn) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
   if (Absent(node)) return X;
-  if (!IsMap(node)) r.Fail(node, key, "expected a pose {position, orientation}");
-  if (const YAML::Node p = node["position"]) X.translation() = Numbers(r, p, key + ".position", {"x", "y", "z"});
-  if (const YAML::Node o = node["orientation"]) X.linear() = Rotation(r, o, key + ".orientation");
+  if (!IsMap(node)) r.Fail(node, key, fmt::format("expected a {} {{{}, {}}}", what, at, turn));
+  if (const YAML::Node p = node[at]) X.translation() = Numbers(r, p, fmt::format("{}.{}", key, at), {"x", "y", "z"});
+  if (const YAML::Node o = node[turn]) X.linear() = Rotation(r, o, fmt::format("{}.{}", key, turn));
   return X;
 }
 
-// a geometry_msgs/Transform {translation, rotation [x, y, z, w]}; an absent one is the identity
+// a pose {position, orientation}
+Eigen::Isometry3d Pose(const YamlReader& r, const YAML::Node& node, const std::string& key) {
+  return Rigid(r, node, key, "pose", "position", "orientation");
+}
+
+// a geometry_msgs/Transform {translation, rotation}
 Eigen::Isometry3d Transform(const YamlReader& r, const YAML::Node& node, const std::string& key) {
-  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-  if (Absent(node)) return X;
-  if (!IsMap(node)) r.Fail(node, key, "expected a transform {translation, rotation}");
-  if (const YAML::Node p = node["translation"]) X.translation() = Numbers(r, p, key + ".translation", {"x", "y", "z"});
-  if (const YAML::Node o = node["rotation"]) X.linear() = Rotation(r, o, key + ".rotation");
-  return X;
+  return Rigid(r, node, key, "transform", "translation", "rotation");
 }
 
 // The frames a scene's objects may be given in, each as its pose in the robot's base frame R. MoveIt's planning frame

@@ -25,6 +25,7 @@
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
+#include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/sim/episode.h"
 #include "rmpmarl/sim/scenario.h"
@@ -137,6 +138,15 @@ planning::RrtOptions PlannerOf(const MbmOptions& options, std::uint64_t key) {
   return planner;
 }
 
+// each joint's speed when a plan is executed open loop: path_speed_fraction × its velocity limit
+Eigen::VectorXd PathSpeeds(const kinematics::Robot& robot, const MbmOptions& options) {
+  Eigen::VectorXd speeds(robot.model.nq());
+  for (int i = 0; i < robot.model.nq(); ++i) {
+    speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
+  }
+  return speeds;
+}
+
 // the dynamic variant's spheres (MbmOptions::moving): each passes through the end effector of the open-loop plan's
 // execution at a drawn time
 std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot, const Eigen::VectorXd& q_start,
@@ -145,12 +155,8 @@ std::vector<sim::LinearMotion> CrossingObstacles(const kinematics::Robot& robot,
   planning::RrtPolicy planner(robot, PlannerOf(options, key));
   std::vector<Eigen::VectorXd> path = planner.PlanPath(q_start, q_goal, scene);
   if (path.empty()) path = {q_start, q_goal};  // no plan: the straight way, timed the same
-  // timed as PlanFollowPolicy executes a plan open loop: each segment at path_speed_fraction × the velocity limits
-  Eigen::VectorXd speeds(robot.model.nq());
-  for (int i = 0; i < robot.model.nq(); ++i) {
-    speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
-  }
-  const std::vector<double> times = planning::PathArrivalTimes(path, speeds);
+  // timed as PlanFollowPolicy executes a plan open loop
+  const std::vector<double> times = planning::PathArrivalTimes(path, PathSpeeds(robot, options));
   std::mt19937_64 rng(options.crossing_seed * 0x9E3779B97F4A7C15ULL + key);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   kinematics::Data data(robot.model);
@@ -316,7 +322,6 @@ PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& proble
   return p;
 }
 
-// one method on a prepared problem; `policy` is the learned controller's file (learned methods only)
 // why a run that was not a success failed, most telling first: it collided (capsules, meshes); a plan-based method
 // never had a plan (and why); it did not reach the goal in time because the plan's execution at the path speed takes
 // longer than the run, or because it stopped short
@@ -333,11 +338,7 @@ std::string FailureReason(const kinematics::Robot& robot, const MbmResult& r, co
     return fmt::format("no plan: {} ({} attempts)", planning::PlanOutcomeName(s.last_outcome), s.plans_attempted);
   }
   if (follower != nullptr && !follower->path().empty()) {
-    Eigen::VectorXd speeds(robot.model.nq());
-    for (int i = 0; i < robot.model.nq(); ++i) {
-      speeds[i] = options.plan.planner.path_speed_fraction * robot.model.limits()[i].velocity;
-    }
-    const double needs = planning::PathArrivalTimes(follower->path(), speeds).back();
+    const double needs = planning::PathArrivalTimes(follower->path(), PathSpeeds(robot, options)).back();
     if (!r.reached && r.planning_time >= 0.0 && r.planning_time + needs > options.duration) {
       return fmt::format("timed out: the plan takes {:.1f} s at {:.0f} % of the velocity limits, the run lasts {:.1f} s "
                          "(--duration)", needs, 100.0 * options.plan.planner.path_speed_fraction, options.duration);
@@ -350,6 +351,7 @@ std::string FailureReason(const kinematics::Robot& robot, const MbmResult& r, co
   return fmt::format("not settled: reached, but {:.1f} mm from the goal's at the end", 1e3 * m.final_tracking_error);
 }
 
+// one method on a prepared problem; `policy` is the learned controller's file (learned methods only)
 MbmResult RunMethod(const kinematics::Robot& robot, const MbmProblem& problem, const PreparedProblem& prepared,
                     MbmMethod method, const MbmOptions& options, std::uint64_t key,
                     const control::PolicyFile* policy_file) {
@@ -566,25 +568,8 @@ std::vector<MbmResult> RunMbmBenchmark(const kinematics::Robot& robot, const std
 
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const size_t h = v.size() / 2;
-  return v.size() % 2 == 1 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
-
 std::string Num(double v, const char* format) {
   return std::isfinite(v) ? fmt::format(fmt::runtime(format), v) : std::string("–");
-}
-
-// Wilson's 95 % interval of k successes in n, in percent
-std::pair<double, double> Wilson(int k, int n) {
-  if (n == 0) return {std::nan(""), std::nan("")};
-  const double z = 1.959963984540054, p = static_cast<double>(k) / n;
-  const double d = 1.0 + z * z / n;
-  const double c = (p + z * z / (2.0 * n)) / d;
-  const double h = z * std::sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n)) / d;
-  return {100.0 * std::max(0.0, c - h), 100.0 * std::min(1.0, c + h)};
 }
 
 }  // namespace
@@ -619,12 +604,13 @@ std::string MbmSummaryTable(const std::vector<MbmResult>& results) {
         if (r.planning_time >= 0.0) plans.push_back(1e3 * r.planning_time);
       }
       if (total == 0) continue;
-      const auto [lo, hi] = Wilson(success, valid);
+      const Interval ci = WilsonInterval(success, valid);
       md += fmt::format("| {} | {} | {} of {} | {} | {} % [{}, {}] | {} | {} | {} s | {} rad | {} ms |\n", family,
                         method, valid, total, rejected,
-                        Num(valid > 0 ? 100.0 * success / valid : std::nan(""), "{:.1f}"), Num(lo, "{:.1f}"),
-                        Num(hi, "{:.1f}"), collided, mesh_judged > 0 ? std::to_string(mesh_collided) : "–",
-                        Num(Median(times), "{:.2f}"), Num(Median(lengths), "{:.2f}"), Num(Median(plans), "{:.1f}"));
+                        Num(valid > 0 ? 100.0 * success / valid : std::nan(""), "{:.1f}"), Num(100.0 * ci.low, "{:.1f}"),
+                        Num(100.0 * ci.high, "{:.1f}"), collided, mesh_judged > 0 ? std::to_string(mesh_collided) : "–",
+                        Num(FiniteMedian(times), "{:.2f}"), Num(FiniteMedian(lengths), "{:.2f}"),
+                        Num(FiniteMedian(plans), "{:.1f}"));
     }
   }
   return md;

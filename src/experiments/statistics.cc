@@ -116,14 +116,6 @@ double FiniteMean(const std::vector<double>& values) {
   return n > 0 ? s / n : kNaN;
 }
 
-double FiniteMedian(std::vector<double> values) {
-  std::erase_if(values, [](double v) { return !std::isfinite(v); });
-  if (values.empty()) return kNaN;
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-}
-
 std::uint64_t LabelSeed(const std::string& label) {
   std::uint64_t h = 0xcbf29ce484222325ULL;  // FNV-1a, 64 bit
   for (unsigned char c : label) {

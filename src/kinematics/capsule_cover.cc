@@ -339,6 +339,53 @@ math::Capsule SphereIfShort(const math::Capsule& c) {
   return {centre, centre, c.radius + 0.5 * length};
 }
 
+// the plane cuts' capsules (CoverMethod::kCuts, the file comment of capsule_cover.h) over the surface samples of
+// `surface`; *reached_max says whether it stopped at options.max_capsules
+std::vector<math::Capsule> FitCutCapsules(const CoverGeometry& geometry, const CapsuleCoverOptions& options,
+                                          const math::PointCloudIndex& surface, bool* reached_max) {
+  std::vector<Part> parts(1);
+  for (const Eigen::Vector3i& t : geometry.triangles) {
+    parts[0].polygons.push_back({geometry.vertices[t[0]], geometry.vertices[t[1]], geometry.vertices[t[2]]});
+  }
+  parts[0].balls = geometry.balls;
+  std::vector<math::Capsule> capsules = {FitCapsuleToBalls(PartBalls(parts[0]), options.fit)};
+  std::vector<bool> settled = {false};  // no cut of this part helps
+  for (;;) {
+    if (static_cast<int>(parts.size()) >= options.max_capsules) {
+      *reached_max = true;
+      break;
+    }
+    // the capsule that sticks out farthest beyond the tolerance and can still be cut
+    int worst = -1;
+    ExcessStats worst_excess;
+    worst_excess.max = options.tolerance;
+    for (size_t k = 0; k < parts.size(); ++k) {
+      if (settled[k]) continue;
+      const ExcessStats e = CapsuleExcess(capsules, k, surface, Resolution::kFine);
+      if (e.max > worst_excess.max) {
+        worst_excess = e;
+        worst = static_cast<int>(k);
+      }
+    }
+    if (worst < 0) break;
+    std::optional<CutResult> cut = BestCut(parts, capsules, worst, surface, options.fit);
+    // a cut is kept when its two capsules stick out less than the one they replace: at their farthest point (by
+    // 0.5 mm at least) or on average over their surfaces (by 5 % at least: a bent link's one fat capsule is replaced
+    // by two slim ones whose farthest point, often a cap over a flat end, stays where it was)
+    if (!cut || !(cut->excess.max < worst_excess.max - 5e-4 || cut->excess.mean() < 0.95 * worst_excess.mean())) {
+      settled[worst] = true;
+      continue;
+    }
+    parts[worst] = std::move(cut->below);
+    capsules[worst] = cut->a;
+    parts.push_back(std::move(cut->above));
+    capsules.push_back(cut->b);
+    settled[worst] = false;
+    settled.push_back(false);
+  }
+  return capsules;
+}
+
 }  // namespace
 
 namespace internal {
@@ -410,55 +457,15 @@ CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOp
         internal::FitInscribedCapsules(geometry, options, samples, index, solid);
     if (inscribed) return Measure(std::move(*inscribed), samples, index, spacing, options.tolerance, &solid);
     // more capsules than allowed: the plane cuts' cover, within the same limit, measured the same way
-    CapsuleCoverOptions cuts = options;
-    cuts.method = CoverMethod::kCuts;
-    CapsuleCover cover = FitCapsuleCover(geometry, cuts);
-    cover = Measure(std::move(cover.capsules), samples, index, spacing, options.tolerance, &solid);
+    bool reached_max = false;
+    CapsuleCover cover = Measure(FitCutCapsules(geometry, options, index, &reached_max), samples, index, spacing,
+                                 options.tolerance, &solid);
     cover.reached_max_capsules = !cover.within_tolerance;
     return cover;
   }
 
-  std::vector<Part> parts(1);
-  for (const Eigen::Vector3i& t : geometry.triangles) {
-    parts[0].polygons.push_back({geometry.vertices[t[0]], geometry.vertices[t[1]], geometry.vertices[t[2]]});
-  }
-  parts[0].balls = geometry.balls;
-  std::vector<math::Capsule> capsules = {FitCapsuleToBalls(PartBalls(parts[0]), options.fit)};
-  std::vector<bool> settled = {false};  // no cut of this part helps
   bool reached_max = false;
-  for (;;) {
-    if (static_cast<int>(parts.size()) >= options.max_capsules) {
-      reached_max = true;
-      break;
-    }
-    // the capsule that sticks out farthest beyond the tolerance and can still be cut
-    int worst = -1;
-    ExcessStats worst_excess;
-    worst_excess.max = options.tolerance;
-    for (size_t k = 0; k < parts.size(); ++k) {
-      if (settled[k]) continue;
-      const ExcessStats e = CapsuleExcess(capsules, k, index, Resolution::kFine);
-      if (e.max > worst_excess.max) {
-        worst_excess = e;
-        worst = static_cast<int>(k);
-      }
-    }
-    if (worst < 0) break;
-    std::optional<CutResult> cut = BestCut(parts, capsules, worst, index, options.fit);
-    // a cut is kept when its two capsules stick out less than the one they replace: at their farthest point (by
-    // 0.5 mm at least) or on average over their surfaces (by 5 % at least: a bent link's one fat capsule is replaced
-    // by two slim ones whose farthest point, often a cap over a flat end, stays where it was)
-    if (!cut || !(cut->excess.max < worst_excess.max - 5e-4 || cut->excess.mean() < 0.95 * worst_excess.mean())) {
-      settled[worst] = true;
-      continue;
-    }
-    parts[worst] = std::move(cut->below);
-    capsules[worst] = cut->a;
-    parts.push_back(std::move(cut->above));
-    capsules.push_back(cut->b);
-    settled[worst] = false;
-    settled.push_back(false);
-  }
+  std::vector<math::Capsule> capsules = FitCutCapsules(geometry, options, index, &reached_max);
   CapsuleCover cover = Measure(std::move(capsules), samples, index, spacing, options.tolerance, nullptr);
   cover.reached_max_capsules = reached_max && !cover.within_tolerance;
   return cover;

@@ -5,11 +5,13 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/math/interval.h"
+#include "rmpmarl/math/statistics.h"
 
 namespace rmpmarl::experiments {
 
-/// a point estimate with its interval, and Wilson's score interval for rates (math/interval.h)
+/// a point estimate with its interval, Wilson's score interval for rates and the median of finite values
+/// (math/statistics.h)
+using math::FiniteMedian;
 using math::Interval;
 using math::WilsonInterval;
 
@@ -29,8 +31,6 @@ Interval SeedMeanInterval(const std::vector<double>& per_seed);
 
 /// mean of the finite values (NaN when none).
 double FiniteMean(const std::vector<double>& values);
-/// median of the finite values, the mean of the middle two for an even count (NaN when none).
-double FiniteMedian(std::vector<double> values);
 
 /// a stable seed from a label (FNV-1a), so an interval does not depend on which other rows a report has.
 std::uint64_t LabelSeed(const std::string& label);

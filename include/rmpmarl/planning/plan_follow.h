@@ -144,6 +144,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   const PlanFollowStats& stats() const { return stats_; }
   /// the path being followed (empty: none).
   const std::vector<Eigen::VectorXd>& path() const { return path_; }
+  /// its joint-space length [rad or m] (0: none).
+  double path_length() const { return path_.empty() ? 0.0 : path_s_.back(); }
   /// the seed of the planner from the next Reset on.
   void set_seed(std::uint64_t seed) { planner_.set_seed(seed); }
 
