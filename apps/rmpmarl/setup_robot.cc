@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -66,6 +67,8 @@ struct SetupArgs {
   double tolerance_mm = 1e3 * kinematics::CapsuleCoverOptions{}.tolerance;
   int max_capsules = kinematics::CapsuleCoverOptions{}.max_capsules;
   kinematics::CoverMethod cover = kinematics::CapsuleCoverOptions{}.method;
+  std::string self_cover = "auto";
+  std::vector<std::string> link_tolerance;
 };
 
 void RunSetup(const SetupArgs& args) {
@@ -82,6 +85,21 @@ void RunSetup(const SetupArgs& args) {
   options.cover.tolerance = 1e-3 * args.tolerance_mm;
   options.cover.max_capsules = args.max_capsules;
   options.cover.method = args.cover;
+  for (const std::string& entry : args.link_tolerance) {
+    const size_t eq = entry.rfind('=');
+    double mm = 0.0;
+    const bool parsed = eq != std::string::npos && eq > 0 &&
+                        std::from_chars(entry.data() + eq + 1, entry.data() + entry.size(), mm).ptr ==
+                            entry.data() + entry.size() && eq + 1 < entry.size();
+    if (!parsed || !(mm >= 0.1 && mm <= 1000.0)) {
+      throw InputError(fmt::format("--link-tolerance: expected LINK=MM with MM in [0.1, 1000], got '{}'", entry));
+    }
+    options.link_tolerance[entry.substr(0, eq)] = 1e-3 * mm;
+  }
+  // a tight cover's self pairs are most of a planner's checks: the default cuts cover proves links apart instead
+  if (args.self_cover == "cuts" || (args.self_cover == "auto" && args.cover == kinematics::CoverMethod::kInscribed)) {
+    options.self_cover = kinematics::CapsuleCoverOptions{};
+  }
   if (!args.home.empty()) options.home = Eigen::Map<const Eigen::VectorXd>(args.home.data(), args.home.size());
   const std::filesystem::path urdf(args.urdf);
   const kinematics::RobotSetup setup = kinematics::SetupRobot(urdf, options);
@@ -90,6 +108,12 @@ void RunSetup(const SetupArgs& args) {
   fmt::print("rmpmarl setup-robot: '{}' from {}: {} links, {} joints with a degree of freedom\n", robot.name,
              urdf.string(), model.num_links(), model.nq());
   PrintLinkFits(setup);
+  if (!robot.self_capsules.empty()) {
+    double worst = 0.0;
+    for (const kinematics::LinkFit& fit : setup.links) worst = std::max(worst, fit.self_excess);
+    fmt::print("  self-collision: checked on a separate cover, {} capsules (plane cuts, up to {:.1f} mm out), "
+               "beside the {} above\n", robot.self_capsules.size(), 1e3 * worst, robot.capsules.size());
+  }
 
   std::array<int, 6> counts{};  // per kinematics::ExclusionReason
   for (const kinematics::Exclusion& e : setup.exclusions) ++counts.at(static_cast<size_t>(e.reason));
@@ -170,7 +194,7 @@ void RegisterSetupRobot(CLI::App& app) {
       ->check(CLI::Range(0.1, 1000.0))
       ->capture_default_str();
   cmd->add_option("--max-capsules", args.max_capsules, "at most this many capsules per link")
-      ->check(CLI::Range(1, 64))
+      ->check(CLI::Range(1, 256))
       ->capture_default_str();
   const std::map<std::string, kinematics::CoverMethod> covers = {{"cuts", kinematics::CoverMethod::kCuts},
                                                                  {"inscribed", kinematics::CoverMethod::kInscribed}};
@@ -179,6 +203,13 @@ void RegisterSetupRobot(CLI::App& app) {
                   "none sticking out farther than --tolerance (tight, more capsules)")
       ->transform(CLI::CheckedTransformer(covers, CLI::ignore_case))
       ->default_str("cuts");
+  cmd->add_option("--link-tolerance", args.link_tolerance,
+                  "LINK=MM: this link's own --tolerance (repeatable), e.g. tighter for the hand and fingers");
+  cmd->add_option("--self-cover", args.self_cover,
+                  "the capsules checked for self-collision: same (the cover's own), cuts (a separate cover by plane "
+                  "cuts at the default tolerance: fewer pairs to check), auto (cuts for --cover inscribed, else same)")
+      ->check(CLI::IsMember({"auto", "same", "cuts"}))
+      ->capture_default_str();
   cmd->callback([] { RunSetup(args); });
 }
 

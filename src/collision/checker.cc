@@ -52,9 +52,8 @@ void GroupSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotColli
 // the bounding spheres of the placed capsules and of each link group
 template <typename Pose>
 void BoundingSpheres(const RobotCollisionModel& model, const Pose& X_WL, RobotCollisionData* data) {
-  const auto& capsules = model.robot().capsules;
-  for (size_t c = 0; c < capsules.size(); ++c) {
-    data->capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(static_cast<int>(c)), X_WL(capsules[c].link));
+  for (int c = 0; c < model.num_placed_capsules(); ++c) {
+    data->capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(c), X_WL(model.capsule(c).link));
   }
   GroupSpheres(model, X_WL, data);
   const auto& clusters = model.clusters();
@@ -108,14 +107,14 @@ struct LazyPlacement {
   }
   const Eigen::Vector4d& sphere(int c) const {
     if (data.sphere_stamp[c] != data.stamp) {
-      data.capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(c), data.kin.X_WL[model.robot().capsules[c].link]);
+      data.capsule_sphere[c] = MovedSphere(model.capsule_sphere_L(c), data.kin.X_WL[model.capsule(c).link]);
       data.sphere_stamp[c] = data.stamp;
     }
     return data.capsule_sphere[c];
   }
   const math::Capsule& capsule(int c) const {
     if (data.capsule_stamp[c] != data.stamp) {
-      data.capsule_W[c] = kinematics::WorldCapsule(model.robot().capsules[c], data.kin);
+      data.capsule_W[c] = kinematics::WorldCapsule(model.capsule(c), data.kin);
       data.capsule_stamp[c] = data.stamp;
     }
     return data.capsule_W[c];
@@ -178,7 +177,7 @@ double ObstacleClearance(const RobotCollisionModel& model, const Placement& plac
   const auto& groups = model.link_groups();
   const auto& capsules = model.robot().capsules;
   const auto& clusters = model.clusters();
-  for (size_t g = 0; g < groups.size(); ++g) {
+  for (size_t g = 0; g < static_cast<size_t>(model.num_obstacle_groups()); ++g) {
     if (sphere_out(placed.group(g))) continue;
     // a group of one cluster: the cluster's sphere is the group's
     const bool one_cluster = groups[g].clusters.size() == 1;
@@ -260,7 +259,9 @@ double SelfClearance(const RobotCollisionModel& model, const Placement& placed, 
       lower_bound = std::min(lower_bound, distance);
       if (distance < d) {
         d = distance;
-        if (pair != nullptr) *pair = {d, ClearancePair::Kind::kSelf, capsules[a].link, capsules[b].link, -1, a, b};
+        if (pair != nullptr) {
+          *pair = {d, ClearancePair::Kind::kSelf, model.capsule(a).link, model.capsule(b).link, -1, a, b};
+        }
       }
       return d <= stop_below;
     };
@@ -343,9 +344,11 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
   const kinematics::Model& model = robot_.model;
   // a capsule's height is fixed when every dof moving its link is a revolute joint about a vertical axis whose parent
   // link is fixed to the base (axes taken at q = 0; they cannot move since the parent does not)
+  capsules_ = robot_.capsules;
+  capsules_.insert(capsules_.end(), robot_.self_capsules.begin(), robot_.self_capsules.end());
   kinematics::Data kin(model);
   kinematics::CalcForwardKinematics(model, Eigen::VectorXd::Zero(model.nq()), &kin);
-  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+  for (const kinematics::LinkCapsule& c : capsules_) {
     bool fixed_height = true;
     for (int i : model.link_dofs(c.link)) {
       const kinematics::Link& joint_link = model.link(model.dof_link(i));
@@ -356,19 +359,30 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
     }
     floor_checked_.push_back(fixed_height ? 0 : 1);
   }
-  const int num_capsules = static_cast<int>(robot_.capsules.size());
-  std::vector<int> group_of_link(model.num_links(), -1);
-  for (int c = 0; c < num_capsules; ++c) {
-    const int link = robot_.capsules[c].link;
-    if (group_of_link[link] < 0) {
-      group_of_link[link] = static_cast<int>(link_groups_.size());
-      link_groups_.push_back({link, {}, {}});
+  // link groups of the capsules [begin, end), appended
+  auto add_groups = [&](int begin, int end) {
+    std::vector<int> group_of_link(model.num_links(), -1);
+    for (int c = begin; c < end; ++c) {
+      const int link = capsules_[c].link;
+      if (group_of_link[link] < 0) {
+        group_of_link[link] = static_cast<int>(link_groups_.size());
+        link_groups_.push_back({link, {}, {}});
+      }
+      link_groups_[group_of_link[link]].capsules.push_back(c);
     }
-    link_groups_[group_of_link[link]].capsules.push_back(c);
-  }
-  const int num_groups = static_cast<int>(link_groups_.size());
-  for (int ga = 0; ga < num_groups; ++ga) {
-    for (int gb = ga + 1; gb < num_groups; ++gb) {
+  };
+  const int num_capsules = static_cast<int>(robot_.capsules.size());
+  const int num_placed = static_cast<int>(capsules_.size());
+  add_groups(0, num_capsules);
+  num_obstacle_groups_ = static_cast<int>(link_groups_.size());
+  add_groups(num_capsules, num_placed);
+  // the self pairs: of the self-collision set when there is one
+  const bool separate = num_placed > num_capsules;
+  const int self_begin = separate ? num_capsules : 0;
+  const int group_begin = separate ? num_obstacle_groups_ : 0;
+  const int group_end = separate ? static_cast<int>(link_groups_.size()) : num_obstacle_groups_;
+  for (int ga = group_begin; ga < group_end; ++ga) {
+    for (int gb = ga + 1; gb < group_end; ++gb) {
       if (robot_.IsExcludedPair(link_groups_[ga].link, link_groups_[gb].link)) continue;
       LinkPair pair{ga, gb, grouped_self_pairs_.size(), 0};
       for (int a : link_groups_[ga].capsules) {
@@ -378,13 +392,13 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
       self_link_pairs_.push_back(pair);
     }
   }
-  for (int a = 0; a < num_capsules; ++a) {
-    for (int b = a + 1; b < num_capsules; ++b) {
-      const int la = robot_.capsules[a].link, lb = robot_.capsules[b].link;
+  for (int a = self_begin; a < num_placed; ++a) {
+    for (int b = a + 1; b < (separate ? num_placed : num_capsules); ++b) {
+      const int la = capsules_[a].link, lb = capsules_[b].link;
       if (la != lb && !robot_.IsExcludedPair(la, lb)) self_pairs_.emplace_back(a, b);
     }
   }
-  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+  for (const kinematics::LinkCapsule& c : capsules_) {
     capsule_sphere_L_.emplace_back();
     capsule_sphere_L_.back() << 0.5 * (c.p_LA + c.p_LB), 0.5 * (c.p_LB - c.p_LA).norm() + c.radius + kSphereSlack;
   }
@@ -432,7 +446,7 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
   const int nq = model.nq();
   const int num_links = model.num_links();
   std::vector<double> segment_reach(num_links, 0.0);
-  for (const kinematics::LinkCapsule& c : robot_.capsules) {
+  for (const kinematics::LinkCapsule& c : capsules_) {
     segment_reach[c.link] = std::max({segment_reach[c.link], c.p_LA.norm(), c.p_LB.norm()});
   }
   // reach of the dofs moving `link` relative to `ancestor` (its ancestor or itself), added into `out`
@@ -478,12 +492,12 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
 
 RobotCollisionData::RobotCollisionData(const RobotCollisionModel& model)
     : kin(model.robot().model),
-      capsule_W(model.num_capsules()),
-      capsule_sphere(model.num_capsules()),
+      capsule_W(model.num_placed_capsules()),
+      capsule_sphere(model.num_placed_capsules()),
       group_sphere(model.link_groups().size()),
       cluster_sphere(model.clusters().size()),
-      sphere_stamp(model.num_capsules(), 0),
-      capsule_stamp(model.num_capsules(), 0),
+      sphere_stamp(model.num_placed_capsules(), 0),
+      capsule_stamp(model.num_placed_capsules(), 0),
       cluster_stamp(model.clusters().size(), 0),
       self_bound(model.self_link_pairs().size(), -kInf),
       self_bound_q(model.self_pair_motion_size(), 0.0) {}
@@ -495,17 +509,16 @@ void PlaceRobot(const RobotCollisionModel& model, const Eigen::Ref<const Eigen::
 }
 
 void PlaceRobot(const RobotCollisionModel& model, const kinematics::Data& kin, RobotCollisionData* data) {
-  const auto& capsules = model.robot().capsules;
-  for (size_t c = 0; c < capsules.size(); ++c) data->capsule_W[c] = kinematics::WorldCapsule(capsules[c], kin);
+  for (int c = 0; c < model.num_placed_capsules(); ++c) data->capsule_W[c] = kinematics::WorldCapsule(model.capsule(c), kin);
   BoundingSpheres(model, [&kin](int link) -> const Eigen::Isometry3d& { return kin.X_WL[link]; }, data);
 }
 
 void PlaceRobot(const RobotCollisionModel& model, std::span<const Eigen::Isometry3d> X_WL, RobotCollisionData* data) {
   RMPMARL_ASSERT(static_cast<int>(X_WL.size()) == model.robot().model.num_links(), "PlaceRobot: one pose per link");
-  const auto& capsules = model.robot().capsules;
-  for (size_t c = 0; c < capsules.size(); ++c) {
-    const Eigen::Isometry3d& X = X_WL[capsules[c].link];
-    data->capsule_W[c] = {X * capsules[c].p_LA, X * capsules[c].p_LB, capsules[c].radius};
+  for (int c = 0; c < model.num_placed_capsules(); ++c) {
+    const kinematics::LinkCapsule& capsule = model.capsule(c);
+    const Eigen::Isometry3d& X = X_WL[capsule.link];
+    data->capsule_W[c] = {X * capsule.p_LA, X * capsule.p_LB, capsule.radius};
   }
   BoundingSpheres(model, [&X_WL](int link) -> const Eigen::Isometry3d& { return X_WL[link]; }, data);
 }
@@ -523,7 +536,7 @@ double CalcObstacleClearance(const RobotCollisionModel& model, const RobotCollis
 
 double CalcSelfClearance(const RobotCollisionModel& model, const RobotCollisionData& data, double stop_below,
                          double d, ClearancePair* pair) {
-  return SelfClearance(model, EagerPlacement{data}, static_cast<int>(data.capsule_W.size()), stop_below, d, pair);
+  return SelfClearance(model, EagerPlacement{data}, model.num_capsules(), stop_below, d, pair);
 }
 
 double CalcSelfCapsuleClearance(const RobotCollisionModel& model, const RobotCollisionData& data) {

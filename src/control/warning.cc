@@ -39,7 +39,7 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
   auto add = [&](int capsule, PartnerKind kind, int index, int other_capsule, const math::DistanceResult& r) {
     if (!(r.distance < margin)) return;
     WarningContact c;
-    c.link = robot.capsules[capsule].link;
+    c.link = checker_.capsule(capsule).link;
     c.capsule = capsule;
     c.other_kind = kind;
     c.other_index = index;
@@ -78,7 +78,7 @@ void WarningSensor::Sense(const kinematics::Data& kin, const rmp::Scene& scene) 
   }
   for (const auto& [c, d] : checker_.self_pairs()) {
     if ((spheres[c].head<3>() - spheres[d].head<3>()).norm() - spheres[c][3] - spheres[d][3] >= reach) continue;
-    add(c, PartnerKind::kLink, robot.capsules[d].link, d,
+    add(c, PartnerKind::kLink, checker_.capsule(d).link, d,
         math::CapsuleCapsuleDistance(world_capsules[c], world_capsules[d]));
   }
 }

@@ -32,8 +32,8 @@ void CheckInput(const CoverGeometry& g, const CapsuleCoverOptions& options) {
   if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance)) {
     throw InputError(fmt::format("capsule cover: tolerance: expected a finite value > 0 m, got {}", options.tolerance));
   }
-  if (options.max_capsules < 1 || options.max_capsules > 64) {
-    throw InputError(fmt::format("capsule cover: max_capsules: expected 1 to 64, got {}", options.max_capsules));
+  if (options.max_capsules < 1 || options.max_capsules > 256) {
+    throw InputError(fmt::format("capsule cover: max_capsules: expected 1 to 256, got {}", options.max_capsules));
   }
   if (!(options.sample_spacing >= 1e-5) || !std::isfinite(options.sample_spacing)) {
     throw InputError(fmt::format("capsule cover: sample_spacing: expected a finite value >= 1e-5 m, got {}",

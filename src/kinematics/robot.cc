@@ -73,7 +73,8 @@ void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
   const YAML::Node root = internal::LoadYamlFile(file, "collision YAML");
   const RobotYamlReader yaml(file);
   if (!root.IsMap()) yaml.Fail(root, "<root>", "expected a mapping with keys robot, end_effector, capsules");
-  yaml.CheckKeys(root, "", {"robot", "end_effector", "capsules", "links_without_capsule", "self_collision_exclude"});
+  yaml.CheckKeys(root, "", {"robot", "end_effector", "capsules", "self_collision_capsules", "links_without_capsule",
+                           "self_collision_exclude"});
   const Model& model = robot->model;
 
   const std::string robot_name = yaml.String(root["robot"], "robot");
@@ -95,19 +96,38 @@ void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
     yaml.Fail(capsules, "capsules", "expected a non-empty list of {link, a, b, radius}");
   }
   std::vector<int> capsule_count(model.num_links(), 0);
-  for (size_t i = 0; i < capsules.size(); ++i) {
-    const std::string key = fmt::format("capsules[{}]", i);
-    yaml.CheckKeys(capsules[i], key, {"link", "a", "b", "radius"});
-    LinkCapsule capsule;
-    capsule.link = yaml.Link(model, capsules[i]["link"], key + ".link");
-    capsule.p_LA = yaml.Vec3(capsules[i]["a"], key + ".a");
-    capsule.p_LB = yaml.Vec3(capsules[i]["b"], key + ".b");
-    capsule.radius = yaml.Number(capsules[i]["radius"], key + ".radius");
-    if (!(capsule.radius > 0.0)) {
-      yaml.Fail(capsules[i]["radius"], key + ".radius", fmt::format("expected > 0, got {}", capsule.radius));
+  auto read_capsules = [&](const YAML::Node& list, const std::string& name, std::vector<LinkCapsule>* out) {
+    for (size_t i = 0; i < list.size(); ++i) {
+      const std::string key = fmt::format("{}[{}]", name, i);
+      yaml.CheckKeys(list[i], key, {"link", "a", "b", "radius"});
+      LinkCapsule capsule;
+      capsule.link = yaml.Link(model, list[i]["link"], key + ".link");
+      capsule.p_LA = yaml.Vec3(list[i]["a"], key + ".a");
+      capsule.p_LB = yaml.Vec3(list[i]["b"], key + ".b");
+      capsule.radius = yaml.Number(list[i]["radius"], key + ".radius");
+      if (!(capsule.radius > 0.0)) {
+        yaml.Fail(list[i]["radius"], key + ".radius", fmt::format("expected > 0, got {}", capsule.radius));
+      }
+      out->push_back(capsule);
     }
-    ++capsule_count[capsule.link];
-    robot->capsules.push_back(capsule);
+  };
+  read_capsules(capsules, "capsules", &robot->capsules);
+  for (const LinkCapsule& c : robot->capsules) ++capsule_count[c.link];
+  if (const YAML::Node self = root["self_collision_capsules"]) {
+    if (!self.IsSequence() || self.size() == 0) {
+      yaml.Fail(self, "self_collision_capsules", "expected a non-empty list of {link, a, b, radius}");
+    }
+    read_capsules(self, "self_collision_capsules", &robot->self_capsules);
+    // the two sets cover the same links: a link with capsules has self-collision capsules and the reverse
+    std::vector<int> self_count(model.num_links(), 0);
+    for (const LinkCapsule& c : robot->self_capsules) ++self_count[c.link];
+    for (int k = 0; k < model.num_links(); ++k) {
+      if ((capsule_count[k] == 0) != (self_count[k] == 0)) {
+        throw InputError(fmt::format("{}: link '{}' has {} capsules and {} self_collision_capsules: expected both "
+                                     "sets to cover the same links", file, model.link(k).name, capsule_count[k],
+                                     self_count[k]));
+      }
+    }
   }
 
   std::vector<char> listed(model.num_links(), 0);

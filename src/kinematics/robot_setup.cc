@@ -206,20 +206,22 @@ void SortUnique(std::vector<std::pair<int, int>>* pairs) {
   pairs->erase(std::unique(pairs->begin(), pairs->end()), pairs->end());
 }
 
-// world capsules of every robot capsule at the current data.
+// world capsules of every self-collision capsule at the current data.
 void WorldCapsules(const Robot& robot, const Data& data, std::vector<math::Capsule>* out) {
-  out->resize(robot.capsules.size());
-  for (size_t c = 0; c < robot.capsules.size(); ++c) (*out)[c] = WorldCapsule(robot.capsules[c], data);
+  const std::vector<LinkCapsule>& capsules = robot.self_collision_capsules();
+  out->resize(capsules.size());
+  for (size_t c = 0; c < capsules.size(); ++c) (*out)[c] = WorldCapsule(capsules[c], data);
 }
 
 double CapsuleDistance(const math::Capsule& a, const math::Capsule& b) {
   return math::ClosestPointsSegmentSegment(a.p_WA, a.p_WB, b.p_WA, b.p_WB).distance - a.radius - b.radius;
 }
 
-// capsule indices per link.
+// self-collision capsule indices per link.
 std::vector<std::vector<int>> CapsulesPerLink(const Robot& robot) {
+  const std::vector<LinkCapsule>& capsules = robot.self_collision_capsules();
   std::vector<std::vector<int>> per_link(robot.model.num_links());
-  for (size_t c = 0; c < robot.capsules.size(); ++c) per_link[robot.capsules[c].link].push_back(static_cast<int>(c));
+  for (size_t c = 0; c < capsules.size(); ++c) per_link[capsules[c].link].push_back(static_cast<int>(c));
   return per_link;
 }
 
@@ -271,9 +273,24 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
                              "(install libassimp-dev and rebuild)");
   }
 
+  for (const auto& [name, tolerance] : options.link_tolerance) {
+    if (model.LinkIndex(name) < 0) {
+      std::string links;
+      for (int k = 0; k < model.num_links(); ++k) links += (k ? ", " : "") + model.link(k).name;
+      throw InputError(fmt::format("setup: link tolerance: no link '{}' in {} (links: {})", name, source, links));
+    }
+    if (!(std::isfinite(tolerance) && tolerance > 0.0)) {
+      throw InputError(fmt::format("setup: link tolerance of '{}': expected a finite value > 0 m, got {}", name,
+                                   tolerance));
+    }
+  }
   for (int k = 0; k < model.num_links(); ++k) {
     LinkFit fit;
     fit.link = k;
+    CapsuleCoverOptions link_cover = options.cover;
+    if (const auto it = options.link_tolerance.find(model.link(k).name); it != options.link_tolerance.end()) {
+      link_cover.tolerance = it->second;
+    }
     LinkGeometry g;
     int num_shapes = 0;
     std::string sources;
@@ -288,7 +305,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       setup.links.push_back(fit);
       continue;
     }
-    std::vector<math::Capsule> capsules;
+    std::vector<math::Capsule> capsules, self_capsules;
     if (g.missing) {
       // a capsule between the link origin and its children's joint origins
       std::vector<Ball> balls = {{Eigen::Vector3d::Zero(), options.fallback_radius}};
@@ -303,21 +320,30 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
     } else {
       // a single primitive keeps its exact smallest capsule when that is within the tolerance; everything else is
       // covered by as many capsules as its shape needs
-      CapsuleCover cover;
-      bool closed = false;
-      if (num_shapes == 1 && g.closed_form) {
-        cover = MeasureCapsuleCover(g.check, {*g.closed_form}, options.cover);
-        closed = cover.within_tolerance;
-      }
-      if (!closed) {
-        CapsuleCover fitted = FitCapsuleCover(g.cover, options.cover);
-        if (g.has_cylinder) fitted = MeasureCapsuleCover(g.check, fitted.capsules, options.cover);
-        if (g.closed_form && num_shapes == 1 && !(fitted.max_excess < cover.max_excess)) {
-          closed = true;  // the closed form is no worse
-        } else {
-          cover = fitted;
+      auto cover_link = [&](const CapsuleCoverOptions& cover_options, bool* closed) {
+        CapsuleCover cover;
+        *closed = false;
+        if (num_shapes == 1 && g.closed_form) {
+          cover = MeasureCapsuleCover(g.check, {*g.closed_form}, cover_options);
+          *closed = cover.within_tolerance;
         }
-      }
+        if (!*closed) {
+          CapsuleCover fitted = FitCapsuleCover(g.cover, cover_options);
+          if (g.has_cylinder) fitted = MeasureCapsuleCover(g.check, fitted.capsules, cover_options);
+          if (g.closed_form && num_shapes == 1 && !(fitted.max_excess < cover.max_excess)) {
+            *closed = true;  // the closed form is no worse
+          } else {
+            cover = fitted;
+          }
+        }
+        if (cover.max_outside > 1e-6) {
+          setup.warnings.push_back(fmt::format("link '{}': a sample of its geometry lies {:.3f} mm outside its "
+                                               "capsules", model.link(k).name, 1e3 * cover.max_outside));
+        }
+        return cover;
+      };
+      bool closed = false;
+      const CapsuleCover cover = cover_link(link_cover, &closed);
       capsules = cover.capsules;
       fit.excess = cover.max_excess;
       fit.mean_excess = cover.mean_excess;
@@ -327,14 +353,24 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
       fit.reached_max_capsules = cover.reached_max_capsules;
       fit.source = sources + (closed ? " (closed form)" : fmt::format(" ({} capsule{})", capsules.size(),
                                                                       capsules.size() == 1 ? "" : "s"));
-      if (cover.max_outside > 1e-6) {
-        setup.warnings.push_back(fmt::format("link '{}': a sample of its geometry lies {:.3f} mm outside its "
-                                             "capsules", model.link(k).name, 1e3 * cover.max_outside));
+      if (options.self_cover) {
+        bool self_closed = false;
+        const CapsuleCover self_cover = cover_link(*options.self_cover, &self_closed);
+        self_capsules = self_cover.capsules;
+        fit.self_excess = self_cover.max_excess;
       }
     }
     for (const math::Capsule& capsule : capsules) {
       fit.capsules.push_back(static_cast<int>(robot.capsules.size()));
       robot.capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
+    }
+    // with a separate self-collision cover every link with capsules has self-collision capsules (a fallback's own)
+    if (options.self_cover) {
+      for (const math::Capsule& capsule : self_capsules.empty() ? capsules : self_capsules) {
+        fit.self_capsules.push_back(static_cast<int>(robot.self_capsules.size()));
+        robot.self_capsules.push_back({k, capsule.p_WA, capsule.p_WB, capsule.radius});
+      }
+      if (self_capsules.empty()) fit.self_excess = fit.excess;
     }
     setup.links.push_back(fit);
   }
@@ -347,9 +383,10 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
     }
   }
   if (!above.empty()) {
-    setup.notes.push_back(fmt::format("capsules sticking out more than the tolerance {:.1f} mm somewhere (mostly caps "
+    setup.notes.push_back(fmt::format("capsules sticking out more than the tolerance {:.1f} mm{} somewhere (mostly caps "
                                       "over flat faces, which a round capsule cannot follow): {}",
-                                      1e3 * options.cover.tolerance, above));
+                                      1e3 * options.cover.tolerance,
+                                      options.link_tolerance.empty() ? "" : " (or the link's own)", above));
   }
   if (robot.capsules.empty()) {
     throw InputError(fmt::format("{}: no link has <collision> or <visual> geometry: nothing to fit capsules to (write "

@@ -63,6 +63,20 @@ std::string CollisionYamlText(const RobotSetup& setup) {
                          Vec(cap.p_LA), Vec(cap.p_LB), WrittenRadius(cap.radius));
     }
   }
+  if (!robot.self_capsules.empty()) {
+    out += "\n# checked for self-collision only: a coarser conservative cover of the same geometry (fewer pairs to check)\n"
+           "self_collision_capsules:\n";
+    for (const LinkFit& fit : setup.links) {
+      if (fit.self_capsules.empty()) continue;
+      out += fmt::format("  # {}: {} capsule{}, sticks out up to {:.1f} mm\n", model.link(fit.link).name,
+                         fit.self_capsules.size(), fit.self_capsules.size() == 1 ? "" : "s", 1e3 * fit.self_excess);
+      for (int c : fit.self_capsules) {
+        const LinkCapsule& cap = robot.self_capsules[c];
+        out += fmt::format("  - {{link: {}, a: {}, b: {}, radius: {:.5f}}}\n", model.link(cap.link).name,
+                           Vec(cap.p_LA), Vec(cap.p_LB), WrittenRadius(cap.radius));
+      }
+    }
+  }
   if (!bare.empty()) {
     out += "\nlinks_without_capsule:          # frame-only links (no <collision> or <visual> geometry)\n";
     for (const std::string& n : bare) out += fmt::format("  - {}\n", n);

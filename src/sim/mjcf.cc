@@ -23,6 +23,10 @@ constexpr int kRobotContype = 1;
 constexpr int kRobotConaffinity = 1;
 constexpr int kSceneContype = 2;
 constexpr int kSceneConaffinity = 1;
+// a robot with a separate self-collision set (Robot::self_capsules): its capsules touch the scene only (conaffinity
+// 0), the self-collision capsules each other only (bit 4: neither the scene's contype nor its conaffinity)
+constexpr int kSelfContype = 4;
+constexpr int kSelfConaffinity = 4;
 
 // a capsule shorter than this is written as a sphere around it (MuJoCo rejects a fromto shorter than √mjEPS = 1e-7).
 constexpr double kMinCapsuleLength = 1e-6;
@@ -89,7 +93,7 @@ std::vector<int> WeldGroups(const kinematics::Model& model) {
 // appends the <body> of link k (and, recursively, its children) at the given indentation.
 void WriteBody(const Robot& robot, const WorldOptions& options, const ServoGains& gains,
                const std::vector<std::vector<int>>& children, const std::vector<std::vector<int>>& link_capsules,
-               int k, int depth, std::string* out) {
+               const std::vector<std::vector<int>>& link_self_capsules, int k, int depth, std::string* out) {
   const kinematics::Model& model = robot.model;
   const kinematics::Link& link = model.link(k);
   const std::string pad(2 * depth, ' ');
@@ -118,24 +122,37 @@ void WriteBody(const Robot& robot, const WorldOptions& options, const ServoGains
     *out += fmt::format("{}  <inertial pos=\"0 0 0\" mass=\"{}\" diaginertia=\"{} {} {}\"/>\n", pad, Num(m), Num(I),
                         Num(I), Num(I));
   }
-  for (int c : link_capsules[k]) {
-    const kinematics::LinkCapsule& cap = robot.capsules[c];
+  const bool separate = !robot.self_capsules.empty();
+  auto geom = [&](const kinematics::LinkCapsule& cap, const std::string& name, const std::string& attributes) {
     const double length = (cap.p_LB - cap.p_LA).norm();
     const bool sphere = length < kMinCapsuleLength;
-    const std::string common = fmt::format(
-        "size=\"{}\" density=\"{}\" contype=\"{}\" conaffinity=\"{}\" condim=\"1\" margin=\"{}\" gap=\"{}\" "
-        "group=\"1\" rgba=\"0.7 0.7 0.75 1\"",
-        Num(sphere ? cap.radius + 0.5 * length : cap.radius), Num(options.link_density), kRobotContype,
-        kRobotConaffinity, Num(options.warning_margin), Num(options.warning_margin));
+    const std::string common = fmt::format("size=\"{}\" {}", Num(sphere ? cap.radius + 0.5 * length : cap.radius),
+                                           attributes);
     if (sphere) {
-      *out += fmt::format("{}  <geom name=\"{}\" type=\"sphere\" pos=\"{}\" {}/>\n", pad,
-                          Xml(MjcfNames::CapsuleGeom(robot, c)), Vec(0.5 * (cap.p_LA + cap.p_LB)), common);
+      *out += fmt::format("{}  <geom name=\"{}\" type=\"sphere\" pos=\"{}\" {}/>\n", pad, Xml(name),
+                          Vec(0.5 * (cap.p_LA + cap.p_LB)), common);
     } else {
-      *out += fmt::format("{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" {}/>\n", pad,
-                          Xml(MjcfNames::CapsuleGeom(robot, c)), Vec(cap.p_LA), Vec(cap.p_LB), common);
+      *out += fmt::format("{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" {}/>\n", pad, Xml(name),
+                          Vec(cap.p_LA), Vec(cap.p_LB), common);
     }
+  };
+  for (int c : link_capsules[k]) {
+    geom(robot.capsules[c], MjcfNames::CapsuleGeom(robot, c),
+         fmt::format("density=\"{}\" contype=\"{}\" conaffinity=\"{}\" condim=\"1\" margin=\"{}\" gap=\"{}\" "
+                     "group=\"1\" rgba=\"0.7 0.7 0.75 1\"",
+                     Num(options.link_density), kRobotContype, separate ? 0 : kRobotConaffinity,
+                     Num(options.warning_margin), Num(options.warning_margin)));
   }
-  for (int child : children[k]) WriteBody(robot, options, gains, children, link_capsules, child, depth + 1, out);
+  // the self-collision capsules: massless and unseen, for contacts between links only
+  for (int c : link_self_capsules[k]) {
+    geom(robot.self_capsules[c], MjcfNames::SelfCapsuleGeom(robot, c),
+         fmt::format("density=\"0\" contype=\"{}\" conaffinity=\"{}\" condim=\"1\" margin=\"{}\" gap=\"{}\" "
+                     "group=\"3\" rgba=\"0.5 0.5 0.9 0\"",
+                     kSelfContype, kSelfConaffinity, Num(options.warning_margin), Num(options.warning_margin)));
+  }
+  for (int child : children[k]) {
+    WriteBody(robot, options, gains, children, link_capsules, link_self_capsules, child, depth + 1, out);
+  }
   *out += fmt::format("{}</body>\n", pad);
 }
 
@@ -198,6 +215,10 @@ std::string MjcfNames::LinkBody(const Robot& robot, int link) {
 
 std::string MjcfNames::CapsuleGeom(const Robot& robot, int capsule) {
   return fmt::format("{}/capsule{}", robot.model.link(robot.capsules[capsule].link).name, capsule);
+}
+
+std::string MjcfNames::SelfCapsuleGeom(const Robot& robot, int capsule) {
+  return fmt::format("{}/self_capsule{}", robot.model.link(robot.self_capsules[capsule].link).name, capsule);
 }
 
 std::string MjcfNames::Actuator(const Robot& robot, int dof) {
@@ -271,9 +292,12 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
   const int nq = model.nq();
   RMPMARL_ASSERT(gains.kp.size() == nq && gains.damping.size() == nq, "servo gains must have one entry per dof");
 
-  std::vector<std::vector<int>> children(num_links), link_capsules(num_links);
+  std::vector<std::vector<int>> children(num_links), link_capsules(num_links), link_self_capsules(num_links);
   for (int k = 1; k < num_links; ++k) children[model.link(k).parent].push_back(k);
   for (size_t c = 0; c < robot.capsules.size(); ++c) link_capsules[robot.capsules[c].link].push_back(static_cast<int>(c));
+  for (size_t c = 0; c < robot.self_capsules.size(); ++c) {
+    link_self_capsules[robot.self_capsules[c].link].push_back(static_cast<int>(c));
+  }
   const std::vector<int> weld = WeldGroups(model);
   const int num_capsules = static_cast<int>(robot.capsules.size());
   const int num_obstacles = static_cast<int>(scene.obstacles.size());
@@ -283,6 +307,18 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
   // capsules of distinct non-excluded links that a fixed joint welds together.
   std::vector<std::pair<std::string, std::string>> pairs;
   int num_dynamic_pairs = 0;
+  // self pairs: of the self-collision set when the robot has one (after the obstacle pairs), else of the capsules
+  // (each capsule's after its obstacle pairs)
+  const bool separate = !robot.self_capsules.empty();
+  auto self_pairs_of = [&](const std::vector<kinematics::LinkCapsule>& self, int c, auto&& geom_name) {
+    const int lc = self[c].link;
+    for (int d = c + 1; d < static_cast<int>(self.size()); ++d) {
+      const int ld = self[d].link;
+      if (lc == ld || robot.IsExcludedPair(lc, ld)) continue;
+      if (weld[lc] == weld[ld]) pairs.emplace_back(geom_name(robot, c), geom_name(robot, d));
+      else ++num_dynamic_pairs;
+    }
+  };
   for (int c = 0; c < num_capsules; ++c) {
     const int lc = robot.capsules[c].link;
     for (int j = 0; j < num_obstacles; ++j) {
@@ -290,12 +326,10 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
       else ++num_dynamic_pairs;
     }
     if (scene.has_floor && weld[lc] != 0) ++num_dynamic_pairs;
-    for (int d = c + 1; d < num_capsules; ++d) {
-      const int ld = robot.capsules[d].link;
-      if (lc == ld || robot.IsExcludedPair(lc, ld)) continue;
-      if (weld[lc] == weld[ld]) pairs.emplace_back(MjcfNames::CapsuleGeom(robot, c), MjcfNames::CapsuleGeom(robot, d));
-      else ++num_dynamic_pairs;
-    }
+    if (!separate) self_pairs_of(robot.capsules, c, MjcfNames::CapsuleGeom);
+  }
+  for (int c = 0; separate && c < static_cast<int>(robot.self_capsules.size()); ++c) {
+    self_pairs_of(robot.self_capsules, c, MjcfNames::SelfCapsuleGeom);
   }
   // every primitive pair used here yields at most 2 contacts (capsule–capsule, capsule–box, capsule–plane), so the
   // contact list never overflows. Only penetrating contacts are constraints (gap = margin: the contacts within the
@@ -326,7 +360,7 @@ std::string WriteMjcf(const Robot& robot, const SceneSpec& scene, const WorldOpt
         "condim=\"1\" rgba=\"0.8 0.8 0.8 1\"/>\n",
         MjcfNames::kFloorGeom, Num(scene.floor_height), kSceneContype, kSceneConaffinity);
   }
-  WriteBody(robot, options, gains, children, link_capsules, 0, 2, &out);
+  WriteBody(robot, options, gains, children, link_capsules, link_self_capsules, 0, 2, &out);
   for (int j = 0; j < num_obstacles; ++j) {
     const ObstacleSpec& obs = scene.obstacles[j];
     out += fmt::format("    <body name=\"{}\" mocap=\"true\" pos=\"{}\" quat=\"{}\">\n", MjcfNames::ObstacleBody(j),

@@ -113,6 +113,13 @@ WorldModel::WorldModel(kinematics::Robot robot, SceneSpec scene, WorldOptions op
     geom_info_[g] = GeomInfo{GeomRole::kRobot, robot_.capsules[c].link, static_cast<int>(c), -1};
     assigned[g] = 1;
   }
+  // the self-collision capsules: robot geoms numbered after the capsules (the collision checker's numbering)
+  for (size_t c = 0; c < robot_.self_capsules.size(); ++c) {
+    const int g = IdOf(m, mjOBJ_GEOM, MjcfNames::SelfCapsuleGeom(robot_, static_cast<int>(c)));
+    geom_info_[g] = GeomInfo{GeomRole::kRobot, robot_.self_capsules[c].link,
+                             static_cast<int>(robot_.capsules.size() + c), -1};
+    assigned[g] = 1;
+  }
   const int num_obs = num_obstacles();
   obstacle_body_.resize(num_obs);
   obstacle_mocap_.resize(num_obs);

@@ -82,11 +82,14 @@ Exhaustive ExhaustiveClearance(const kinematics::Robot& robot, const VectorXd& q
     if (check_floor && !fixed_height) {
       e.floor = std::min(e.floor, std::min(wa.p_WA.z(), wa.p_WB.z()) - wa.radius);
     }
-    for (size_t b = a + 1; b < robot.capsules.size(); ++b) {
-      const kinematics::LinkCapsule& cb = robot.capsules[b];
-      if (ca.link == cb.link || robot.IsExcludedPair(ca.link, cb.link)) continue;
-      e.self = std::min(e.self,
-                        math::CapsuleCapsuleDistance(wa, kinematics::WorldCapsule(cb, data)).distance);
+  }
+  // self pairs: of the self-collision set (the capsules themselves without one)
+  const std::vector<kinematics::LinkCapsule>& self = robot.self_collision_capsules();
+  for (size_t a = 0; a < self.size(); ++a) {
+    for (size_t b = a + 1; b < self.size(); ++b) {
+      if (self[a].link == self[b].link || robot.IsExcludedPair(self[a].link, self[b].link)) continue;
+      e.self = std::min(e.self, math::CapsuleCapsuleDistance(kinematics::WorldCapsule(self[a], data),
+                                                             kinematics::WorldCapsule(self[b], data)).distance);
     }
   }
   return e;
@@ -105,10 +108,14 @@ double PairDistance(const kinematics::Robot& robot, const VectorXd& q, const std
       d = std::min(d, rmp::CapsuleObstacleDistance(wa, obstacles[pair.obstacle]).distance);
     } else if (pair.kind == ClearancePair::Kind::kFloor) {
       d = std::min(d, std::min(wa.p_WA.z(), wa.p_WB.z()) - wa.radius);
-    } else {
-      for (const kinematics::LinkCapsule& b : robot.capsules) {
-        if (b.link == pair.other_link) {
-          d = std::min(d, math::CapsuleCapsuleDistance(wa, kinematics::WorldCapsule(b, data)).distance);
+    }
+  }
+  if (pair.kind == ClearancePair::Kind::kSelf) {
+    for (const kinematics::LinkCapsule& a : robot.self_collision_capsules()) {
+      for (const kinematics::LinkCapsule& b : robot.self_collision_capsules()) {
+        if (a.link == pair.link && b.link == pair.other_link) {
+          d = std::min(d, math::CapsuleCapsuleDistance(kinematics::WorldCapsule(a, data),
+                                                       kinematics::WorldCapsule(b, data)).distance);
         }
       }
     }
@@ -369,6 +376,67 @@ TEST(RobotCollisionCheckerTest, ClustersOfManyCapsulesPerLinkAnswerAsTheExhausti
       }
     }
   }
+  EXPECT_GT(free, checks / 10);
+  EXPECT_LT(free, checks * 9 / 10);
+}
+
+TEST(RobotCollisionCheckerTest, ASeparateSelfCollisionSetIsWhatTheSelfPairsAreCheckedOn) {
+  // a tight cover of many capsules for the obstacles and the floor, a coarse one for self-collision: the obstacles see
+  // only the first, the self pairs only the second (the exhaustive search reads them from the robot's two lists)
+  std::mt19937_64 rng(43);
+  int free = 0, checks = 0, self_differs = 0;
+  for (const std::string& name : {std::string("panda"), std::string("iiwa14")}) {
+    const kinematics::Robot shipped = kinematics::LoadShippedRobot(name);
+    kinematics::Robot robot = Sliced(shipped, 6);
+    for (kinematics::LinkCapsule& c : robot.capsules) c.radius *= 0.8;
+    robot.self_capsules = shipped.capsules;
+    for (kinematics::LinkCapsule& c : robot.self_capsules) c.radius += 0.03;
+    kinematics::Robot fine_only = robot;
+    fine_only.self_capsules.clear();
+    const RobotCollisionModel model(robot);
+    ASSERT_EQ(model.num_capsules(), static_cast<int>(robot.capsules.size()));
+    ASSERT_EQ(model.num_placed_capsules(), static_cast<int>(robot.capsules.size() + shipped.capsules.size()));
+    for (const auto& [a, b] : model.self_pairs()) {
+      ASSERT_GE(a, model.num_capsules());
+      ASSERT_GE(b, model.num_capsules());
+    }
+    RobotCollisionData data(model), lazy(model);
+    for (int trial = 0; trial < 40; ++trial) {
+      const VectorXd q = testing::RandomConfiguration(robot.model, rng);
+      const std::vector<rmp::Obstacle> obstacles = ObstaclesNear(robot, q, rng);
+      const Exhaustive e = ExhaustiveClearance(robot, q, obstacles, true);
+      self_differs += e.self != ExhaustiveClearance(fine_only, q, obstacles, true).self;
+      const ClearancePair pair = CalcRobotClearance(model, q, obstacles, &data);
+      ASSERT_EQ(pair.distance, e.all()) << name << " trial " << trial;
+      ASSERT_EQ(PairDistance(robot, q, obstacles, pair), pair.distance) << name << " trial " << trial;
+      if (pair.kind == ClearancePair::Kind::kSelf) {
+        EXPECT_EQ(model.capsule(pair.capsule).link, pair.link);
+        EXPECT_EQ(model.capsule(pair.other_capsule).link, pair.other_link);
+      } else if (pair.kind != ClearancePair::Kind::kNone) {
+        EXPECT_LT(pair.capsule, model.num_capsules());
+      }
+      EXPECT_EQ(CalcObstacleClearance(model, data, obstacles), e.obstacles);
+      EXPECT_EQ(CalcSelfCapsuleClearance(model, data), e.self);
+      EXPECT_EQ(CalcSelfClearance(model, data), std::min(e.self, e.floor));
+      for (double margin : {0.0, 0.01, 0.05}) {
+        EXPECT_EQ(CheckConfigCollisionFree(model, q, obstacles, margin, &lazy), e.all() > margin);
+      }
+    }
+    for (int path = 0; path < 3; ++path) {
+      const VectorXd a = testing::RandomConfiguration(robot.model, rng);
+      const VectorXd b = testing::RandomConfiguration(robot.model, rng);
+      for (int k = 0; k <= 60; ++k) {
+        const VectorXd q = a + (b - a) * (k / 60.0);
+        const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
+        const bool answer =
+            CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, 0.01, 0.01, false, &lazy);
+        ASSERT_EQ(answer, std::min(e.self, e.floor) > 0.01) << name << " path " << path << " step " << k;
+        free += answer;
+        ++checks;
+      }
+    }
+  }
+  EXPECT_GT(self_differs, 60);  // the two sets' self clearances differ: the test tells them apart
   EXPECT_GT(free, checks / 10);
   EXPECT_LT(free, checks * 9 / 10);
 }

@@ -9,7 +9,9 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <optional>
+#include <random>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/capsule_fit.h"
@@ -371,6 +373,68 @@ TEST(RobotSetup, WrittenFilesLoadAndCarryTheRobotsOwnSettings) {
   const rmp::RmpflowOptions options = rmp::LoadRmpflowOptions(robot);
   ASSERT_EQ(options.home.size(), 4u);
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(options.home[i], setup.home[i], 1e-4);
+}
+
+TEST(RobotSetup, ATightCoverGetsACoarseSelfCollisionSetThatCoversTheSameGeometry) {
+  if (!MeshReadingAvailable()) GTEST_SKIP() << "built without assimp";
+  const fs::path dir = TempDir("self-set");
+  Write(dir / "box.stl", BoxStlMillimetres(kMeshSize, kMeshCentre));
+  const fs::path urdf = WriteVendorArm(dir, "package://vendor_arm_description/meshes/link2.stl");
+  RobotSetupOptions options = Options(dir, 1000);
+  options.cover.method = CoverMethod::kInscribed;
+  options.cover.tolerance = 0.004;
+  options.cover.max_capsules = 64;
+  options.self_cover = CapsuleCoverOptions{};
+  const RobotSetup setup = SetupRobot(urdf, options);
+  const Robot& robot = setup.robot;
+  const LinkFit& box = FitOf(setup, "link2");
+  ASSERT_FALSE(box.self_capsules.empty());
+  EXPECT_LT(box.self_capsules.size(), box.capsules.size());  // coarser: fewer capsules
+  EXPECT_GT(box.self_excess, box.excess);
+  for (const LinkFit& fit : setup.links) EXPECT_EQ(fit.capsules.empty(), fit.self_capsules.empty());
+  // every point of the box's faces lies inside both sets' capsules of its link
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  auto outside = [&](const std::vector<LinkCapsule>& capsules, const std::vector<int>& indices,
+                     const Eigen::Vector3d& p) {
+    double d = std::numeric_limits<double>::infinity();
+    for (int c : indices) {
+      d = std::min(d, CapsuleSignedDistance({capsules[c].p_LA, capsules[c].p_LB, capsules[c].radius}, p));
+    }
+    return d;
+  };
+  double worst = -1.0, worst_self = -1.0;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> U(-0.5, 0.5);
+  for (int k = 0; k < 3000; ++k) {
+    const int axis = k % 3, i = (axis + 1) % 3, j = (axis + 2) % 3;
+    Eigen::Vector3d p;
+    p[axis] = (k % 2 ? 0.5 : -0.5) * kMeshSize[axis];
+    p[i] = U(rng) * kMeshSize[i];
+    p[j] = U(rng) * kMeshSize[j];
+    const Eigen::Vector3d p_L = R * (p + kMeshCentre);
+    worst = std::max(worst, outside(robot.capsules, box.capsules, p_L));
+    worst_self = std::max(worst_self, outside(robot.self_capsules, box.self_capsules, p_L));
+  }
+  EXPECT_LE(worst, 1e-6);
+  EXPECT_LE(worst_self, 1e-6);
+  // the exclusions were sampled on the self set: its pair statistics are the robot's with the self set as capsules
+  Robot coarse = robot;
+  coarse.capsules = robot.self_capsules;
+  coarse.self_capsules.clear();
+  const std::vector<PairStatistics> a = SampleSelfCollision(robot, options), b = SampleSelfCollision(coarse, options);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].min_distance, b[k].min_distance);
+  // written and read back
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  Write(CollisionYamlPathFor(urdf, out), CollisionYamlText(setup));
+  const Robot read = LoadRobot(urdf, CollisionYamlPathFor(urdf, out));
+  ASSERT_EQ(read.self_capsules.size(), robot.self_capsules.size());
+  for (size_t c = 0; c < read.self_capsules.size(); ++c) {
+    EXPECT_EQ(read.self_capsules[c].link, robot.self_capsules[c].link);
+    EXPECT_GE(read.self_capsules[c].radius, robot.self_capsules[c].radius);
+    EXPECT_LT((read.self_capsules[c].p_LA - robot.self_capsules[c].p_LA).norm(), 1e-5);
+  }
 }
 
 TEST(RobotSetup, AUserUrdfNamedLikeAShippedRobotDoesNotInheritItsSettings) {

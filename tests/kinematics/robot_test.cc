@@ -166,6 +166,32 @@ TEST(RobotTest, BadCapsuleValuesAreReported) {
   EXPECT_HAS(YamlError(nan), "key 'capsules[0].b[0]': expected a finite number");
 }
 
+TEST(RobotTest, ASeparateSelfCollisionSetIsReadAndChecked) {
+  const std::string with_set = std::string(kTwoLinkYaml) +
+                               "self_collision_capsules:\n"
+                               "  - {link: l1, a: [0, 0, 0], b: [0.3, 0, 0], radius: 0.05}\n"
+                               "  - {link: l2, a: [0, 0, 0], b: [0.1, 0, 0], radius: 0.035}\n"
+                               "  - {link: l2, a: [0.1, 0, 0], b: [0.2, 0, 0], radius: 0.035}\n";
+  const Robot robot = LoadRobot(WriteTemp("two.urdf", kTwoLinkUrdf), WriteTemp("collision.yaml", with_set));
+  ASSERT_EQ(robot.capsules.size(), 2u);
+  ASSERT_EQ(robot.self_capsules.size(), 3u);
+  EXPECT_EQ(&robot.self_collision_capsules(), &robot.self_capsules);
+  EXPECT_EQ(robot.self_capsules[2].p_LA, Eigen::Vector3d(0.1, 0, 0));
+  EXPECT_EQ(robot.self_capsules[2].radius, 0.035);
+  const Robot plain = LoadRobot(WriteTemp("two.urdf", kTwoLinkUrdf), WriteTemp("collision.yaml", kTwoLinkYaml));
+  EXPECT_EQ(&plain.self_collision_capsules(), &plain.capsules);
+  // the two sets cover the same links
+  std::string missing_link = std::string(kTwoLinkYaml) + "self_collision_capsules:\n"
+                             "  - {link: l1, a: [0, 0, 0], b: [0.3, 0, 0], radius: 0.05}\n";
+  EXPECT_HAS(YamlError(missing_link), "link 'l2' has 1 capsules and 0 self_collision_capsules: expected both sets to "
+                                      "cover the same links");
+  std::string negative = std::string(kTwoLinkYaml) + "self_collision_capsules:\n"
+                         "  - {link: l1, a: [0, 0, 0], b: [0.3, 0, 0], radius: -0.05}\n";
+  EXPECT_HAS(YamlError(negative), "key 'self_collision_capsules[0].radius': expected > 0, got -0.05");
+  EXPECT_HAS(YamlError(std::string(kTwoLinkYaml) + "self_collision_capsules: []\n"),
+             "key 'self_collision_capsules': expected a non-empty list of {link, a, b, radius}");
+}
+
 TEST(RobotTest, RobotNameAndEndEffectorAreChecked) {
   std::string name = kTwoLinkYaml;
   name.replace(name.find("robot: two"), 10, "robot: three");

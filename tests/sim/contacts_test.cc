@@ -280,6 +280,13 @@ TEST(ContactsTest, SelfContactsOnlyForCheckedLinkPairs) {
   for (const std::string& name : kinematics::ShippedRobotNames()) {
     robots.push_back(kinematics::LoadShippedRobot(name));
   }
+  // a robot with a separate self-collision set: thinner capsules for the scene, fatter ones between its links
+  kinematics::Robot separate = kinematics::LoadShippedRobot("panda");
+  separate.name = "panda, separate self set";
+  separate.self_capsules = separate.capsules;
+  for (kinematics::LinkCapsule& c : separate.capsules) c.radius *= 0.7;
+  for (kinematics::LinkCapsule& c : separate.self_capsules) c.radius += 0.01;
+  robots.push_back(separate);
   for (const kinematics::Robot& robot : robots) {
     SCOPED_TRACE(robot.name);
     auto wm = std::make_shared<const WorldModel>(robot);
@@ -287,6 +294,9 @@ TEST(ContactsTest, SelfContactsOnlyForCheckedLinkPairs) {
     kinematics::Data kin(robot.model);
     std::mt19937_64 rng(11);
     const double margin = wm->options().warning_margin;
+    // the self pairs are the self-collision set's, numbered after the capsules
+    const std::vector<kinematics::LinkCapsule>& self = robot.self_collision_capsules();
+    const int offset = robot.self_capsules.empty() ? 0 : static_cast<int>(robot.capsules.size());
     int seen = 0, seen_collisions = 0;
     double worst = 0.0;
     for (int s = 0; s < 200; ++s) {
@@ -299,15 +309,17 @@ TEST(ContactsTest, SelfContactsOnlyForCheckedLinkPairs) {
         ASSERT_EQ(w.other_kind, PartnerKind::kLink);
         EXPECT_TRUE(wm->IsCheckedLinkPair(w.link, w.other_index));
         EXPECT_LT(w.link, w.other_index);
-        auto [it, inserted] = reported.try_emplace({w.capsule, w.other_capsule}, w.distance);
+        ASSERT_GE(w.capsule, offset);
+        ASSERT_GE(w.other_capsule, offset);
+        auto [it, inserted] = reported.try_emplace({w.capsule - offset, w.other_capsule - offset}, w.distance);
         if (!inserted) it->second = std::min(it->second, w.distance);
       }
-      for (int a = 0; a < static_cast<int>(robot.capsules.size()); ++a) {
-        for (int b = 0; b < static_cast<int>(robot.capsules.size()); ++b) {
-          const int la = robot.capsules[a].link, lb = robot.capsules[b].link;
+      for (int a = 0; a < static_cast<int>(self.size()); ++a) {
+        for (int b = 0; b < static_cast<int>(self.size()); ++b) {
+          const int la = self[a].link, lb = self[b].link;
           if (la >= lb || !wm->IsCheckedLinkPair(la, lb)) continue;
-          const double ref =
-              math::CapsuleCapsuleDistance(WorldCapsule(robot, kin, a), WorldCapsule(robot, kin, b)).distance;
+          const double ref = math::CapsuleCapsuleDistance(kinematics::WorldCapsule(self[a], kin),
+                                                          kinematics::WorldCapsule(self[b], kin)).distance;
           const auto it = reported.find({a, b});
           if (ref < margin - 1e-6) {
             ASSERT_NE(it, reported.end()) << "capsules " << a << "," << b << " ref " << ref << " sample " << s;
@@ -323,6 +335,15 @@ TEST(ContactsTest, SelfContactsOnlyForCheckedLinkPairs) {
     }
     fmt::print("  {:>10}: {} self warning pairs checked ({} colliding), max |MuJoCo − math| = {:.1e} m\n",
                robot.name, seen, seen_collisions, worst);
+    if (!robot.self_capsules.empty()) EXPECT_GT(seen_collisions, 0);
+  }
+  // the self-collision capsules weigh nothing: the separate set's links are as heavy as the thinner capsules make them
+  kinematics::Robot thin = separate;
+  thin.self_capsules.clear();
+  const WorldModel with_set(separate), without(thin);
+  ASSERT_EQ(with_set.mj_model()->nbody, without.mj_model()->nbody);
+  for (int b = 0; b < with_set.mj_model()->nbody; ++b) {
+    EXPECT_EQ(with_set.mj_model()->body_mass[b], without.mj_model()->body_mass[b]) << "body " << b;
   }
 }
 

@@ -12,7 +12,10 @@
 /// z = floor_height, when options.check_floor: every capsule whose height can change (not on a link fixed to the base
 /// nor moved only by revolute joints about a vertical axis hanging from the fixed base — the Panda's joint-1 column
 /// rests on its mounting plate by design). Self: every capsule pair of two different links that the robot does not
-/// exclude (adjacent links, its SRDF's disabled pairs, the pairs setup-robot found never close).
+/// exclude (adjacent links, its SRDF's disabled pairs, the pairs setup-robot found never close) — on the robot's
+/// self-collision capsules when it has a separate set (kinematics::Robot::self_capsules), else on its capsules. The
+/// checker places both sets: capsule indices 0 … num_capsules() − 1 are the robot's capsules, the rest its
+/// self-collision capsules (capsule(c) names either).
 ///
 /// Broad phase. Each link's capsules share a bounding sphere; a link (then a capsule) whose sphere cannot come closer
 /// to an obstacle than what was found is skipped, and for a box (or a cylinder's enclosing box) the box's own distance
@@ -55,7 +58,7 @@ struct ClearancePair {
   int link = -1;        ///< the link of the capsule attaining it (-1 for kNone)
   int other_link = -1;  ///< kSelf: the other capsule's link
   int obstacle = -1;    ///< kObstacle: its index in the obstacles given
-  int capsule = -1;        ///< the capsule attaining it (index in the robot's capsules; -1 for kNone)
+  int capsule = -1;        ///< the capsule attaining it (RobotCollisionModel::capsule's index; -1 for kNone)
   int other_capsule = -1;  ///< kSelf: the other capsule
 };
 
@@ -67,7 +70,13 @@ class RobotCollisionModel {
 
   const kinematics::Robot& robot() const { return robot_; }
   const RobotCollisionOptions& options() const { return options_; }
+  /// the robot's capsules (checked against obstacles and the floor): indices 0 … num_capsules() − 1
   int num_capsules() const { return static_cast<int>(robot_.capsules.size()); }
+  /// every capsule placed: the robot's capsules, then its separate self-collision capsules (none without a set)
+  int num_placed_capsules() const { return static_cast<int>(capsules_.size()); }
+  const kinematics::LinkCapsule& capsule(int c) const { return capsules_[c]; }
+  /// link_groups()[0, num_obstacle_groups()) hold the robot's capsules; the rest the self-collision set's
+  int num_obstacle_groups() const { return num_obstacle_groups_; }
 
   /// The capsules of one link with capsules (a link's cover can hold many), split into clusters of at most
   /// kClusterSize neighbouring capsules, each with its own bounding sphere: a tight cover holds dozens of capsules
@@ -96,7 +105,8 @@ class RobotCollisionModel {
   const std::vector<LinkPair>& self_link_pairs() const { return self_link_pairs_; }
   /// the checked capsule pairs grouped by their pair of links (self_link_pairs' ranges)
   const std::vector<std::pair<int, int>>& grouped_self_pairs() const { return grouped_self_pairs_; }
-  /// the same pairs (a < b) in the order of the capsules: (0, 1), (0, 2), … — the simulated worlds' order
+  /// the same pairs (a < b) in the order of the capsules: (0, 1), (0, 2), … — the simulated worlds' order (indices of
+  /// capsule(); the self-collision set's when the robot has one)
   const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
   /// per capsule: checked against the floor (its height can change)
   bool floor_checked(int capsule) const { return floor_checked_[capsule] != 0; }
@@ -126,6 +136,8 @@ class RobotCollisionModel {
  private:
   kinematics::Robot robot_;
   RobotCollisionOptions options_;
+  std::vector<kinematics::LinkCapsule> capsules_;
+  int num_obstacle_groups_ = 0;
   std::vector<LinkGroup> link_groups_;
   std::vector<LinkPair> self_link_pairs_;
   std::vector<std::pair<int, int>> grouped_self_pairs_;

@@ -28,7 +28,8 @@ struct WarningContact {
   int robot_geom = -1;                ///< the simulator's geom id of the robot capsule (-1 outside a simulator)
   int other_geom = -1;                ///< the simulator's geom id of the other side (-1 outside a simulator)
   int link = -1;                      ///< robot link of the capsule
-  int capsule = -1;                   ///< Robot::capsules index of the capsule
+  /// index of the capsule: Robot::capsules, then Robot::self_capsules (self contacts of a robot with that set)
+  int capsule = -1;
   PartnerKind other_kind = PartnerKind::kObstacle;
   int other_index = -1;               ///< obstacle index, link index, or -1 for the floor
   int other_capsule = -1;             ///< capsule index when other_kind == kLink

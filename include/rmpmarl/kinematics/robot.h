@@ -36,7 +36,12 @@ struct EndEffector {
 struct Robot {
   std::string name;
   Model model;
+  /// the collision model: what is checked against obstacles and the floor, and what the RMPs and agents act on
   std::vector<LinkCapsule> capsules;
+  /// a second conservative cover checked for self-collision only, when not empty (collision YAML:
+  /// self_collision_capsules). A tight cover holds dozens of capsules per link, and its self pairs would be most of a
+  /// planner's checks; a coarser cover of the same meshes proves two links apart as well. Empty: `capsules`.
+  std::vector<LinkCapsule> self_capsules;
   EndEffector end_effector;
   /// link pairs (i < j) never checked for self-collision: declared ones plus every parent–child pair.
   std::vector<std::pair<int, int>> excluded_pairs;
@@ -54,6 +59,10 @@ struct Robot {
 
   /// true when links i and j are excluded from self-collision checks.
   bool IsExcludedPair(int i, int j) const;
+  /// the capsules checked for self-collision: self_capsules, or capsules when there is no separate set.
+  const std::vector<LinkCapsule>& self_collision_capsules() const {
+    return self_capsules.empty() ? capsules : self_capsules;
+  }
 };
 
 /// parses a URDF file into a Model (revolute, continuous, prismatic, fixed joints; any tree). Throws InputError.

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,6 +28,12 @@ struct RobotSetupOptions {
   /// each link's cover: its tolerance on how far a capsule may stick out beyond the link's geometry, the most
   /// capsules per link, the spacing of the surface samples that check it (capsule_cover.h)
   CapsuleCoverOptions cover;
+  /// per link (by name): its own cover tolerance [m] instead of cover.tolerance — tighter where the robot works close
+  /// to things (a hand, its fingers), looser elsewhere. An unknown link name is an InputError.
+  std::map<std::string, double> link_tolerance;
+  /// a second cover of each link for self-collision checks only (Robot::self_capsules), e.g. the plane cuts beside a
+  /// tight inscribed cover; none: the capsules of `cover` are checked for self-collision too
+  std::optional<CapsuleCoverOptions> self_cover;
   /// the home search maximises log √det(J Jᵀ) − home_centering · mean_i ((q_i − mid_i) / half range_i)²
   double home_centering = 2.0;
   std::optional<Eigen::VectorXd> home;  ///< the home posture to use instead of searching for one
@@ -43,6 +50,8 @@ struct LinkFit {
   int link = -1;
   std::string source;              ///< e.g. "collision mesh meshes/link1.stl (1204 vertices)", "frame only"
   std::vector<int> capsules;       ///< indices into Robot::capsules
+  std::vector<int> self_capsules;  ///< indices into Robot::self_capsules (RobotSetupOptions::self_cover)
+  double self_excess = 0.0;        ///< how far the self-collision capsules stick out beyond the geometry [m]
   /// largest distance from the surface of the link's capsules to its geometry [m] (CapsuleCover::max_excess)
   double excess = 0.0;
   double mean_excess = 0.0;        ///< the mean over the capsules' surface [m] (CapsuleCover::mean_excess)

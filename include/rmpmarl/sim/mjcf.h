@@ -103,6 +103,8 @@ struct MjcfNames {
   /// scene, which becomes "link/<name>".
   static std::string LinkBody(const kinematics::Robot& robot, int link);
   static std::string CapsuleGeom(const kinematics::Robot& robot, int capsule);  ///< "<link>/capsule<c>"
+  /// "<link>/self_capsule<c>": Robot::self_capsules[c], which touches only other links' self-collision capsules
+  static std::string SelfCapsuleGeom(const kinematics::Robot& robot, int capsule);
   static std::string Actuator(const kinematics::Robot& robot, int dof);         ///< "<joint>/servo"
   static std::string ObstacleBody(int obstacle);                               ///< "scene/obstacle<j>"
   static std::string ObstacleGeom(int obstacle);                               ///< "scene/obstacle<j>/geom"

@@ -34,7 +34,7 @@ enum class GeomRole { kRobot, kObstacle, kTarget, kFloor };
 struct GeomInfo {
   GeomRole role = GeomRole::kRobot;
   int link = -1;      ///< robot link (kRobot)
-  int capsule = -1;   ///< index into Robot::capsules (kRobot)
+  int capsule = -1;   ///< index into Robot::capsules, then Robot::self_capsules (kRobot)
   int obstacle = -1;  ///< index into SceneSpec::obstacles (kObstacle)
 };
 
