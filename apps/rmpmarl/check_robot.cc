@@ -92,7 +92,7 @@ void CheckHomeAndWorld(const kinematics::Robot& robot) {
                            1000 * p.distance);
     }
     throw InputError(fmt::format("{} capsule pair(s) of non-excluded links overlap at the home posture (add them to "
-                                 "self_collision_exclude, shrink the capsules or change home):{}", overlapping.size(),
+                                 "self_collision_exclude, shrink the (self-collision) capsules or change home):{}", overlapping.size(),
                                  pairs));
   }
   const kinematics::ClosestPair closest = kinematics::ClosestSelfCollisionPair(robot, home);

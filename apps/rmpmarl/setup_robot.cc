@@ -110,7 +110,9 @@ void RunSetup(const SetupArgs& args) {
   PrintLinkFits(setup);
   if (!robot.self_capsules.empty()) {
     double worst = 0.0;
-    for (const kinematics::LinkFit& fit : setup.links) worst = std::max(worst, fit.self_excess);
+    for (const kinematics::LinkFit& fit : setup.links) {
+      if (std::isfinite(fit.self_excess)) worst = std::max(worst, fit.self_excess);
+    }
     fmt::print("  self-collision: checked on a separate cover, {} capsules (plane cuts, up to {:.1f} mm out), "
                "beside the {} above\n", robot.self_capsules.size(), 1e3 * worst, robot.capsules.size());
   }

@@ -51,6 +51,8 @@ class Robot:
         """position Jacobian of point p_LP fixed on `link`, [3, nq]"""
     def capsules(self, q: ArrayLike) -> FloatArray:
         """collision capsules in the world, rows [a_x, a_y, a_z, b_x, b_y, b_z, radius]"""
+    def self_collision_capsules(self, q: ArrayLike) -> FloatArray:
+        """the capsules checked for self-collision in the world (the YAML's second cover, else the capsules)"""
 
 class Controller:
     """The learned agents of a controller file or RMPflow: joint state, target, obstacles in; q̈ or joint commands

@@ -51,6 +51,24 @@ int LinkArgument(const RobotHandle& r, const py::handle& link) {
 
 py::array_t<double> Pose(const Eigen::Isometry3d& X) { return MatrixToNumpy(Eigen::MatrixXd(X.matrix())); }
 
+// `capsules` placed at q: rows [a_x, a_y, a_z, b_x, b_y, b_z, radius]
+py::array_t<double> WorldCapsules(RobotHandle& r, const py::handle& q,
+                                  const std::vector<kinematics::LinkCapsule>& capsules) {
+  const py::array qa = CheckedQ(r, q);
+  kinematics::CalcForwardKinematics(r.robot->model, AsVector(qa), &r.data);
+  py::array_t<double> out({static_cast<py::ssize_t>(capsules.size()), py::ssize_t{7}});
+  auto o = out.mutable_unchecked<2>();
+  for (size_t c = 0; c < capsules.size(); ++c) {
+    const math::Capsule w = kinematics::WorldCapsule(capsules[c], r.data);
+    for (int i = 0; i < 3; ++i) {
+      o(c, i) = w.p_WA[i];
+      o(c, 3 + i) = w.p_WB[i];
+    }
+    o(c, 6) = w.radius;
+  }
+  return out;
+}
+
 }  // namespace
 
 std::shared_ptr<RobotHandle> LoadRobotArgument(const std::string& robot) {
@@ -141,23 +159,15 @@ The kinematics methods share one work buffer: use one Robot per thread.)doc")
         return MatrixToNumpy(Eigen::MatrixXd(J));
       }, py::arg("q"), py::arg("link"), py::arg("p_LP"),
            "position Jacobian of point p_LP fixed on `link` (name or index), shape [3, nq]")
-      .def("capsules", [](RobotHandle& r, const py::handle& q) {
-        const py::array qa = CheckedQ(r, q);
-        kinematics::CalcForwardKinematics(r.robot->model, AsVector(qa), &r.data);
-        const auto& caps = r.robot->capsules;
-        py::array_t<double> out({static_cast<py::ssize_t>(caps.size()), py::ssize_t{7}});
-        auto o = out.mutable_unchecked<2>();
-        for (size_t c = 0; c < caps.size(); ++c) {
-          const Eigen::Isometry3d& X = r.data.X_WL[caps[c].link];
-          const Eigen::Vector3d a = X * caps[c].p_LA, b = X * caps[c].p_LB;
-          for (int i = 0; i < 3; ++i) {
-            o(c, i) = a[i];
-            o(c, 3 + i) = b[i];
-          }
-          o(c, 6) = caps[c].radius;
-        }
-        return out;
-      }, py::arg("q"), "the collision capsules in the world: rows [a_x, a_y, a_z, b_x, b_y, b_z, radius]")
+      .def("capsules", [](RobotHandle& r, const py::handle& q) { return WorldCapsules(r, q, r.robot->capsules); },
+           py::arg("q"),
+           "the collision capsules in the world (what obstacles, the floor, the RMPs and the agents see): rows "
+           "[a_x, a_y, a_z, b_x, b_y, b_z, radius]")
+      .def("self_collision_capsules",
+           [](RobotHandle& r, const py::handle& q) { return WorldCapsules(r, q, r.robot->self_collision_capsules()); },
+           py::arg("q"),
+           "the capsules checked for self-collision in the world, rows as capsules(q): the collision YAML's "
+           "self_collision_capsules, or the capsules themselves when it has none")
       .def("__repr__", [](const RobotHandle& r) {
         return fmt::format("Robot('{}', nq={}, capsules={})", r.robot->name, r.robot->model.nq(),
                            r.robot->capsules.size());

@@ -659,16 +659,22 @@ void WriteMbmResults(const std::vector<MbmResult>& results, const fs::path& out,
   csv << "family,problem,method,valid,rejected,success,reached,collisions,mesh_collisions,time_to_goal_s,"
          "final_error_mm,joint_error_rad,path_length_rad,min_clearance_mm,min_mesh_clearance_mm,min_mesh_pair,"
          "planning_time_ms,plans,control_us,mesh_check_us,reason\n";
-  // a smallest clearance "nan" where nothing came within the sensing margin, as the experiments' CSVs write it
+  // "none" is "nan" in every column, as the experiments' CSVs write it: a smallest clearance where nothing came
+  // within the sensing margin, a goal never reached, no plan attempted, no mesh referee
   auto millimetres = [](double metres) {
     return std::isfinite(metres) ? fmt::format("{:.2f}", 1e3 * metres) : std::string("nan");
   };
+  auto when = [](bool present, double value, int decimals) {
+    return present ? fmt::format("{:.{}f}", value, decimals) : std::string("nan");
+  };
   for (const MbmResult& r : results) {
-    csv << fmt::format("{},{},{},{},{},{},{},{},{},{:.3f},{:.2f},{:.4f},{:.4f},{},{},{},{:.3f},{},{:.2f},{:.2f},{}\n",
+    csv << fmt::format("{},{},{},{},{},{},{},{},{},{},{:.2f},{:.4f},{:.4f},{},{},{},{},{},{:.2f},{:.2f},{}\n",
                        CsvField(r.family), r.index, r.method, r.valid ? 1 : 0, r.rejected ? 1 : 0, r.success ? 1 : 0,
-                       r.reached ? 1 : 0, r.collisions, r.mesh_collisions, r.time_to_goal, 1e3 * r.final_error,
-                       r.joint_error, r.path_length, millimetres(r.min_clearance), millimetres(r.min_mesh_clearance),
-                       CsvField(r.min_mesh_pair), r.planning_time >= 0.0 ? 1e3 * r.planning_time : -1.0, r.plans,
+                       r.reached ? 1 : 0, r.collisions,
+                       r.mesh_collisions >= 0 ? std::to_string(r.mesh_collisions) : std::string("nan"),
+                       when(r.time_to_goal >= 0.0, r.time_to_goal, 3), 1e3 * r.final_error, r.joint_error,
+                       r.path_length, millimetres(r.min_clearance), millimetres(r.min_mesh_clearance),
+                       CsvField(r.min_mesh_pair), when(r.planning_time >= 0.0, 1e3 * r.planning_time, 3), r.plans,
                        r.control_us, r.mesh_check_us, CsvField(r.reason));
   }
   if (!csv) throw InputError(fmt::format("could not write '{}'", (out / "results.csv").string()));

@@ -274,11 +274,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
   }
 
   for (const auto& [name, tolerance] : options.link_tolerance) {
-    if (model.LinkIndex(name) < 0) {
-      std::string links;
-      for (int k = 0; k < model.num_links(); ++k) links += (k ? ", " : "") + model.link(k).name;
-      throw InputError(fmt::format("setup: link tolerance: no link '{}' in {} (links: {})", name, source, links));
-    }
+    model.LinkIndex(name);  // an unknown link: InputError listing the links
     if (!(std::isfinite(tolerance) && tolerance > 0.0)) {
       throw InputError(fmt::format("setup: link tolerance of '{}': expected a finite value > 0 m, got {}", name,
                                    tolerance));
@@ -320,7 +316,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
     } else {
       // a single primitive keeps its exact smallest capsule when that is within the tolerance; everything else is
       // covered by as many capsules as its shape needs
-      auto cover_link = [&](const CapsuleCoverOptions& cover_options, bool* closed) {
+      auto cover_link = [&](const CapsuleCoverOptions& cover_options, const char* which, bool* closed) {
         CapsuleCover cover;
         *closed = false;
         if (num_shapes == 1 && g.closed_form) {
@@ -338,12 +334,12 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
         }
         if (cover.max_outside > 1e-6) {
           setup.warnings.push_back(fmt::format("link '{}': a sample of its geometry lies {:.3f} mm outside its "
-                                               "capsules", model.link(k).name, 1e3 * cover.max_outside));
+                                               "{}capsules", model.link(k).name, 1e3 * cover.max_outside, which));
         }
         return cover;
       };
       bool closed = false;
-      const CapsuleCover cover = cover_link(link_cover, &closed);
+      const CapsuleCover cover = cover_link(link_cover, "", &closed);
       capsules = cover.capsules;
       fit.excess = cover.max_excess;
       fit.mean_excess = cover.mean_excess;
@@ -355,7 +351,7 @@ RobotSetup FitRobot(const fs::path& urdf_path, const RobotSetupOptions& options)
                                                                       capsules.size() == 1 ? "" : "s"));
       if (options.self_cover) {
         bool self_closed = false;
-        const CapsuleCover self_cover = cover_link(*options.self_cover, &self_closed);
+        const CapsuleCover self_cover = cover_link(*options.self_cover, "self-collision ", &self_closed);
         self_capsules = self_cover.capsules;
         fit.self_excess = self_cover.max_excess;
       }

@@ -68,8 +68,11 @@ std::string CollisionYamlText(const RobotSetup& setup) {
            "self_collision_capsules:\n";
     for (const LinkFit& fit : setup.links) {
       if (fit.self_capsules.empty()) continue;
-      out += fmt::format("  # {}: {} capsule{}, sticks out up to {:.1f} mm\n", model.link(fit.link).name,
-                         fit.self_capsules.size(), fit.self_capsules.size() == 1 ? "" : "s", 1e3 * fit.self_excess);
+      out += fmt::format("  # {}: {} capsule{}, {}\n", model.link(fit.link).name, fit.self_capsules.size(),
+                         fit.self_capsules.size() == 1 ? "" : "s",
+                         std::isfinite(fit.self_excess)
+                             ? fmt::format("sticks out up to {:.1f} mm", 1e3 * fit.self_excess)
+                             : std::string("its capsules (geometry missing: between the joint origins)"));
       for (int c : fit.self_capsules) {
         const LinkCapsule& cap = robot.self_capsules[c];
         out += fmt::format("  - {{link: {}, a: {}, b: {}, radius: {:.5f}}}\n", model.link(cap.link).name,

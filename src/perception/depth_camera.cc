@@ -215,7 +215,14 @@ std::unique_ptr<DepthCamera> DepthCamera::Create(const sim::WorldModel& model, c
   impl.model->vis.quality.offsamples = 0;  // one depth sample per pixel: no blended silhouettes
   impl.model->vis.quality.shadowsize = 0;  // no shadow map (only depth is read)
   impl.physical.assign(shared->ngeom, 0);
-  for (int g = 0; g < shared->ngeom; ++g) impl.physical[g] = model.geom_info(g).role != sim::GeomRole::kTarget;
+  // the target is not physical, nor a robot's separate self-collision cover (its geoms are numbered after the
+  // capsules): a camera sees the robot's capsules
+  const int num_capsules = static_cast<int>(model.robot().capsules.size());
+  for (int g = 0; g < shared->ngeom; ++g) {
+    const sim::GeomInfo& info = model.geom_info(g);
+    impl.physical[g] = info.role != sim::GeomRole::kTarget &&
+                       !(info.role == sim::GeomRole::kRobot && info.capsule >= num_capsules);
+  }
 
   mjv_defaultScene(&impl.scene);
   mjv_defaultCamera(&impl.camera);

@@ -24,7 +24,8 @@ constexpr int kRobotConaffinity = 1;
 constexpr int kSceneContype = 2;
 constexpr int kSceneConaffinity = 1;
 // a robot with a separate self-collision set (Robot::self_capsules): its capsules touch the scene only (conaffinity
-// 0), the self-collision capsules each other only (bit 4: neither the scene's contype nor its conaffinity)
+// 0), the self-collision capsules each other only (the value 4, bit 2: in neither the scene's contype nor its
+// conaffinity)
 constexpr int kSelfContype = 4;
 constexpr int kSelfConaffinity = 4;
 
@@ -256,14 +257,28 @@ void CheckWorldInputs(const Robot& robot, const SceneSpec& scene, const WorldOpt
       CheckNonNegative(options.servo.damping[i], fmt::format("WorldOptions.servo.damping[{}]", i));
     }
   }
-  for (size_t c = 0; c < robot.capsules.size(); ++c) {
-    const kinematics::LinkCapsule& cap = robot.capsules[c];
-    const std::string what = fmt::format("robot '{}' capsules[{}]", robot.name, c);
-    if (cap.link < 0 || cap.link >= num_links) {
-      Fail(what + ".link", fmt::format("a link index in [0, {})", num_links), fmt::format("{}", cap.link));
+  std::vector<int> count(num_links, 0), self_count(num_links, 0);
+  auto check_capsules = [&](const std::vector<kinematics::LinkCapsule>& capsules, const char* name,
+                            std::vector<int>* per_link) {
+    for (size_t c = 0; c < capsules.size(); ++c) {
+      const kinematics::LinkCapsule& cap = capsules[c];
+      const std::string what = fmt::format("robot '{}' {}[{}]", robot.name, name, c);
+      if (cap.link < 0 || cap.link >= num_links) {
+        Fail(what + ".link", fmt::format("a link index in [0, {})", num_links), fmt::format("{}", cap.link));
+      }
+      if (!cap.p_LA.allFinite() || !cap.p_LB.allFinite()) Fail(what, "finite end points", "non-finite entries");
+      CheckPositive(cap.radius, what + ".radius");
+      ++(*per_link)[cap.link];
     }
-    if (!cap.p_LA.allFinite() || !cap.p_LB.allFinite()) Fail(what, "finite end points", "non-finite entries");
-    CheckPositive(cap.radius, what + ".radius");
+  };
+  check_capsules(robot.capsules, "capsules", &count);
+  check_capsules(robot.self_capsules, "self_capsules", &self_count);
+  for (int k = 0; k < num_links && !robot.self_capsules.empty(); ++k) {
+    if ((count[k] == 0) != (self_count[k] == 0)) {
+      Fail(fmt::format("robot '{}' link '{}'", robot.name, robot.model.link(k).name),
+           "capsules and self_capsules on the same links", fmt::format("{} capsules and {} self_capsules", count[k],
+                                                                      self_count[k]));
+    }
   }
   for (size_t j = 0; j < scene.obstacles.size(); ++j) {
     const ObstacleSpec& obs = scene.obstacles[j];

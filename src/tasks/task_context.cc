@@ -35,10 +35,12 @@ kinematics::Robot ScaleRobot(const kinematics::Robot& robot, double s) {
   std::vector<kinematics::Link> links = robot.model.links();
   for (kinematics::Link& link : links) link.X_PJ.translation() *= s;
   out.model = kinematics::Model(robot.model.name(), std::move(links), robot.model.limits());
-  for (kinematics::LinkCapsule& c : out.capsules) {
-    c.p_LA *= s;
-    c.p_LB *= s;
-    c.radius *= s;
+  for (std::vector<kinematics::LinkCapsule>* set : {&out.capsules, &out.self_capsules}) {
+    for (kinematics::LinkCapsule& c : *set) {
+      c.p_LA *= s;
+      c.p_LB *= s;
+      c.radius *= s;
+    }
   }
   out.end_effector.X_LE.translation() *= s;
   return out;

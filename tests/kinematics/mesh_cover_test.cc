@@ -85,7 +85,8 @@ std::map<std::string, std::pair<std::string, Eigen::Isometry3d>> CollisionMeshes
 
 // the farthest distance of a random surface point (or vertex) of each link's mesh outside all of the link's
 // capsules, per link.
-std::map<std::string, double> FarthestOutside(const Robot& robot, const fs::path& dir, int samples_per_link) {
+std::map<std::string, double> FarthestOutside(const Robot& robot, const std::vector<LinkCapsule>& set,
+                                              const fs::path& dir, int samples_per_link) {
   std::map<std::string, double> worst;
   std::mt19937 rng(20261207);
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -93,7 +94,7 @@ std::map<std::string, double> FarthestOutside(const Robot& robot, const fs::path
     const Mesh mesh = ReadObj(dir / mesh_and_pose.first);
     const Eigen::Isometry3d& X_LG = mesh_and_pose.second;
     std::vector<math::Capsule> capsules;
-    for (const LinkCapsule& c : robot.capsules) {
+    for (const LinkCapsule& c : set) {
       if (robot.model.link(c.link).name == link) capsules.push_back({c.p_LA, c.p_LB, c.radius});
     }
     EXPECT_FALSE(capsules.empty()) << link << " has a collision mesh but no capsule";
@@ -133,9 +134,22 @@ TEST(MeshCover, TheShippedMbmPandaCapsulesCoverItsCollisionMeshes) {
   if (dir.empty()) GTEST_SKIP() << "MotionBenchMaker's Panda set is not here (tests/CMakeLists.txt: RMPMARL_MBM_PANDA)";
   const fs::path yaml = fs::path(RMPMARL_TEST_DATA_DIR) / "../../configs/benchmarks/mbm-panda.collision.yaml";
   const Robot robot = LoadRobot(dir / "panda.urdf", yaml);
-  const auto worst = FarthestOutside(robot, dir, 50000);
+  const auto worst = FarthestOutside(robot, robot.capsules, dir, 50000);
   EXPECT_EQ(worst.size(), 11u);  // links 0–7, the hand and both fingers
   for (const auto& [link, w] : worst) EXPECT_LE(w, kAllowedOutside) << link << ": " << 1e3 * w << " mm outside";
+}
+
+TEST(MeshCover, TheTightMbmPandaCapsulesAndTheirSelfCollisionSetCoverItsCollisionMeshes) {
+  const fs::path dir = MbmDir();
+  if (dir.empty()) GTEST_SKIP() << "MotionBenchMaker's Panda set is not here (tests/CMakeLists.txt: RMPMARL_MBM_PANDA)";
+  const fs::path yaml = fs::path(RMPMARL_TEST_DATA_DIR) / "../../configs/benchmarks/mbm-panda.tight.collision.yaml";
+  const Robot robot = LoadRobot(dir / "panda.urdf", yaml);
+  ASSERT_FALSE(robot.self_capsules.empty());
+  for (const std::vector<LinkCapsule>* set : {&robot.capsules, &robot.self_capsules}) {
+    const auto worst = FarthestOutside(robot, *set, dir, 20000);
+    EXPECT_EQ(worst.size(), 11u);
+    for (const auto& [link, w] : worst) EXPECT_LE(w, kAllowedOutside) << link << ": " << 1e3 * w << " mm outside";
+  }
 }
 
 TEST(MeshCover, AFitFromTheMeshesCoversThemAndSaysSo) {
@@ -145,7 +159,7 @@ TEST(MeshCover, AFitFromTheMeshesCoversThemAndSaysSo) {
   RobotSetupOptions options;
   options.package_paths = {dir};
   const RobotSetup setup = FitRobot(dir / "panda.urdf", options);
-  const auto worst = FarthestOutside(setup.robot, dir, 50000);
+  const auto worst = FarthestOutside(setup.robot, setup.robot.capsules, dir, 50000);
   EXPECT_EQ(worst.size(), 11u);
   for (const auto& [link, w] : worst) EXPECT_LE(w, kAllowedOutside) << link << ": " << 1e3 * w << " mm outside";
   for (const LinkFit& fit : setup.links) {

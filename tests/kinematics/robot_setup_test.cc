@@ -157,6 +157,26 @@ TEST(RobotSetup, ReadsAMeshTheTestWroteAndFitsItTightly) {
   EXPECT_GT(split.capsules.size(), 1u);
   EXPECT_LT(split.excess, fit.excess);
   EXPECT_LE(split.outside, 1e-9);
+  // the link's own tolerance instead of the cover's: the one capsule again, the other links as the default fit
+  RobotSetupOptions own = Options(dir);
+  own.link_tolerance["link2"] = 0.05;
+  const RobotSetup per_link = FitRobot(urdf, own);
+  EXPECT_EQ(FitOf(per_link, "link2").capsules.size(), 1u);
+  EXPECT_EQ(FitOf(per_link, "link2").excess, fit.excess);
+  for (const LinkFit& other : per_link.links) {
+    if (per_link.robot.model.link(other.link).name == "link2") continue;
+    EXPECT_EQ(other.capsules.size(), tight.links[other.link].capsules.size());
+    EXPECT_EQ(other.excess, tight.links[other.link].excess);
+  }
+  own.link_tolerance = {{"no_such_link", 0.02}};
+  try {
+    FitRobot(urdf, own);
+    ADD_FAILURE() << "an unknown link's tolerance was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no link named 'no_such_link'"), std::string::npos) << e.what();
+  }
+  own.link_tolerance = {{"link2", -1.0}};
+  EXPECT_THROW(FitRobot(urdf, own), InputError);
 }
 
 TEST(RobotSetup, ReadsObjAndColladaWithItsUnitAndWithoutItsUpAxis) {

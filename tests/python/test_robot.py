@@ -50,6 +50,27 @@ def test_forward_kinematics_is_consistent_with_the_end_effector_and_capsules():
     assert caps.shape == (robot.num_capsules, 7) and np.all(caps[:, 6] > 0)
 
 
+def test_self_collision_capsules_are_the_yamls_second_cover_or_the_capsules(tmp_path):
+    panda = rmpmarl.Robot("panda")
+    q = np.linspace(-0.5, 0.5, panda.nq)
+    np.testing.assert_array_equal(panda.self_collision_capsules(q), panda.capsules(q))
+    # the shipped YAML with a second, fatter cover of the same capsules
+    directory = os.path.join(rmpmarl.models_directory(), "robots", "panda")
+    text = open(os.path.join(directory, "collision.yaml")).read()
+    lines = [line for line in text.splitlines() if line.lstrip().startswith("- {link:")]
+    fatter = []
+    for line in lines:
+        head, radius = line.rsplit("radius:", 1)
+        fatter.append(f"{head}radius: {float(radius.strip().rstrip('}')) + 0.01}}}")
+    yaml = tmp_path / "panda.collision.yaml"
+    yaml.write_text(text + "\nself_collision_capsules:\n" + "\n".join(fatter) + "\n")
+    robot = rmpmarl.Robot.from_urdf(os.path.join(directory, "panda.urdf"), collision=str(yaml))
+    caps, self_caps = robot.capsules(q), robot.self_collision_capsules(q)
+    assert self_caps.shape == caps.shape == (len(lines), 7)
+    np.testing.assert_allclose(self_caps[:, :6], caps[:, :6], atol=1e-15)
+    np.testing.assert_allclose(self_caps[:, 6], caps[:, 6] + 0.01, atol=1e-12)
+
+
 def test_a_urdf_loads_with_fitted_capsules_and_the_same_kinematics():
     panda = rmpmarl.Robot("panda")
     urdf = os.path.join(rmpmarl.models_directory(), "robots", "panda", "panda.urdf")

@@ -98,7 +98,7 @@ struct CapsuleCover {
 };
 
 /// covers `geometry` (see the file comment). Throws InputError for empty or non-finite geometry, triangle indices
-/// outside the vertices, or options out of range (tolerance > 0, max_capsules 1 to 64, sample_spacing ≥ 10 µm, the fit's
+/// outside the vertices, or options out of range (tolerance > 0, max_capsules 1 to 256, sample_spacing ≥ 10 µm, the fit's
 /// angle_step and refine_rounds).
 CapsuleCover FitCapsuleCover(const CoverGeometry& geometry, const CapsuleCoverOptions& options = {});
 

@@ -107,11 +107,13 @@ struct RobotSetup {
   std::string end_effector_from;
 };
 
-/// capsules fitted to every link's <collision> (else <visual>) geometry and the end effector; no sampling.
-/// Adjacent pairs (parent–child, frame-only links skipped) are excluded. Throws InputError.
+/// capsules fitted to every link's <collision> (else <visual>) geometry (options.cover, a link's own tolerance from
+/// options.link_tolerance; a second cover into Robot::self_capsules with options.self_cover) and the end effector; no
+/// sampling. Adjacent pairs (parent–child, frame-only links skipped) are excluded. Throws InputError.
 RobotSetup FitRobot(const std::filesystem::path& urdf_path, const RobotSetupOptions& options = {});
 
-/// distance statistics of every non-adjacent pair of links with capsules over options.samples configurations drawn
+/// distance statistics (on the self-collision capsules, Robot::self_collision_capsules) of every non-adjacent pair of
+/// links with capsules over options.samples configurations drawn
 /// uniformly within the joint limits from options.seed (continuous joints in [−π, π]); identical for a seed.
 std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotSetupOptions& options);
 
@@ -124,7 +126,7 @@ RobotSetup SetupRobot(const std::filesystem::path& urdf_path, const RobotSetupOp
 /// √det(J Jᵀ) of the 6 x nq end-effector Jacobian (√det(Jᵀ J) when nq < 6) at q.
 double Manipulability(const Robot& robot, const Eigen::VectorXd& q);
 
-/// smallest capsule distance between non-excluded link pairs at q, and the pair (links) that attains it
+/// smallest self-collision capsule distance between non-excluded link pairs at q, and the pair (links) that attains it
 /// (-1, -1 and +inf when there is no such pair).
 struct ClosestPair {
   int link_a = -1, link_b = -1;
@@ -132,7 +134,7 @@ struct ClosestPair {
 };
 ClosestPair ClosestSelfCollisionPair(const Robot& robot, const Eigen::VectorXd& q);
 
-/// every non-excluded link pair closer than `distance` at q, closest first.
+/// every non-excluded link pair whose self-collision capsules are closer than `distance` at q, closest first.
 std::vector<ClosestPair> SelfCollisionPairsWithin(const Robot& robot, const Eigen::VectorXd& q, double distance);
 
 /// the collision YAML (docs/robot-description.md) of a setup, with comments saying where each capsule came from.
