@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <initializer_list>
 #include <limits>
 #include <random>
 #include <string>
@@ -320,6 +321,28 @@ kinematics::Robot Sliced(kinematics::Robot robot, int pieces) {
   return robot;
 }
 
+// lazy self and floor checks at `steps` + 1 configurations along each of 3 random straight paths (where the self-pair
+// memory skips link pairs) answer as the exhaustive search; counts the free answers and the checks
+void CheckPathsAgainstTheExhaustiveSearch(const kinematics::Robot& robot, const RobotCollisionModel& model, int steps,
+                                          std::initializer_list<double> margins, std::mt19937_64& rng,
+                                          RobotCollisionData* lazy, int* free, int* checks) {
+  for (int path = 0; path < 3; ++path) {
+    const VectorXd a = testing::RandomConfiguration(robot.model, rng);
+    const VectorXd b = testing::RandomConfiguration(robot.model, rng);
+    for (int k = 0; k <= steps; ++k) {
+      const VectorXd q = a + (b - a) * (static_cast<double>(k) / steps);
+      const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
+      for (double margin : margins) {
+        const bool answer =
+            CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, margin, margin, false, lazy);
+        ASSERT_EQ(answer, std::min(e.self, e.floor) > margin) << robot.name << " path " << path << " step " << k;
+        *free += answer;
+        ++*checks;
+      }
+    }
+  }
+}
+
 TEST(RobotCollisionCheckerTest, ClustersOfManyCapsulesPerLinkAnswerAsTheExhaustiveSearch) {
   std::mt19937_64 rng(41);
   int free = 0, checks = 0;
@@ -360,21 +383,7 @@ TEST(RobotCollisionCheckerTest, ClustersOfManyCapsulesPerLinkAnswerAsTheExhausti
       }
     }
     // along straight paths, where the self-pair memory skips link pairs
-    for (int path = 0; path < 3; ++path) {
-      const VectorXd a = testing::RandomConfiguration(robot.model, rng);
-      const VectorXd b = testing::RandomConfiguration(robot.model, rng);
-      for (int k = 0; k <= 100; ++k) {
-        const VectorXd q = a + (b - a) * (k / 100.0);
-        const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
-        for (double margin : {0.0, 0.02}) {
-          const bool answer = CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, margin, margin,
-                                                       false, &lazy);
-          ASSERT_EQ(answer, std::min(e.self, e.floor) > margin) << name << " path " << path << " step " << k;
-          free += answer;
-          ++checks;
-        }
-      }
-    }
+    CheckPathsAgainstTheExhaustiveSearch(robot, model, 100, {0.0, 0.02}, rng, &lazy, &free, &checks);
   }
   EXPECT_GT(free, checks / 10);
   EXPECT_LT(free, checks * 9 / 10);
@@ -422,19 +431,7 @@ TEST(RobotCollisionCheckerTest, ASeparateSelfCollisionSetIsWhatTheSelfPairsAreCh
         EXPECT_EQ(CheckConfigCollisionFree(model, q, obstacles, margin, &lazy), e.all() > margin);
       }
     }
-    for (int path = 0; path < 3; ++path) {
-      const VectorXd a = testing::RandomConfiguration(robot.model, rng);
-      const VectorXd b = testing::RandomConfiguration(robot.model, rng);
-      for (int k = 0; k <= 60; ++k) {
-        const VectorXd q = a + (b - a) * (k / 60.0);
-        const Exhaustive e = ExhaustiveClearance(robot, q, {}, true);
-        const bool answer =
-            CheckConfigCollisionFree(model, q, std::span<const rmp::Obstacle>{}, 0.01, 0.01, false, &lazy);
-        ASSERT_EQ(answer, std::min(e.self, e.floor) > 0.01) << name << " path " << path << " step " << k;
-        free += answer;
-        ++checks;
-      }
-    }
+    CheckPathsAgainstTheExhaustiveSearch(robot, model, 60, {0.01}, rng, &lazy, &free, &checks);
   }
   EXPECT_GT(self_differs, 60);  // the two sets' self clearances differ: the test tells them apart
   EXPECT_GT(free, checks / 10);
