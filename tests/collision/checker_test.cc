@@ -483,7 +483,9 @@ TEST(RobotCollisionCheckerTest, CoarseToFineVisitsEveryStateOnceTheEndFirst) {
       return true;
     }));
     ASSERT_EQ(static_cast<int>(order.size()), n) << "n=" << n;
-    if (n > 0) EXPECT_EQ(order.front(), n);
+    if (n > 0) {
+      EXPECT_EQ(order.front(), n);
+    }
     std::vector<int> sorted = order;
     std::sort(sorted.begin(), sorted.end());
     for (int k = 1; k <= n; ++k) EXPECT_EQ(sorted[k - 1], k) << "n=" << n;
@@ -556,8 +558,12 @@ TEST(RobotCollisionCheckerTest, ModelListsTheCheckedPairsBothWaysAndTheFloorCaps
   const int link6 = robot.model.LinkIndex("panda_link6");
   for (int c = 0; c < model.num_capsules(); ++c) {
     const int link = robot.capsules[c].link;
-    if (link == link0 || link == link1) EXPECT_FALSE(model.floor_checked(c));
-    if (link == link6) EXPECT_TRUE(model.floor_checked(c));
+    if (link == link0 || link == link1) {
+      EXPECT_FALSE(model.floor_checked(c));
+    }
+    if (link == link6) {
+      EXPECT_TRUE(model.floor_checked(c));
+    }
   }
   EXPECT_THROW(RobotCollisionModel(robot, {.check_floor = true, .floor_height = NAN}), InputError);
 }

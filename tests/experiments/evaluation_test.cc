@@ -105,7 +105,9 @@ TEST(IdenticalEpisodesTest, EveryMethodSeesTheSameEpisode) {
                              EXPECT_EQ(f.scenario->obstacles()[j].v_WO(), ref.scenario().obstacles()[j].v_WO());
                            }
                          }
-                         if (f.index == 30) EXPECT_EQ(f.scenario->target().p_WT, ref.scenario().target().p_WT);
+                         if (f.index == 30) {
+                           EXPECT_EQ(f.scenario->target().p_WT, ref.scenario().target().p_WT);
+                         }
                        }});
     EXPECT_GT(frames, 30);
   }

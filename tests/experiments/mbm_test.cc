@@ -158,14 +158,18 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
                 "rad, first plan %.1f ms, %d plans\n", r.method.c_str(), r.success, r.collisions, 1e3 * r.final_error,
                 r.joint_error, r.path_length, 1e3 * r.planning_time, r.plans);
     // the reactive methods never touch the wall; the plan executed open loop may (its PD tracking cuts corners)
-    if (r.method != "rrt-connect") EXPECT_EQ(r.collisions, 0);
+    if (r.method != "rrt-connect") {
+      EXPECT_EQ(r.collisions, 0);
+    }
     if (r.method == "rrt-connect" || r.method == "plan+rmpflow") {
       EXPECT_TRUE(r.reached) << "final error " << r.final_error << " m";
       EXPECT_GT(r.planning_time, 0.0);
       EXPECT_GE(r.plans, 1);
       EXPECT_GT(r.path_length, 0.0);
     }
-    if (r.method == "plan+rmpflow") EXPECT_TRUE(r.success);
+    if (r.method == "plan+rmpflow") {
+      EXPECT_TRUE(r.success);
+    }
     if (r.method == "rrt-connect") {
       EXPECT_LT(r.joint_error, 0.01);
     }
@@ -179,8 +183,12 @@ TEST(MbmBenchmarkTest, AWallAcrossTheWayToAJointGoal) {
   EXPECT_DOUBLE_EQ(again[0].final_error, results[3].final_error);
   // why a run failed (results.csv's reason), none for a success
   for (const MbmResult& r : results) {
-    if (r.success) EXPECT_EQ(r.reason, "") << r.method;
-    if (r.valid && !r.success) EXPECT_FALSE(r.reason.empty()) << r.method;
+    if (r.success) {
+      EXPECT_EQ(r.reason, "") << r.method;
+    }
+    if (r.valid && !r.success) {
+      EXPECT_FALSE(r.reason.empty()) << r.method;
+    }
   }
   MbmOptions hurried = options;
   hurried.duration = 0.3;
