@@ -378,7 +378,7 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
   add_groups(num_capsules, num_placed);
   // the self pairs: of the self-collision set when there is one
   const bool separate = num_placed > num_capsules;
-  const int self_begin = separate ? num_capsules : 0;
+  const int self_begin = separate ? num_capsules : 0, self_end = separate ? num_placed : num_capsules;
   const int group_begin = separate ? num_obstacle_groups_ : 0;
   const int group_end = separate ? static_cast<int>(link_groups_.size()) : num_obstacle_groups_;
   for (int ga = group_begin; ga < group_end; ++ga) {
@@ -392,8 +392,8 @@ RobotCollisionModel::RobotCollisionModel(const kinematics::Robot& robot, const R
       self_link_pairs_.push_back(pair);
     }
   }
-  for (int a = self_begin; a < num_placed; ++a) {
-    for (int b = a + 1; b < (separate ? num_placed : num_capsules); ++b) {
+  for (int a = self_begin; a < self_end; ++a) {
+    for (int b = a + 1; b < self_end; ++b) {
       const int la = capsules_[a].link, lb = capsules_[b].link;
       if (la != lb && !robot_.IsExcludedPair(la, lb)) self_pairs_.emplace_back(a, b);
     }

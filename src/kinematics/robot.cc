@@ -118,15 +118,10 @@ void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
       yaml.Fail(self, "self_collision_capsules", "expected a non-empty list of {link, a, b, radius}");
     }
     read_capsules(self, "self_collision_capsules", &robot->self_capsules);
-    // the two sets cover the same links: a link with capsules has self-collision capsules and the reverse
-    std::vector<int> self_count(model.num_links(), 0);
-    for (const LinkCapsule& c : robot->self_capsules) ++self_count[c.link];
-    for (int k = 0; k < model.num_links(); ++k) {
-      if ((capsule_count[k] == 0) != (self_count[k] == 0)) {
-        throw InputError(fmt::format("{}: link '{}' has {} capsules and {} self_collision_capsules: expected both "
-                                     "sets to cover the same links", file, model.link(k).name, capsule_count[k],
-                                     self_count[k]));
-      }
+    if (const int k = robot->LinkInOneCoverOnly(); k >= 0) {
+      throw InputError(fmt::format("{}: link '{}' has {} capsules and {} self_collision_capsules: expected both "
+                                   "sets to cover the same links", file, model.link(k).name, capsule_count[k],
+                                   Robot::CountOn(robot->self_capsules, k)));
     }
   }
 
@@ -161,6 +156,18 @@ void ParseCollisionYaml(const std::filesystem::path& path, Robot* robot) {
 }
 
 }  // namespace
+
+int Robot::CountOn(const std::vector<LinkCapsule>& set, int link) {
+  return static_cast<int>(std::count_if(set.begin(), set.end(), [link](const LinkCapsule& c) { return c.link == link; }));
+}
+
+int Robot::LinkInOneCoverOnly() const {
+  if (self_capsules.empty()) return -1;
+  for (int k = 0; k < model.num_links(); ++k) {
+    if ((CountOn(capsules, k) == 0) != (CountOn(self_capsules, k) == 0)) return k;
+  }
+  return -1;
+}
 
 bool Robot::IsExcludedPair(int i, int j) const {
   const std::pair<int, int> key(std::min(i, j), std::max(i, j));

@@ -257,9 +257,7 @@ void CheckWorldInputs(const Robot& robot, const SceneSpec& scene, const WorldOpt
       CheckNonNegative(options.servo.damping[i], fmt::format("WorldOptions.servo.damping[{}]", i));
     }
   }
-  std::vector<int> count(num_links, 0), self_count(num_links, 0);
-  auto check_capsules = [&](const std::vector<kinematics::LinkCapsule>& capsules, const char* name,
-                            std::vector<int>* per_link) {
+  auto check_capsules = [&](const std::vector<kinematics::LinkCapsule>& capsules, const char* name) {
     for (size_t c = 0; c < capsules.size(); ++c) {
       const kinematics::LinkCapsule& cap = capsules[c];
       const std::string what = fmt::format("robot '{}' {}[{}]", robot.name, name, c);
@@ -268,17 +266,15 @@ void CheckWorldInputs(const Robot& robot, const SceneSpec& scene, const WorldOpt
       }
       if (!cap.p_LA.allFinite() || !cap.p_LB.allFinite()) Fail(what, "finite end points", "non-finite entries");
       CheckPositive(cap.radius, what + ".radius");
-      ++(*per_link)[cap.link];
     }
   };
-  check_capsules(robot.capsules, "capsules", &count);
-  check_capsules(robot.self_capsules, "self_capsules", &self_count);
-  for (int k = 0; k < num_links && !robot.self_capsules.empty(); ++k) {
-    if ((count[k] == 0) != (self_count[k] == 0)) {
-      Fail(fmt::format("robot '{}' link '{}'", robot.name, robot.model.link(k).name),
-           "capsules and self_capsules on the same links", fmt::format("{} capsules and {} self_capsules", count[k],
-                                                                      self_count[k]));
-    }
+  check_capsules(robot.capsules, "capsules");
+  check_capsules(robot.self_capsules, "self_capsules");
+  if (const int k = robot.LinkInOneCoverOnly(); k >= 0) {
+    Fail(fmt::format("robot '{}' link '{}'", robot.name, robot.model.link(k).name),
+         "capsules and self_capsules on the same links",
+         fmt::format("{} capsules and {} self_capsules", Robot::CountOn(robot.capsules, k),
+                     Robot::CountOn(robot.self_capsules, k)));
   }
   for (size_t j = 0; j < scene.obstacles.size(); ++j) {
     const ObstacleSpec& obs = scene.obstacles[j];

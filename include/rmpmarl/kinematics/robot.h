@@ -63,6 +63,11 @@ struct Robot {
   const std::vector<LinkCapsule>& self_collision_capsules() const {
     return self_capsules.empty() ? capsules : self_capsules;
   }
+  /// with self_capsules: the first link with capsules in one set and none in the other (-1: none, or no such set);
+  /// both sets must cover the same links
+  int LinkInOneCoverOnly() const;
+  /// the capsules of `set` (capsules or self_capsules) on `link`
+  static int CountOn(const std::vector<LinkCapsule>& set, int link);
 };
 
 /// parses a URDF file into a Model (revolute, continuous, prismatic, fixed joints; any tree). Throws InputError.
