@@ -47,7 +47,10 @@ PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
     : robot_(robot), reactive_(std::move(reactive)), options_(options), planner_(robot, options.planner),
       kin_(robot.model), checker_(robot, {options.planner.check_floor, options.planner.floor_height}), placed_(checker_) {
   ValidatePlanFollowOptions(options_);
-  if (reactive_ == nullptr) options_.replan = false;  // open loop: planned once
+  if (reactive_ == nullptr) {  // open loop: planned once, inside the call
+    options_.replan = false;
+    options_.plan_beside_loop = false;
+  }
   const int nq = robot_.model.nq();
   if (reactive_ != nullptr && reactive_->nq() != nq) {
     throw InputError(fmt::format("PlanFollowPolicy: the reactive layer '{}' has {} joints, robot '{}' has {}",
@@ -66,13 +69,14 @@ PlanFollowPolicy::PlanFollowPolicy(const kinematics::Robot& robot,
   follow_.q_T.setZero(nq);
 }
 
-PlanFollowPolicy::~PlanFollowPolicy() = default;
+PlanFollowPolicy::~PlanFollowPolicy() { DropPlan(); }
 
 std::string PlanFollowPolicy::name() const { return reactive_ ? "plan+" + reactive_->name() : "rrt-connect"; }
 
 int PlanFollowPolicy::nq() const { return robot_.model.nq(); }
 
 void PlanFollowPolicy::Reset(const Eigen::Ref<const Eigen::VectorXd>& q0) {
+  DropPlan();  // the last episode's
   planner_.Reset(q0);
   if (reactive_) reactive_->Reset(q0);
   stats_ = PlanFollowStats{};
@@ -104,60 +108,105 @@ const char* PlanOutcomeName(PlanOutcome outcome) {
   return "not yet";
 }
 
-bool PlanFollowPolicy::Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
-  const auto start = std::chrono::steady_clock::now();
+void PlanFollowPolicy::BeginAttempt(const rmp::Scene& scene) {
   ++stats_.plans_attempted;
   last_attempt_ = time_;
   planned_once_ = true;
   planned_q_T_ = scene.q_T;
   planned_p_WT_ = scene.p_WT;
-  bool ok = false;
-  // the goal: the scene's joint goal, else a valid IK configuration at its target
+}
+
+PlanFollowPolicy::PlanResult PlanFollowPolicy::ComputePlan(const PlanRequest& request, const rmp::Scene& scene) {
+  PlanResult r;
+  // the goal: the scene's joint goal, else a valid IK configuration at its target (else the one known before)
+  r.has_goal = request.has_goal;
+  r.q_goal = request.q_goal;
   if (scene.q_T.size() > 0) {
-    q_goal_ = scene.q_T;
-    has_goal_ = true;
+    r.q_goal = scene.q_T;
+    r.has_goal = true;
   } else if (scene.has_target) {
-    const IkResult ik = planner_.SolveIk(q, scene);
-    has_goal_ = ik.found && ik.reached;
-    if (has_goal_) q_goal_ = ik.q;
+    const IkResult ik = planner_.SolveIk(request.q, scene);
+    r.has_goal = ik.found && ik.reached;
+    if (r.has_goal) r.q_goal = ik.q;
   }
-  if (!has_goal_) {
-    ++stats_.goal_failures;
-    stats_.last_outcome = PlanOutcome::kNoGoal;
-  } else {
+  if (!r.has_goal) {
+    ++r.goal_failures;
+    r.outcome = PlanOutcome::kNoGoal;
+    return r;
+  }
+  // from the arm; from a start too close to something (the reactive layer holds a few cm), from the reference
+  r.path = planner_.PlanPath(request.q, r.q_goal, scene);
+  if (r.path.empty() && request.q_reference.size() > 0) r.path = planner_.PlanPath(request.q_reference, r.q_goal, scene);
+  r.margin = planner_.last_plan_margin();  // the path is checked against what it was planned with
+  r.outcome = PlanOutcome::kNoPath;
+  if (r.path.empty() && !planner_.IsStateValid(r.q_goal, scene)) {
+    ++r.goal_failures;
+    r.outcome = PlanOutcome::kGoalInCollision;
+  }
+  if (!r.path.empty()) r.outcome = PlanOutcome::kPlanned;
+  return r;
+}
+
+bool PlanFollowPolicy::AdoptPlan(PlanResult result, double seconds) {
+  has_goal_ = result.has_goal;
+  if (has_goal_) {
+    q_goal_ = std::move(result.q_goal);
     p_WG_ = EndEffectorAt(q_goal_);
-    // from the arm; from a start too close to something (the reactive layer holds a few cm), from the reference
-    std::vector<Eigen::VectorXd> path = planner_.PlanPath(q, q_goal_, scene);
-    if (path.empty() && !path_.empty() && !(q_d_ - q).isZero()) {
-      path = planner_.PlanPath(q_d_, q_goal_, scene);
-    }
-    plan_margin_ = planner_.last_plan_margin();  // the path is checked against what it was planned with
-    stats_.last_outcome = PlanOutcome::kNoPath;
-    if (path.empty() && !planner_.IsStateValid(q_goal_, scene)) {
-      ++stats_.goal_failures;
-      stats_.last_outcome = PlanOutcome::kGoalInCollision;
-    }
-    if (!path.empty()) {
-      stats_.last_outcome = PlanOutcome::kPlanned;
-      path_ = std::move(path);
-      path_times_ = PathArrivalTimes(path_, v_path_);
-      path_s_ = PathArcLengths(path_);
-      CornerSpeeds();
-      s_near_ = s_ref_ = 0.0;
-      segment_ = 0;
-      if (stats_.plans_succeeded == 0) stats_.first_path_length = path_s_.back();
-      ++stats_.plans_succeeded;
-      tau_ = 0.0;
-      last_progress_ = last_check_ = time_;
-      ok = true;
-    }
+    plan_margin_ = result.margin;
   }
-  // no new path: the old one is stale (stalled, blocked or for another goal); the reactive layer goes for the scene's
-  // goal until a plan succeeds
-  if (!ok) path_.clear();
-  stats_.planning_times_s.push_back(
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  stats_.goal_failures += result.goal_failures;
+  stats_.last_outcome = result.outcome;
+  const bool ok = !result.path.empty();
+  if (ok) {
+    path_ = std::move(result.path);
+    path_times_ = PathArrivalTimes(path_, v_path_);
+    path_s_ = PathArcLengths(path_);
+    CornerSpeeds();
+    s_near_ = s_ref_ = 0.0;
+    segment_ = 0;
+    if (stats_.plans_succeeded == 0) stats_.first_path_length = path_s_.back();
+    ++stats_.plans_succeeded;
+    tau_ = 0.0;
+    last_progress_ = last_check_ = time_;
+  } else {
+    // no new path: the old one is stale (stalled, blocked or for another goal); the reactive layer goes for the
+    // scene's goal until a plan succeeds
+    path_.clear();
+  }
+  stats_.planning_times_s.push_back(seconds);
   return ok;
+}
+
+void PlanFollowPolicy::StartPlan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
+  const auto start = std::chrono::steady_clock::now();
+  BeginAttempt(scene);
+  PlanRequest request{.q = q, .q_reference = {}, .scene = {}, .has_goal = has_goal_, .q_goal = q_goal_};
+  if (!path_.empty() && !(q_d_ - q).isZero()) request.q_reference = q_d_;
+  if (!options_.plan_beside_loop) {
+    PlanResult result = ComputePlan(request, scene);
+    AdoptPlan(std::move(result), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    return;
+  }
+  request.scene = scene;  // the worker's own copy: the caller's scene changes at the next step
+  pending_ = std::async(std::launch::async, [this, request = std::move(request), start] {
+    PlanResult result = ComputePlan(request, request.scene);
+    return std::make_pair(std::move(result),
+                          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  });
+}
+
+bool PlanFollowPolicy::PollPlan() {
+  if (!pending_.valid()) return false;
+  if (pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return true;
+  auto [result, seconds] = pending_.get();
+  AdoptPlan(std::move(result), seconds);
+  return false;
+}
+
+void PlanFollowPolicy::DropPlan() {
+  if (!pending_.valid()) return;
+  pending_.wait();
+  pending_ = {};  // its result, or what it threw, goes unread
 }
 
 Eigen::Vector3d PlanFollowPolicy::EndEffectorAt(const Eigen::Ref<const Eigen::VectorXd>& q) {
@@ -293,19 +342,25 @@ bool PlanFollowPolicy::GoalMoved(const rmp::Scene& scene) const {
 
 void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene,
                                bool control_step) {
+  // a plan beside the loop: nothing else until it is ready (the path checks use the planner it runs on); switching to
+  // it ends this call
+  if (pending_.valid()) {
+    PollPlan();
+    return;
+  }
   if (!planned_once_) {
-    Plan(q, scene);
+    StartPlan(q, scene);
     return;
   }
   if (!options_.replan) return;
   if (path_.empty()) {
-    if (time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) Plan(q, scene);
+    if (time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) StartPlan(q, scene);
     return;
   }
   if (!control_step) return;
   if (GoalMoved(scene) && time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) {
     ++stats_.replans_moved;
-    Plan(q, scene);
+    StartPlan(q, scene);
     return;
   }
   // at the goal: the configuration within the tolerance, or the end effector within it [m] of the goal's (a reactive
@@ -315,14 +370,14 @@ void PlanFollowPolicy::Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const
   if (!at_goal && time_ - last_progress_ >= options_.stall_time - kTimeEpsilon &&
       time_ - last_attempt_ >= options_.planner.retry_period - kTimeEpsilon) {
     ++stats_.replans_stalled;
-    Plan(q, scene);
+    StartPlan(q, scene);
     return;
   }
   if (!at_goal && time_ - last_check_ >= options_.check_period - kTimeEpsilon) {
     last_check_ = time_;
     if (!RestValid(scene)) {
       ++stats_.replans_blocked;
-      Plan(q, scene);
+      StartPlan(q, scene);
     }
   }
 }
@@ -401,7 +456,8 @@ void PlanFollowPolicy::BeginControlStep(const Eigen::Ref<const Eigen::VectorXd>&
 
 void PlanFollowPolicy::Evaluate(const Eigen::Ref<const Eigen::VectorXd>& q, const Eigen::Ref<const Eigen::VectorXd>& qd,
                                 const rmp::Scene& scene, Eigen::Ref<Eigen::VectorXd> qdd) {
-  if (!planned_once_) Advance(q, scene, /*control_step=*/false);  // a caller without control steps
+  // a caller without control steps plans here; a plan beside the loop is switched to as soon as it is ready
+  if (!planned_once_ || pending_.valid()) Advance(q, scene, /*control_step=*/false);
   const double dt = options_.planner.evaluation_period;
   if (reactive_ == nullptr) {
     if (path_.empty()) {

@@ -17,7 +17,8 @@ PlanFollowOptions LoadPlanFollowOptions(const std::filesystem::path& path, PlanF
   RrtOptions& p = o.planner;
   internal::ReadYamlSection(
       r, root, "",
-      {internal::FlagField(r, "replan", &o.replan), internal::NumberField(r, "lookahead", &o.lookahead),
+      {internal::FlagField(r, "replan", &o.replan), internal::FlagField(r, "plan_beside_loop", &o.plan_beside_loop),
+       internal::NumberField(r, "lookahead", &o.lookahead),
        internal::NumberField(r, "corner_velocity_jump", &o.corner_velocity_jump),
        internal::NumberField(r, "approach_distance", &o.approach_distance),
        internal::FlagField(r, "acceleration_feedforward", &o.acceleration_feedforward),

@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <thread>
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/control/learned_controller.h"
@@ -143,6 +145,64 @@ TEST(PlanFollowTest, TheLearnedControllerFollowsThePlanAroundTheWall) {
   EXPECT_TRUE(o.metrics.reached);
   EXPECT_LT(o.metrics.final_tracking_error, 0.02);
   EXPECT_LT(o.joint_error, 0.02);
+}
+
+// a plan beside the loop: the step that starts it returns while it runs (the layer going for the scene's goal
+// meanwhile), later steps switch to it when it is ready, and it is the plan the step would have made itself, waypoint
+// for waypoint; a Reset drops a plan in flight
+TEST(PlanFollowTest, APlanBesideTheLoopHoldsNoStepAndIsTheSamePlan) {
+  const Problem p = WallProblem();
+  const rmp::Scene scene = WallScene(p);
+  PlanFollowOptions options = IterationBudget();
+  options.planner.seed = 4;
+  options.planner.validity_resolution = 0.001;  // ten times the checks: a plan of tens of ms on any machine
+  const VectorXd qd = VectorXd::Zero(p.q_start.size());
+  VectorXd qdd(p.q_start.size());
+
+  PlanFollowPolicy inside(p.robot, std::make_unique<control::RmpflowAccelerationPolicy>(p.robot, 1), options);
+  inside.Reset(p.q_start);
+  inside.BeginControlStep(p.q_start, qd, scene);
+  ASSERT_EQ(inside.stats().plans_succeeded, 1);
+  EXPECT_FALSE(inside.planning());
+  const double plan_s = inside.stats().planning_times_s.at(0);
+
+  options.plan_beside_loop = true;
+  PlanFollowPolicy beside(p.robot, std::make_unique<control::RmpflowAccelerationPolicy>(p.robot, 1), options);
+  for (int episode = 0; episode < 2; ++episode) {
+    beside.Reset(p.q_start);
+    const auto start = std::chrono::steady_clock::now();
+    beside.BeginControlStep(p.q_start, qd, scene);
+    const double first_call_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(beside.planning());
+    EXPECT_EQ(beside.stats().plans_attempted, 1);
+    EXPECT_EQ(beside.stats().last_outcome, PlanOutcome::kNone);
+    EXPECT_TRUE(beside.path().empty());
+    EXPECT_LT(first_call_s, plan_s);
+    if (episode == 0) continue;  // the next Reset drops the plan in flight
+    beside.Evaluate(p.q_start, qd, scene, qdd);  // the layer alone, toward the scene's goal
+    EXPECT_TRUE(qdd.allFinite());
+    int steps = 0;
+    while (beside.planning()) {
+      beside.BeginControlStep(p.q_start, qd, scene);
+      beside.Evaluate(p.q_start, qd, scene, qdd);
+      ++steps;
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    std::printf("[ beside   ] plan %.1f ms inside the step; beside the loop: the first step %.3f ms, the plan arrived "
+                "after %d more steps\n", 1e3 * plan_s, 1e3 * first_call_s, steps);
+    EXPECT_EQ(beside.stats().plans_attempted, 1);
+    EXPECT_EQ(beside.stats().plans_succeeded, 1);
+    EXPECT_EQ(beside.stats().last_outcome, PlanOutcome::kPlanned);
+    EXPECT_EQ(beside.stats().planning_times_s.size(), 1u);
+    ASSERT_EQ(beside.path().size(), inside.path().size());
+    for (size_t k = 0; k < inside.path().size(); ++k) EXPECT_EQ(beside.path()[k], inside.path()[k]) << k;
+  }
+  // open loop plans inside the call whatever the option says
+  PlanFollowPolicy open_loop(p.robot, nullptr, options);
+  open_loop.Reset(p.q_start);
+  open_loop.BeginControlStep(p.q_start, qd, scene);
+  EXPECT_FALSE(open_loop.planning());
+  EXPECT_EQ(open_loop.stats().plans_succeeded, 1);
 }
 
 // the goal moving: a joint goal moved by more than the tolerance, or a target by more than goal_shift, is planned for
@@ -386,6 +446,7 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
   EXPECT_EQ(o.goal_tolerance, d.goal_tolerance);
   EXPECT_EQ(o.goal_shift, d.goal_shift);
   EXPECT_EQ(o.replan, d.replan);
+  EXPECT_EQ(o.plan_beside_loop, d.plan_beside_loop);
   EXPECT_EQ(o.planner.path_speed_fraction, d.planner.path_speed_fraction);
   EXPECT_EQ(o.planner.validity_resolution, d.planner.validity_resolution);
   EXPECT_EQ(o.planner.retry_period, d.planner.retry_period);
@@ -407,6 +468,7 @@ TEST(PlanFollowTest, TheConfigFileHoldsTheBuiltInValuesAndBadFilesAreRefused) {
   const PlanFollowOptions read = LoadPlanFollowOptions(write("one.yaml", "lookahead: 0.2\n"), base);
   EXPECT_EQ(read.lookahead, 0.2);
   EXPECT_EQ(read.planner.retry_period, 0.5);
+  EXPECT_TRUE(LoadPlanFollowOptions(write("beside.yaml", "plan_beside_loop: true\n")).plan_beside_loop);
   for (const auto& [text, expected] : std::initializer_list<std::pair<const char*, const char*>>{
            {"look_ahead: 0.2\n", "look_ahead"},
            {"planner:\n  kp: fast\n", "planner.kp"},

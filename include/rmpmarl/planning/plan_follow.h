@@ -28,11 +28,21 @@
 /// segment at path_speed_fraction × the velocity limits), by the planner's joint PD law (q̈ = kp (q_d(t) − q) + kd
 /// (q̇_d(t) − q̇)) on the clock, planned once: the RRT-Connect baseline of the benchmarks.
 ///
-/// Evaluate allocates nothing between plans; a plan allocates (OMPL's trees, the path).
+/// Plans beside the loop (options.plan_beside_loop): a plan runs on a worker thread, so the call that starts it returns
+/// at once. Until the plan is ready the follower keeps to the path it has (with none, the reactive layer goes for the
+/// scene's goal) and starts no other plan; the first call that finds it ready switches to it. A plan is the same
+/// function of (start, goal, scene, seed) as when it runs inside the call; the path starts where the arm was when it
+/// began, and the follower projects the arm onto it, forward from there. A run is then not reproducible: the plan
+/// arrives when the machine has finished it.
+///
+/// Evaluate allocates nothing between plans; a plan allocates (OMPL's trees, the path; beside the loop, a copy of the
+/// scene and the thread).
 #include <Eigen/Core>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rmpmarl/control/controller.h"
@@ -55,6 +65,10 @@ struct PlanFollowOptions {
   /// replan when progress stalls or the path ahead is blocked (false: plan once and never again; always false without
   /// a reactive layer).
   bool replan = true;
+  /// plans run on a worker thread beside the control loop: no call waits for a plan (see the file comment). False:
+  /// the call that starts a plan returns after it (reproducible runs: the benchmarks). Always false without a reactive
+  /// layer.
+  bool plan_beside_loop = false;
   /// the most the reference leads the arm's nearest path point by (arc length) [rad or m], > 0; also the distance
   /// over which the reference slows down before a waypoint (and speeds up after it)
   double lookahead = 0.3;
@@ -148,12 +162,42 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   double path_length() const { return path_.empty() ? 0.0 : path_s_.back(); }
   /// the seed of the planner from the next Reset on.
   void set_seed(std::uint64_t seed) { planner_.set_seed(seed); }
+  /// a plan is running beside the loop (options.plan_beside_loop) and has not been switched to yet.
+  bool planning() const { return pending_.valid(); }
 
  private:
+  // what a planning attempt needs, copied when it starts (a plan beside the loop reads nothing of the follower's)
+  struct PlanRequest {
+    Eigen::VectorXd q;            // plan from here
+    Eigen::VectorXd q_reference;  // then, if that fails, from the reference (empty: not tried)
+    rmp::Scene scene;             // beside the loop: a copy of the scene (else the caller's is read)
+    bool has_goal = false;        // the goal known before (kept when the scene names none)
+    Eigen::VectorXd q_goal;
+  };
+  // what it found
+  struct PlanResult {
+    bool has_goal = false;
+    Eigen::VectorXd q_goal;
+    std::vector<Eigen::VectorXd> path;  // empty: none
+    double margin = 0.0;                // the margin the path was planned with
+    PlanOutcome outcome = PlanOutcome::kNone;
+    int goal_failures = 0;
+  };
+  // the goal, then the path (uses planner_ and nothing else of this object: it may run on the worker thread)
+  PlanResult ComputePlan(const PlanRequest& request, const rmp::Scene& scene);
+  // takes a finished attempt's result: the new path, or none
+  bool AdoptPlan(PlanResult result, double seconds);
+  // counts an attempt and records what it was started for
+  void BeginAttempt(const rmp::Scene& scene);
+  // plans now, or starts a plan beside the loop
+  void StartPlan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
+  // a plan beside the loop: switches to it when it is ready; true while it is still running
+  bool PollPlan();
+  // waits for a plan beside the loop and drops it
+  void DropPlan();
   // plans from q toward the scene's goal when due; keeps the reference time
   bool GoalMoved(const rmp::Scene& scene) const;
   void Advance(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene, bool control_step);
-  bool Plan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
   void PointAt(double s);                       // q_d_ at arc length s, q̇_d_ at the path speed
   void CornerSpeeds();                          // path_segment_speed_ and path_corner_speed_ of a new path
   // the speed limit `distance` from a waypoint of speed `corner`: up to path_top_speed_ over `length`
@@ -198,6 +242,8 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   int segment_ = 0;           // the segment holding it
   double last_progress_ = 0.0, last_check_ = 0.0, last_attempt_ = -1e9;
   double plan_margin_ = 0.0;  // the margin the current path was planned with
+  // a plan running beside the loop: its result and its wall time [s]
+  std::future<std::pair<PlanResult, double>> pending_;
   bool planned_once_ = false;
   bool has_goal_ = false;
 };
