@@ -134,10 +134,12 @@ def rmpflow(robot: Union[Robot, str], max_obstacles: int = 16, config: Optional[
 
 def plan_and_react(robot: Union[Robot, str], layer: str = "rmpflow", max_obstacles: int = 16,
                    planning_budget: float = 1.0, planning_iterations: int = 0, safety_margin: float = 0.01,
-                   seed: int = 0, floor_height: Optional[float] = None) -> Controller:
+                   seed: int = 0, floor_height: Optional[float] = None,
+                   plan_beside_loop: bool = False) -> Controller:
     """a global joint path (RRT-Connect) to the scene's joint_target followed by the reactive layer ('rmpflow' or a
-    controller file), replanning when stalled or blocked; a floor only when floor_height is given; update()'s
-    info['plan'] says whether a path is followed"""
+    controller file), replanning when stalled or blocked; a floor only when floor_height is given; plan_beside_loop:
+    plans run on a worker thread and no update() waits for one; update()'s info['plan'] says whether a path is
+    followed and whether a plan is in flight"""
 def read_planning_scene(path: str, robot: Union[Robot, str, None] = None) -> dict[str, FloatArray]:
     """a MoveIt planning scene's collision objects as update()'s keyword arguments (spheres, boxes, box_rotations,
     cylinders, cylinder_rotations; only the kinds present)"""

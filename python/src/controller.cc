@@ -116,6 +116,7 @@ py::dict PlanInfo(const planning::PlanFollowPolicy& follower) {
   const planning::PlanFollowStats& s = follower.stats();
   py::dict plan;
   plan["status"] = planning::PlanOutcomeName(s.last_outcome);
+  plan["in_flight"] = follower.planning();
   plan["following"] = !follower.path().empty();
   plan["attempts"] = s.plans_attempted;
   plan["succeeded"] = s.plans_succeeded;
@@ -388,7 +389,8 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
                         "torque or inverse-dynamics feed-forward). plan_and_react adds info['plan']: 'status' of the "
                         "last attempt ('not yet', 'planned', 'no goal configuration', 'goal in collision', 'no path "
                         "within the budget'), 'following' (a path is being followed; False: the reactive layer goes "
-                        "for the goal alone), 'attempts', 'succeeded', 'planning_ms' (the last attempt; NaN: none), "
+                        "for the goal alone), 'in_flight' (a plan is running beside the loop), 'attempts', 'succeeded', "
+                        "'planning_ms' (the last finished attempt; NaN: none), "
                         "'path_length' (of the path followed, joint space [rad or m]; 0: none) and 'replans' "
                         "(stalled, blocked, goal moved).") + kSceneDoc).c_str())
       .def("clear_cloud", [](ControllerHandle& h) {
@@ -477,7 +479,7 @@ at the start of every run. Not thread-safe: one controller per thread.)doc")
 std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, const std::string& layer,
                                                    int max_obstacles, double planning_budget, int planning_iterations,
                                                    double safety_margin, std::uint64_t seed,
-                                                   std::optional<double> floor_height) {
+                                                   std::optional<double> floor_height, bool plan_beside_loop) {
   CheckMaxObstacles(max_obstacles);
   if (floor_height && !std::isfinite(*floor_height)) {
     BadArgument(fmt::format("floor_height: expected a finite height [m] or None, got {}", *floor_height));
@@ -497,6 +499,7 @@ std::shared_ptr<ControllerHandle> MakePlanAndReact(const py::handle& robot, cons
   // box below the base would otherwise make every goal beside it unplannable)
   plan.planner.check_floor = floor_height.has_value();
   plan.planner.floor_height = floor_height.value_or(0.0);
+  plan.plan_beside_loop = plan_beside_loop;
   auto follower = planning::MakePlanFollower(u.handle->world->robot(), std::move(u.policy), u.options, plan);
   u.handle->follower = follower.get();
   u.handle->file = layer;
@@ -522,13 +525,17 @@ void BindControllerMakers(py::module_& m) {
   m.def("plan_and_react", &MakePlanAndReact, py::arg("robot"), py::arg("layer") = "rmpflow",
         py::arg("max_obstacles") = 16, py::arg("planning_budget") = 1.0, py::arg("planning_iterations") = 0,
         py::arg("safety_margin") = 0.01, py::arg("seed") = 0, py::arg("floor_height") = py::none(),
+        py::arg("plan_beside_loop") = false,
         "plan, then react (docs/benchmarks.md): a global joint path (RRT-Connect on the capsule model, shortcut) to "
         "the scene's joint_target (or an IK solution of its target), followed by the reactive layer — 'rmpflow' or a "
         "controller file's learned agents — which dodges what moves; replans when progress stalls or the path is "
         "blocked. planning_budget [s] and planning_iterations (0: no cap) end a search; safety_margin [m] is the "
         "planner's clearance. floor_height: a floor plane z = h [m] the planner keeps the arm above (default none: "
         "only the scene's obstacles, as benchmark mbm plans; give the table's height when the arm stands on one). "
-        "update()'s info['plan'] says whether a path is followed and why not. The same Controller interface as "
+        "plan_beside_loop: plans run on a worker thread, so no update() waits for one (the layer goes for the scene's "
+        "goal, or keeps to the old path, until the plan is ready; runs are then not reproducible); False: the update() "
+        "that plans returns after the plan. update()'s info['plan'] says whether a path is followed and why not, and "
+        "'in_flight' whether a plan is running beside the loop. The same Controller interface as "
         "rmpflow() and load_controller().");
 }
 

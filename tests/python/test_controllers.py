@@ -1,6 +1,7 @@
 """rmpmarl.load_controller and rmpmarl.rmpflow: the same numbers as the C++ controllers on the same inputs, the
 scene's bad input refused, and a loop at the control rate that tracks a target past an obstacle."""
 import os
+import time
 
 import numpy as np
 import pytest
@@ -279,11 +280,9 @@ def test_point_cloud_bad_input_and_files(tmp_path):
         rmpmarl.read_point_cloud(str(tmp_path / "missing.ply"))
 
 
-def test_plan_and_react_goes_around_a_wall_to_a_joint_target():
-    """rmpmarl.plan_and_react: RRT-Connect's path around a wall to a joint goal, followed by RMPflow in the user's loop
-    (the commanded state fed back as the measured one): the goal's end effector is reached and no capsule ever
-    touches the wall (a brute-force box distance along every capsule axis)."""
-    robot = rmpmarl.Robot("panda")
+def _wall_problem(robot):
+    """the Panda reaching 45 cm to its left and 15 cm down behind a 24 x 4 x 36 cm wall: (q0, box row, target, joint
+    goal, clearance(q) of the capsules to the wall by brute force along every capsule axis)"""
     q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398])
     centre, half = np.array([0.357, 0.225, 0.515]), np.array([0.12, 0.02, 0.18])
     target = robot.end_effector_position(q0) + [0.0, 0.45, -0.15]
@@ -306,13 +305,22 @@ def test_plan_and_react_goes_around_a_wall_to_a_joint_target():
         q_goal = np.clip(q_goal + J.T @ np.linalg.solve(J @ J.T + 0.0025 * np.eye(3), e), robot.lower_limits,
                          robot.upper_limits)
     assert clearance(q_goal) > 0.02 and clearance(q0) > 0.05
+    return q0, np.array([[*centre, *half]]), target, q_goal, clearance
+
+
+def test_plan_and_react_goes_around_a_wall_to_a_joint_target():
+    """rmpmarl.plan_and_react: RRT-Connect's path around a wall to a joint goal, followed by RMPflow in the user's loop
+    (the commanded state fed back as the measured one): the goal's end effector is reached and no capsule ever
+    touches the wall (a brute-force box distance along every capsule axis)."""
+    robot = rmpmarl.Robot("panda")
+    q0, boxes, target, q_goal, clearance = _wall_problem(robot)
     controller = rmpmarl.plan_and_react(robot, "rmpflow", max_obstacles=2, planning_budget=3600.0,
                                         planning_iterations=20000, seed=3)
     q, qd = q0.copy(), np.zeros(7)
     controller.reset(q, qd)
     closest = np.inf
     for step in range(int(8 * controller.control_rate)):
-        q, qd, info = controller.update(q, qd, target=target, boxes=np.array([[*centre, *half]]), joint_target=q_goal)
+        q, qd, info = controller.update(q, qd, target=target, boxes=boxes, joint_target=q_goal)
         assert info["finite"]
         if step % 10 == 0:
             closest = min(closest, clearance(q))
@@ -324,7 +332,7 @@ def test_plan_and_react_goes_around_a_wall_to_a_joint_target():
     q, qd = q0.copy(), np.zeros(7)
     alone.reset(q, qd)
     for _ in range(int(8 * alone.control_rate)):
-        q, qd, _ = alone.update(q, qd, target=target, boxes=np.array([[*centre, *half]]), joint_target=q_goal)
+        q, qd, _ = alone.update(q, qd, target=target, boxes=boxes, joint_target=q_goal)
     assert np.linalg.norm(robot.end_effector_position(q) - target) > 0.1
     with pytest.raises(FileNotFoundError, match="layer: expected 'rmpflow' or a controller file"):
         rmpmarl.plan_and_react(robot, "nowhere.rmpp")
@@ -383,6 +391,39 @@ goal_constraints:
         rmpmarl.read_motion_plan_request(str(request), robot)
     with pytest.raises(FileNotFoundError, match="nowhere.yaml"):
         rmpmarl.read_planning_scene(str(tmp_path / "nowhere.yaml"))
+
+
+def test_plan_and_react_beside_the_loop_never_waits_for_a_plan():
+    """plan_beside_loop=True in a real-time loop (one update per control period): the update that starts the plan
+    returns while it runs (info['plan']['in_flight']), the plan arrives a few periods later, and the arm goes around
+    the wall to the goal as when the update waits; no update takes as long as the plan did."""
+    robot = rmpmarl.Robot("panda")
+    q0, boxes, target, q_goal, clearance = _wall_problem(robot)
+    controller = rmpmarl.plan_and_react(robot, "rmpflow", max_obstacles=2, planning_budget=3600.0,
+                                        planning_iterations=20000, seed=3, plan_beside_loop=True)
+    period = 1.0 / controller.control_rate
+    q, qd = q0.copy(), np.zeros(7)
+    controller.reset(q, qd)
+    longest, closest, waited = 0.0, np.inf, 0
+    for step in range(int(8 * controller.control_rate)):
+        start = time.perf_counter()
+        q, qd, info = controller.update(q, qd, target=target, boxes=boxes, joint_target=q_goal)
+        longest = max(longest, time.perf_counter() - start)
+        assert info["finite"]
+        if step == 0:
+            assert info["plan"]["in_flight"] and info["plan"]["status"] == "not yet", info["plan"]
+            assert not info["plan"]["following"]
+        if info["plan"]["in_flight"]:
+            waited += 1
+            time.sleep(period)  # the user's loop runs in real time while the plan is made
+        if step % 10 == 0:
+            closest = min(closest, clearance(q))
+    plan = info["plan"]
+    assert plan["status"] == "planned" and plan["attempts"] >= 1 and not plan["in_flight"], plan
+    assert 1 <= waited < 100, waited
+    assert longest < 1e-3 * plan["planning_ms"], (longest, plan["planning_ms"])
+    assert np.linalg.norm(robot.end_effector_position(q) - target) < 0.02
+    assert closest > 0.0, closest
 
 
 def test_plan_and_react_plans_an_mbm_box_problem_whose_cell_lies_below_the_base():
