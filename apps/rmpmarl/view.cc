@@ -31,6 +31,7 @@ struct ViewArgs {
   std::uint64_t seed = 0;
   bool side_by_side = false;
   bool plan = false;
+  bool plan_beside_loop = false;
   std::optional<double> obstacle_speed, target_speed;
   std::optional<int> num_obstacles;
   std::string host = "127.0.0.1";
@@ -79,7 +80,8 @@ void RunView(const ViewArgs& args) {
     options.overrides.num_obstacles = args.num_obstacles;
     options.controller = file ? "learned" : "rmpflow";
     options.side_by_side = args.side_by_side;
-    options.plan = args.plan;
+    options.plan = args.plan || args.plan_beside_loop;
+    options.plan_beside_loop = args.plan_beside_loop;
     std::string scene_name = fmt::format("scenario '{}'", args.scenario);
     if (!args.scene.empty()) {
       const control::PlanningScene scene = control::ReadPlanningScene(args.scene, robot.model.link(0).name);
@@ -167,6 +169,9 @@ void RegisterView(CLI::App& app) {
   cmd->add_flag("--side-by-side", args.side_by_side, "the learned controller and RMPflow on two arms, same scene");
   cmd->add_flag("--plan", args.plan, "plan, then react: the controllers follow RRT-Connect joint paths to the target "
                                      "(docs/benchmarks.md)");
+  cmd->add_flag("--plan-beside-loop", args.plan_beside_loop,
+                "--plan with the plans made on a worker thread: a long plan does not hold the live view (the arms go "
+                "for the goal alone until their plan is ready; not reproducible step for step)");
   cmd->add_option("--obstacle-speed", args.obstacle_speed, "obstacle speed [m/s]")->check(CLI::Range(0.0, 20.0));
   cmd->add_option("--target-speed", args.target_speed, "target speed [m/s]")->check(CLI::Range(0.0, 5.0));
   cmd->add_option("--obstacles", args.num_obstacles, "number of scenario obstacles")->check(CLI::Range(0, 16));

@@ -140,6 +140,7 @@ std::unique_ptr<LiveSim::Arm> LiveSim::MakeArm(const std::string& controller, co
   // only, as benchmark mbm plans; a built-in scenario stands on the floor at z = 0
   planning::PlanFollowOptions plan;
   plan.planner.check_floor = !options_.scene.has_value();
+  plan.plan_beside_loop = options_.plan_beside_loop;
   arm->controller = controller;
   arm->world = std::make_unique<sim::World>(model_);
   arm->world->Reset(q, qd);

@@ -238,22 +238,28 @@ TEST(LiveSimTest, AScenesRequestIsPlannedToItsJointGoalAsTheBenchmarkPlans) {
   const control::PlanningScene scene = control::ReadPlanningScene(problems / "box_panda" / "scene0001.yaml");
   const control::MotionPlanRequest request =
       control::ReadMotionPlanRequest(problems / "box_panda" / "request0001.yaml");
-  LiveSimOptions options;
-  options.controller = "rmpflow";
-  options.plan = true;
-  options.scene = sim::StaticSceneOf(robot, scene, &request, "request0001.yaml");
-  options.max_obstacles = static_cast<int>(options.scene->obstacles.size()) + 8;
-  const Eigen::VectorXd q_goal = options.scene->q_goal;
-  LiveSim sim(robot, nullptr, "", options);
-  double error = 1e9;
-  while (sim.time() < 8.0 && error > 0.02) {
-    sim.ControlStep();
-    error = (sim.world(0).q() - q_goal).cwiseAbs().maxCoeff();
+  // the same with the plans made beside the loop (view --plan-beside-loop): RMPflow goes for the goal alone until the
+  // plan is ready, then follows it there
+  for (const bool beside : {false, true}) {
+    LiveSimOptions options;
+    options.controller = "rmpflow";
+    options.plan = true;
+    options.plan_beside_loop = beside;
+    options.scene = sim::StaticSceneOf(robot, scene, &request, "request0001.yaml");
+    options.max_obstacles = static_cast<int>(options.scene->obstacles.size()) + 8;
+    const Eigen::VectorXd q_goal = options.scene->q_goal;
+    LiveSim sim(robot, nullptr, "", options);
+    double error = 1e9;
+    while (sim.time() < 8.0 && error > 0.02) {
+      sim.ControlStep();
+      error = (sim.world(0).q() - q_goal).cwiseAbs().maxCoeff();
+    }
+    EXPECT_LT(error, 0.02) << "beside the loop " << beside << ": at " << sim.world(0).q().transpose() << ", goal "
+                           << q_goal.transpose();
+    EXPECT_EQ(sim.collisions(0), 0) << beside;
+    std::printf("view --scene --request --plan%s on box 1: at the joint goal (within 0.02 rad) after %.2f s\n",
+                beside ? "-beside-loop" : "", sim.time());
   }
-  EXPECT_LT(error, 0.02) << "at " << sim.world(0).q().transpose() << ", goal " << q_goal.transpose();
-  EXPECT_EQ(sim.collisions(0), 0);
-  std::printf("view --scene --request --plan on box 1: at the joint goal (within 0.02 rad) after %.2f s\n",
-              sim.time());
 }
 
 TEST(LiveSimTest, BadOptionsAreRefused) {

@@ -63,6 +63,9 @@ struct LiveSimOptions {
   std::optional<sim::StaticSceneOptions> scene{};
   /// every arm's controller follows RRT-Connect plans (planning::PlanFollowPolicy) instead of the target directly
   bool plan = false;
+  /// ... with plans made beside the simulation loop (PlanFollowOptions::plan_beside_loop): a long plan does not hold
+  /// the live view; the arms go for the goal alone until their plan is ready (not reproducible step for step)
+  bool plan_beside_loop = false;
   std::uint64_t seed = 0;
   /// the first arm's controller: "learned" (needs a controller file) or "rmpflow"
   std::string controller = "learned";
