@@ -160,8 +160,11 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   const std::vector<Eigen::VectorXd>& path() const { return path_; }
   /// its joint-space length [rad or m] (0: none).
   double path_length() const { return path_.empty() ? 0.0 : path_s_.back(); }
-  /// the seed of the planner from the next Reset on.
-  void set_seed(std::uint64_t seed) { planner_.set_seed(seed); }
+  /// the seed of the planner from the next Reset on (waits for a plan in flight, which keeps its seed).
+  void set_seed(std::uint64_t seed) {
+    if (pending_.valid()) pending_.wait();
+    planner_.set_seed(seed);
+  }
   /// a plan is running beside the loop (options.plan_beside_loop) and has not been switched to yet.
   bool planning() const { return pending_.valid(); }
 
