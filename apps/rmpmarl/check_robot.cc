@@ -11,7 +11,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 #include "rmpmarl/rmp/rmpflow.h"
 #include "rmpmarl/sim/world.h"
 
@@ -83,8 +83,8 @@ void CheckHomeAndWorld(const kinematics::Robot& robot) {
                                    model.limits()[i].lower, model.limits()[i].upper, from));
     }
   }
-  fmt::print("  manipulability at home: {:.4g}\n", kinematics::Manipulability(robot, home));
-  const auto overlapping = kinematics::SelfCollisionPairsWithin(robot, home, 0.0);
+  fmt::print("  manipulability at home: {:.4g}\n", setup::Manipulability(robot, home));
+  const auto overlapping = setup::SelfCollisionPairsWithin(robot, home, 0.0);
   if (!overlapping.empty()) {
     std::string pairs;
     for (const auto& p : overlapping) {
@@ -95,7 +95,7 @@ void CheckHomeAndWorld(const kinematics::Robot& robot) {
                                  "self_collision_exclude, shrink the (self-collision) capsules or change home):{}", overlapping.size(),
                                  pairs));
   }
-  const kinematics::ClosestPair closest = kinematics::ClosestSelfCollisionPair(robot, home);
+  const setup::ClosestPair closest = setup::ClosestSelfCollisionPair(robot, home);
   if (closest.link_a >= 0) {
     fmt::print("  closest checked pair at home: {} – {}, {:.1f} mm\n", model.link(closest.link_a).name,
                model.link(closest.link_b).name, 1000 * closest.distance);

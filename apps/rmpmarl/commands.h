@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 #include "rmpmarl/perception/depth_perception.h"
 #include "rmpmarl/perception/recorded_cloud.h"
 #include "rmpmarl/tasks/manipulator_env.h"
@@ -23,9 +23,9 @@ void RegisterSetupRobot(CLI::App& app);
 /// A user's robot (check-robot, demo): loaded from its collision YAML, or fitted in memory (`setup` then set).
 struct UserRobot {
   kinematics::Robot robot;
-  std::optional<kinematics::RobotSetup> setup;
+  std::optional<setup::RobotSetup> setup;
 };
-/// `collision` when given, else <urdf stem>.collision.yaml or collision.yaml beside the URDF, else kinematics::SetupRobot
+/// `collision` when given, else <urdf stem>.collision.yaml or collision.yaml beside the URDF, else setup::SetupRobot
 /// in memory (saying so on stdout; the home found goes into robot.home).
 UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
                         const std::vector<std::string>& package_paths = {});
@@ -47,7 +47,7 @@ void AddRobotAndScenarioOptions(CLI::App* cmd, std::string* robot, std::string* 
 /// target stiffness on the coupled basic layer (docs/method.md). demo and view run it when no --policy is given.
 std::filesystem::path ShippedDefaultPolicyPath();
 /// prints setup-robot's per-link table (capsule, stick-out, source) and warnings.
-void PrintLinkFits(const kinematics::RobotSetup& setup);
+void PrintLinkFits(const setup::RobotSetup& setup);
 
 /// `rmpmarl robots`: sweeps every shipped robot in its MuJoCo world and prints a table.
 // --perception truth|depth and the depth camera's settings (perception_options.cc).

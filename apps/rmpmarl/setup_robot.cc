@@ -11,18 +11,18 @@
 
 #include "commands.h"
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
 namespace rmpmarl::apps {
 
-void PrintLinkFits(const kinematics::RobotSetup& setup) {
+void PrintLinkFits(const setup::RobotSetup& setup) {
   const kinematics::Robot& robot = setup.robot;
   const kinematics::Model& model = robot.model;
   // per link: its capsules, how far they stick out beyond its geometry (the farthest point, the mean over their
   // surface; '!' above the tolerance) and the check (the farthest surface sample outside every capsule, ≤ 0: covered)
   fmt::print("\n  {:<24} {:<9} {:<52} {:<19} {:<10} {}\n", "link", "capsule", "a, b [m] / radius [m]",
              "sticks out max/mean", "check", "from");
-  for (const kinematics::LinkFit& fit : setup.links) {
+  for (const setup::LinkFit& fit : setup.links) {
     const std::string& name = model.link(fit.link).name;
     if (fit.capsules.empty()) {
       fmt::print("  {:<24} {:<9} {:<52} {:<19} {:<10} {}\n", name, "none", "-", "-", "-", fit.source);
@@ -63,17 +63,17 @@ struct SetupArgs {
   std::string srdf;
   bool no_srdf = false;
   double warning_distance = 0.15;
-  double home_centering = kinematics::RobotSetupOptions{}.home_centering;
-  double tolerance_mm = 1e3 * kinematics::CapsuleCoverOptions{}.tolerance;
-  int max_capsules = kinematics::CapsuleCoverOptions{}.max_capsules;
-  kinematics::CoverMethod cover = kinematics::CapsuleCoverOptions{}.method;
+  double home_centering = setup::RobotSetupOptions{}.home_centering;
+  double tolerance_mm = 1e3 * setup::CapsuleCoverOptions{}.tolerance;
+  int max_capsules = setup::CapsuleCoverOptions{}.max_capsules;
+  setup::CoverMethod cover = setup::CapsuleCoverOptions{}.method;
   std::string self_cover = "auto";
   std::vector<std::string> link_tolerance;
 };
 
 void RunSetup(const SetupArgs& args) {
   const auto start = std::chrono::steady_clock::now();
-  kinematics::RobotSetupOptions options;
+  setup::RobotSetupOptions options;
   for (const std::string& p : args.package_paths) options.package_paths.emplace_back(p);
   options.seed = args.seed;
   options.samples = args.samples;
@@ -97,12 +97,12 @@ void RunSetup(const SetupArgs& args) {
     options.link_tolerance[entry.substr(0, eq)] = 1e-3 * mm;
   }
   // a tight cover's self pairs are most of a planner's checks: the default cuts cover proves links apart instead
-  if (args.self_cover == "cuts" || (args.self_cover == "auto" && args.cover == kinematics::CoverMethod::kInscribed)) {
-    options.self_cover = kinematics::CapsuleCoverOptions{};
+  if (args.self_cover == "cuts" || (args.self_cover == "auto" && args.cover == setup::CoverMethod::kInscribed)) {
+    options.self_cover = setup::CapsuleCoverOptions{};
   }
   if (!args.home.empty()) options.home = Eigen::Map<const Eigen::VectorXd>(args.home.data(), args.home.size());
   const std::filesystem::path urdf(args.urdf);
-  const kinematics::RobotSetup setup = kinematics::SetupRobot(urdf, options);
+  const setup::RobotSetup setup = setup::SetupRobot(urdf, options);
   const kinematics::Robot& robot = setup.robot;
   const kinematics::Model& model = robot.model;
   fmt::print("rmpmarl setup-robot: '{}' from {}: {} links, {} joints with a degree of freedom\n", robot.name,
@@ -110,15 +110,15 @@ void RunSetup(const SetupArgs& args) {
   PrintLinkFits(setup);
   if (!robot.self_capsules.empty()) {
     double worst = 0.0;
-    for (const kinematics::LinkFit& fit : setup.links) {
+    for (const setup::LinkFit& fit : setup.links) {
       if (std::isfinite(fit.self_excess)) worst = std::max(worst, fit.self_excess);
     }
     fmt::print("  self-collision: checked on a separate cover, {} capsules (plane cuts, up to {:.1f} mm out), "
                "beside the {} above\n", robot.self_capsules.size(), 1e3 * worst, robot.capsules.size());
   }
 
-  std::array<int, 6> counts{};  // per kinematics::ExclusionReason
-  for (const kinematics::Exclusion& e : setup.exclusions) ++counts.at(static_cast<size_t>(e.reason));
+  std::array<int, 6> counts{};  // per setup::ExclusionReason
+  for (const setup::Exclusion& e : setup.exclusions) ++counts.at(static_cast<size_t>(e.reason));
   const int parent_child = model.num_links() - 1;
   fmt::print("\n  self-collision exclusions ({} samples, seed {}): {} parent–child, {} adjacent across frame-only "
              "links, {} always in contact, {} never within {:.0f} mm, {} in contact at home, {} fingers of one "
@@ -139,10 +139,10 @@ void RunSetup(const SetupArgs& args) {
                                                                                 : std::filesystem::path("."))
                                                      : std::filesystem::path(args.out);
   std::filesystem::create_directories(dir);
-  const auto collision_path = kinematics::CollisionYamlPathFor(urdf, dir);
-  const auto settings_path = kinematics::SettingsPathFor(urdf, dir);
-  std::ofstream(collision_path) << kinematics::CollisionYamlText(setup);
-  std::ofstream(settings_path) << kinematics::SettingsYamlText(setup);
+  const auto collision_path = setup::CollisionYamlPathFor(urdf, dir);
+  const auto settings_path = setup::SettingsPathFor(urdf, dir);
+  std::ofstream(collision_path) << setup::CollisionYamlText(setup);
+  std::ofstream(settings_path) << setup::SettingsYamlText(setup);
   if (!std::ofstream(collision_path, std::ios::app) || !std::ofstream(settings_path, std::ios::app)) {
     throw InputError(fmt::format("{}: cannot write the description files", dir.string()));
   }
@@ -198,8 +198,8 @@ void RegisterSetupRobot(CLI::App& app) {
   cmd->add_option("--max-capsules", args.max_capsules, "at most this many capsules per link")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  const std::map<std::string, kinematics::CoverMethod> covers = {{"cuts", kinematics::CoverMethod::kCuts},
-                                                                 {"inscribed", kinematics::CoverMethod::kInscribed}};
+  const std::map<std::string, setup::CoverMethod> covers = {{"cuts", setup::CoverMethod::kCuts},
+                                                                 {"inscribed", setup::CoverMethod::kInscribed}};
   cmd->add_option("--cover", args.cover,
                   "cuts: split the link's smallest capsule by planes; inscribed: capsules grown inside the solid, "
                   "none sticking out farther than --tolerance (tight, more capsules)")

@@ -6,7 +6,7 @@
 #include <filesystem>
 
 #include "commands.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::apps {
@@ -14,9 +14,9 @@ namespace rmpmarl::apps {
 UserRobot LoadUserRobot(const std::string& urdf, const std::string& collision,
                         const std::vector<std::string>& package_paths) {
   UserRobot out;
-  kinematics::RobotSetupOptions options;
+  setup::RobotSetupOptions options;
   for (const std::string& p : package_paths) options.package_paths.emplace_back(p);
-  out.robot = kinematics::LoadOrFitRobot(urdf, collision, options, &out.setup);
+  out.robot = setup::LoadOrFitRobot(urdf, collision, options, &out.setup);
   if (!out.setup) return out;
   fmt::print("{}: no collision YAML: capsules fitted in memory from the URDF's geometry, {} exclusions {}, home "
              "searched (rmpmarl setup-robot {} writes them to files)\n", urdf, out.setup->exclusions.size(),

@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "rmpmarl/kinematics/forward_kinematics.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 #include "rmpmarl/tasks/task_config.h"
 
 namespace rmpmarl::python {
@@ -28,7 +28,7 @@ namespace {
 std::shared_ptr<RobotHandle> FromUrdf(const std::string& urdf, const std::optional<std::string>& collision) {
   if (!fs::is_regular_file(urdf)) FileNotFound(urdf, "urdf", "a URDF file");
   if (collision && !fs::is_regular_file(*collision)) FileNotFound(*collision, "collision", "a collision YAML file");
-  return std::make_shared<RobotHandle>(kinematics::LoadOrFitRobot(urdf, collision ? fs::path(*collision) : fs::path()));
+  return std::make_shared<RobotHandle>(setup::LoadOrFitRobot(urdf, collision ? fs::path(*collision) : fs::path()));
 }
 
 py::array CheckedQ(const RobotHandle& r, const py::handle& q) {

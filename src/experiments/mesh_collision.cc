@@ -21,6 +21,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 
 namespace rmpmarl::experiments {
 namespace fs = std::filesystem;
@@ -241,13 +242,13 @@ void MeshCollisionModel::Impl::Read(const kinematics::Robot& robot) {
         g.half = Eigen::Vector3d(shape.radius, shape.radius, 0.5 * shape.length);
         break;
       case kinematics::ShapeKind::kMesh: {
-        if (!kinematics::MeshReadingAvailable()) {
+        if (!setup::MeshReadingAvailable()) {
           geometry_missing = true;
           return unavailable(fmt::format("link '{}': mesh '{}' cannot be read: rmpmarl was built without assimp", link,
                                          shape.mesh_uri));
         }
         std::string tried;
-        const fs::path path = kinematics::ResolveMeshUri(shape.mesh_uri, robot.urdf_path, options.package_paths,
+        const fs::path path = setup::ResolveMeshUri(shape.mesh_uri, robot.urdf_path, options.package_paths,
                                                          &tried);
         if (path.empty()) {
           geometry_missing = true;
@@ -258,9 +259,9 @@ void MeshCollisionModel::Impl::Read(const kinematics::Robot& robot) {
                                         std::vector<double>(shape.mesh_scale.data(), shape.mesh_scale.data() + 3));
         auto& [mesh, p_GV] = meshes[key];
         if (!mesh) {
-          kinematics::TriangleMesh read;
+          setup::TriangleMesh read;
           try {
-            read = kinematics::ReadMesh(path, shape.mesh_scale);
+            read = setup::ReadMesh(path, shape.mesh_scale);
           } catch (const InputError& e) {
             geometry_missing = true;
             return unavailable(fmt::format("link '{}': {}", link, e.what()));

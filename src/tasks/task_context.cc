@@ -9,7 +9,7 @@
 #include <random>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
 namespace rmpmarl::tasks {
 namespace {
@@ -48,7 +48,7 @@ kinematics::Robot ScaleRobot(const kinematics::Robot& robot, double s) {
 
 kinematics::Robot NominalTaskRobot(const TaskConfig& config) {
   // a user's URDF (its YAML beside it, else fitted in memory as `demo --urdf` does), else a shipped robot's name
-  if (IsUrdfPath(config.robot)) return kinematics::LoadOrFitRobot(config.robot, config.collision);
+  if (IsUrdfPath(config.robot)) return setup::LoadOrFitRobot(config.robot, config.collision);
   if (config.robot != "planar2") return kinematics::LoadShippedRobot(config.robot);
   const Planar2Config& p = config.planar2;
   return kinematics::MakePlanar2({.link1_length = 0.5 * (p.link1_length[0] + p.link1_length[1]),

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "rmpmarl/common/error.h"
+#include "rmpmarl/setup/mesh.h"
 
 namespace rmpmarl::viewer {
 namespace {
@@ -44,20 +45,20 @@ RobotVisuals LoadRobotVisuals(const kinematics::Robot& robot, const VisualOption
     v.shape = shape;
     if (shape.kind == kinematics::ShapeKind::kMesh) {
       const std::string& link = robot.model.link(shape.link).name;
-      if (!kinematics::MeshReadingAvailable()) {
+      if (!setup::MeshReadingAvailable()) {
         visuals.warnings.push_back(fmt::format("link '{}': mesh '{}' left out (built without assimp)", link,
                                                shape.mesh_uri));
         continue;
       }
       const std::vector<std::filesystem::path> packages(options.package_paths.begin(), options.package_paths.end());
-      const std::filesystem::path path = kinematics::ResolveMeshUri(shape.mesh_uri, robot.urdf_path, packages);
+      const std::filesystem::path path = setup::ResolveMeshUri(shape.mesh_uri, robot.urdf_path, packages);
       if (path.empty()) {
         visuals.warnings.push_back(fmt::format("link '{}': mesh '{}' not found", link, shape.mesh_uri));
         continue;
       }
-      kinematics::TriangleMesh mesh;
+      setup::TriangleMesh mesh;
       try {
-        mesh = kinematics::ReadMesh(path, shape.mesh_scale);
+        mesh = setup::ReadMesh(path, shape.mesh_scale);
       } catch (const InputError& e) {
         visuals.warnings.push_back(fmt::format("link '{}': {}", link, e.what()));
         continue;

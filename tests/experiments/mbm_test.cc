@@ -24,6 +24,7 @@
 #include "rmpmarl/experiments/mesh_collision.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::experiments {
@@ -448,7 +449,7 @@ void WriteProblem(const fs::path& folder, int index,
 TEST(MbmBenchmarkTest, MeshValidityAndProblemsRejectedByTheCapsuleModel) {
   const fs::path set = RMPMARL_MBM_PANDA;
   if (!fs::is_regular_file(set / "panda.urdf")) GTEST_SKIP() << "MotionBenchMaker's Panda set is absent: " << set;
-  if (!kinematics::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
+  if (!setup::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
   const kinematics::Robot panda = kinematics::LoadRobot(
       set / "panda.urdf", fs::path(RMPMARL_TEST_DATA_DIR).parent_path().parent_path() / "configs" / "benchmarks" /
                               "mbm-panda.collision.yaml");
@@ -462,8 +463,8 @@ TEST(MbmBenchmarkTest, MeshValidityAndProblemsRejectedByTheCapsuleModel) {
   std::vector<Eigen::Vector3d> vertices;
   for (const kinematics::LinkShape& s : kinematics::ParseUrdfShapes(xml.str(), panda.model, "panda.urdf")) {
     if (s.visual) continue;
-    const kinematics::TriangleMesh mesh =
-        kinematics::ReadMesh(kinematics::ResolveMeshUri(s.mesh_uri, set / "panda.urdf", {set}), s.mesh_scale);
+    const setup::TriangleMesh mesh =
+        setup::ReadMesh(setup::ResolveMeshUri(s.mesh_uri, set / "panda.urdf", {set}), s.mesh_scale);
     for (Eigen::Index i = 0; i < mesh.p_M.cols(); ++i) {
       vertices.push_back(kin.X_WL[s.link] * s.X_LG * Eigen::Vector3d(mesh.p_M.col(i)));
     }

@@ -18,6 +18,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/sim/scenario.h"
 
 namespace rmpmarl::experiments {
@@ -75,7 +76,7 @@ kinematics::Data Kinematics(const kinematics::Robot& robot, const Eigen::VectorX
 // The cube (side 0.2 m) 0.3 m out along the arm: at q = π/2 its centre is at (0, 0.3, 0.5) and its +y face at
 // y = 0.4. Spheres of radius 5 cm in front of that face, at a corner, touching and inside it; a box beside it.
 TEST(MeshCollisionTest, ACubeMeshAgainstSpheresAndBoxesAtHandDerivedDistances) {
-  if (!kinematics::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
+  if (!setup::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
   const fs::path dir = TempDir("cube");
   WriteCube(dir / "cube.obj", 0.1);
   const kinematics::Robot arm = OneJointArm(
@@ -276,7 +277,7 @@ TEST(MeshCollisionTest, UnavailableModelsSayWhy) {
 TEST(MeshCollisionTest, MotionBenchMakerPandaMeshesPlacedByForwardKinematics) {
   const fs::path set = RMPMARL_MBM_PANDA;
   if (!fs::is_regular_file(set / "panda.urdf")) GTEST_SKIP() << "MotionBenchMaker's Panda set is absent: " << set;
-  if (!kinematics::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
+  if (!setup::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp: meshes cannot be read";
   const kinematics::Robot panda = kinematics::LoadRobot(
       set / "panda.urdf", fs::path(RMPMARL_TEST_DATA_DIR).parent_path().parent_path() / "configs" / "benchmarks" /
                               "mbm-panda.collision.yaml");
@@ -294,8 +295,8 @@ TEST(MeshCollisionTest, MotionBenchMakerPandaMeshesPlacedByForwardKinematics) {
   for (const kinematics::LinkShape& s : kinematics::ParseUrdfShapes(xml.str(), panda.model, "panda.urdf")) {
     if (s.visual) continue;
     ASSERT_EQ(s.kind, kinematics::ShapeKind::kMesh);
-    const kinematics::TriangleMesh mesh =
-        kinematics::ReadMesh(kinematics::ResolveMeshUri(s.mesh_uri, set / "panda.urdf", {set}), s.mesh_scale);
+    const setup::TriangleMesh mesh =
+        setup::ReadMesh(setup::ResolveMeshUri(s.mesh_uri, set / "panda.urdf", {set}), s.mesh_scale);
     for (Eigen::Index i = 0; i < mesh.p_M.cols(); ++i) {
       vertices.emplace_back(s.link, kin.X_WL[s.link] * s.X_LG * Vector3d(mesh.p_M.col(i)));
     }

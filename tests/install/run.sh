@@ -20,17 +20,19 @@ quiet cmake -S "$source_dir/examples/control_loop" -B "$prefix/example-build" -G
   -DCMAKE_PREFIX_PATH="$prefix"
 quiet cmake --build "$prefix/example-build"
 example="$prefix/example-build/control_loop"
-# built against rmpmarl::control alone: no MuJoCo, libtorch, EGL or assimp library or symbol in it
-# (a library the linker records without a symbol used from it — the sanitizers' link turns --as-needed off for what
-# follows their runtime — is listed by `ldd -u` as unused and is no dependency)
-unused=$(ldd -u "$example" 2>/dev/null || true)
-if ldd "$example" | grep -Ei 'mujoco|torch|c10|libEGL|assimp' | awk '{print $1}' | while read -r lib; do
-     grep -qF "$lib" <<<"$unused" || echo "$lib"; done | grep .; then
-  echo "control_loop uses a library rmpmarl::control must not bring (above)" >&2; exit 1
+# built against rmpmarl::control alone: no MuJoCo, libtorch, EGL or assimp library (ldd, used or not) or symbol in it
+if ldd "$example" | grep -Ei 'mujoco|torch|c10|libEGL|assimp'; then
+  echo "control_loop links a library rmpmarl::control must not bring (above)" >&2; exit 1
 fi
 if nm -C "$example" | grep -E ' (mj[a-z]*_[A-Za-z]+|egl[A-Z][A-Za-z]+|ai[A-Z][A-Za-z]+)$| (Assimp|c10|at|torch)::'; then
   echo "control_loop holds a MuJoCo, libtorch, EGL or assimp symbol (above)" >&2; exit 1
 fi
+# a planner user (rmpmarl::planning alone): no MuJoCo or EGL either
+planner="$prefix/consumer-build/planner"
+if ldd "$planner" | grep -Ei 'mujoco|libEGL|torch|c10'; then
+  echo "planner links a library rmpmarl::planning must not bring (above)" >&2; exit 1
+fi
+RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$planner"
 RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$example"
 RMPMARL_MODELS_DIR="$prefix/share/rmpmarl/models" "$example" rmpflow
 # the Python package as `make install` puts it (<prefix>/lib/python3/dist-packages), away from the source tree:

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/viewer/protocol.h"
 
 namespace rmpmarl::viewer {
@@ -37,7 +38,7 @@ TEST(VisualsTest, UrdfVisualsAndMeshesInTheLinkFrame) {
   robot.model = kinematics::LoadUrdfModel(dir / "arm.urdf");
   robot.urdf_path = dir / "arm.urdf";
   const RobotVisuals v = LoadRobotVisuals(robot);
-  if (!kinematics::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp";
+  if (!setup::MeshReadingAvailable()) GTEST_SKIP() << "built without assimp";
   ASSERT_EQ(v.shapes.size(), 2u);  // the box (visual before collision) and the mesh
   EXPECT_EQ(v.shapes[0].shape.kind, kinematics::ShapeKind::kBox);
   EXPECT_EQ(v.shapes[1].shape.kind, kinematics::ShapeKind::kMesh);

@@ -4,7 +4,7 @@
 /// controllers and the planner run on.
 ///
 /// MeshCollisionModel holds, per <collision> element of the robot's URDF, one FCL geometry — a BVHModel<OBBRSS> of a
-/// mesh (kinematics::ReadMesh, its package:// resolved by kinematics::ResolveMeshUri), or an FCL sphere, box or
+/// mesh (setup::ReadMesh, its package:// resolved by setup::ResolveMeshUri), or an FCL sphere, box or
 /// cylinder — with its link L and its origin X_LG; it is built once per robot and shared (read only) by threads.
 /// CalcMeshClearance poses every geometry at X_WL · X_LG from the link poses of kinematics::Data and returns the
 /// smallest signed distance to a list of rmp::Obstacle (spheres, boxes, cylinders) with the link and the obstacle
@@ -46,7 +46,7 @@ namespace rmpmarl::experiments {
 
 /// Options of MeshCollisionModel.
 struct MeshCollisionOptions {
-  /// folders holding the packages of package:// meshes (kinematics::ResolveMeshUri, then ROS_PACKAGE_PATH and the
+  /// folders holding the packages of package:// meshes (setup::ResolveMeshUri, then ROS_PACKAGE_PATH and the
   /// URDF's ancestor folders)
   std::vector<std::filesystem::path> package_paths{};
   /// clearances are exact up to this distance [m], > 0; a configuration with nothing within it has clearance +inf

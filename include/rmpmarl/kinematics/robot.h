@@ -51,7 +51,7 @@ struct Robot {
   /// beside the collision YAML or the URDF when present; empty for the shipped robots, whose settings are
   /// configs/rmpflow/<name>.yaml (see rmp::RmpflowConfigPath(const Robot&)).
   std::filesystem::path settings_path;
-  /// home posture found in memory (rmpmarl demo with no YAML: kinematics::SetupRobot); empty otherwise. It replaces
+  /// home posture found in memory (rmpmarl demo with no YAML: setup::SetupRobot); empty otherwise. It replaces
   /// the settings' home when set.
   Eigen::VectorXd home;
   /// true for a robot loaded from models/robots/<name>/ (or built in code): its settings are looked up by name.

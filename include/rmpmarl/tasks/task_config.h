@@ -131,7 +131,7 @@ struct TaskConfig {
   TaskKind task = TaskKind::kReachAvoid;
   std::string robot = "panda";        ///< "planar2", a shipped arm (kinematics::ShippedRobotNames) or a path to a .urdf
   /// a .urdf robot's collision YAML; "" (default): <stem>.collision.yaml or collision.yaml beside the URDF, else
-  /// capsules fitted in memory (kinematics::LoadOrFitRobot)
+  /// capsules fitted in memory (setup::LoadOrFitRobot)
   std::string collision;
   InterfaceMode interface = InterfaceMode::kPerJointRmp;
   EpisodeConfig episode;
@@ -178,7 +178,7 @@ TaskConfig LoadShippedTaskConfig(std::string_view name);
 /// throws InputError naming `where` (a file) and the key unless every value is in range (called by the loader and
 /// by TaskContext for configs built in code).
 /// true when a task's `robot` names a user's URDF file (ends in ".urdf") rather than a shipped robot: the task then
-/// loads it with its collision YAML beside it, else capsules fitted in memory (kinematics::LoadOrFitRobot).
+/// loads it with its collision YAML beside it, else capsules fitted in memory (setup::LoadOrFitRobot).
 bool IsUrdfPath(const std::string& robot);
 
 void ValidateTaskConfig(const TaskConfig& config, std::string_view where);

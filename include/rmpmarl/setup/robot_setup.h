@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/kinematics/capsule_cover.h"
+#include "rmpmarl/setup/capsule_cover.h"
 #include "rmpmarl/kinematics/robot.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
 
 /// Options of FitRobot and SetupRobot.
 struct RobotSetupOptions {
@@ -90,7 +90,7 @@ struct PairStatistics {
 
 /// The generated description.
 struct RobotSetup {
-  Robot robot;                     ///< capsules, end effector and every exclusion (adjacent ones included)
+  kinematics::Robot robot;                     ///< capsules, end effector and every exclusion (adjacent ones included)
   std::vector<LinkFit> links;      ///< one per link, in model order
   std::vector<std::string> warnings;
   std::vector<Exclusion> exclusions;  ///< beyond parent–child pairs: what the YAML lists, with reasons
@@ -115,7 +115,7 @@ RobotSetup FitRobot(const std::filesystem::path& urdf_path, const RobotSetupOpti
 /// distance statistics (on the self-collision capsules, Robot::self_collision_capsules) of every non-adjacent pair of
 /// links with capsules over options.samples configurations drawn
 /// uniformly within the joint limits from options.seed (continuous joints in [−π, π]); identical for a seed.
-std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotSetupOptions& options);
+std::vector<PairStatistics> SampleSelfCollision(const kinematics::Robot& robot, const RobotSetupOptions& options);
 
 /// FitRobot, then the SRDF's disabled pairs and end effector (options.srdf), exclusions from SampleSelfCollision over
 /// the remaining pairs (always in contact, never within warning_distance), the home posture (options.home, else the
@@ -124,7 +124,7 @@ std::vector<PairStatistics> SampleSelfCollision(const Robot& robot, const RobotS
 RobotSetup SetupRobot(const std::filesystem::path& urdf_path, const RobotSetupOptions& options = {});
 
 /// √det(J Jᵀ) of the 6 x nq end-effector Jacobian (√det(Jᵀ J) when nq < 6) at q.
-double Manipulability(const Robot& robot, const Eigen::VectorXd& q);
+double Manipulability(const kinematics::Robot& robot, const Eigen::VectorXd& q);
 
 /// smallest self-collision capsule distance between non-excluded link pairs at q, and the pair (links) that attains it
 /// (-1, -1 and +inf when there is no such pair).
@@ -132,10 +132,10 @@ struct ClosestPair {
   int link_a = -1, link_b = -1;
   double distance = 0.0;
 };
-ClosestPair ClosestSelfCollisionPair(const Robot& robot, const Eigen::VectorXd& q);
+ClosestPair ClosestSelfCollisionPair(const kinematics::Robot& robot, const Eigen::VectorXd& q);
 
 /// every non-excluded link pair whose self-collision capsules are closer than `distance` at q, closest first.
-std::vector<ClosestPair> SelfCollisionPairsWithin(const Robot& robot, const Eigen::VectorXd& q, double distance);
+std::vector<ClosestPair> SelfCollisionPairsWithin(const kinematics::Robot& robot, const Eigen::VectorXd& q, double distance);
 
 /// the collision YAML (docs/robot-description.md) of a setup, with comments saying where each capsule came from.
 std::string CollisionYamlText(const RobotSetup& setup);
@@ -149,8 +149,8 @@ std::filesystem::path CollisionYamlPathFor(const std::filesystem::path& urdf_pat
 /// A user's robot from its URDF: `collision` when given, else <urdf stem>.collision.yaml or collision.yaml beside
 /// the URDF, else fitted in memory by SetupRobot (then `*fitted` holds the setup, when asked, and robot.home the home
 /// it found). Used by check-robot, demo and the learning tasks (`robot: path/to/robot.urdf`). Throws InputError.
-Robot LoadOrFitRobot(const std::filesystem::path& urdf, const std::filesystem::path& collision = {},
+kinematics::Robot LoadOrFitRobot(const std::filesystem::path& urdf, const std::filesystem::path& collision = {},
                      const RobotSetupOptions& options = {}, std::optional<RobotSetup>* fitted = nullptr);
 std::filesystem::path SettingsPathFor(const std::filesystem::path& urdf_path, const std::filesystem::path& dir);
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

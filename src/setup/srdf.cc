@@ -1,5 +1,5 @@
-// MoveIt's SRDF → kinematics::Srdf, through TinyXML (the XML parser urdfdom itself is built on); see srdf.h.
-#include "rmpmarl/kinematics/srdf.h"
+// MoveIt's SRDF → setup::Srdf, through TinyXML (the XML parser urdfdom itself is built on); see srdf.h.
+#include "rmpmarl/setup/srdf.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -11,7 +11,9 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 // the attribute's value, "" when absent.
@@ -159,4 +161,4 @@ std::vector<std::string> CheckSrdfAgainstModel(const Srdf& srdf, const Model& mo
   return warnings;
 }
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -1,5 +1,5 @@
 // Several capsules covering a link's geometry, split greedily where one sticks out too far; see capsule_cover.h.
-#include "rmpmarl/kinematics/capsule_cover.h"
+#include "rmpmarl/setup/capsule_cover.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,8 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/math/point_cloud.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -507,4 +508,4 @@ void AppendCylinderSurface(const Eigen::Isometry3d& X_FG, double radius, double 
   }
 }
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -5,7 +5,7 @@
 #include <functional>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 
 #ifdef RMPMARL_HAS_ASSIMP
 #include <assimp/Importer.hpp>
@@ -14,7 +14,7 @@
 #include <assimp/scene.h>
 #endif
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
 namespace {
 
 namespace fs = std::filesystem;
@@ -151,4 +151,4 @@ TriangleMesh ReadMesh(const fs::path& path, const Eigen::Vector3d&) {
 
 #endif
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -14,7 +14,7 @@
 
 #include "rmpmarl/math/geometry.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
 
 /// volume of a capsule: π r² |b − a| + 4/3 π r³.
 double CapsuleVolume(const math::Capsule& capsule);
@@ -69,4 +69,4 @@ math::Capsule FitCapsuleToPoints(const Eigen::Matrix3Xd& p_F, const CapsuleFitOp
 /// smallest capsule covering the balls with its axis along the unit vector u_F (used by the fit and its tests).
 math::Capsule FitCapsuleAlongAxis(const std::vector<Ball>& balls, const Eigen::Vector3d& u_F);
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

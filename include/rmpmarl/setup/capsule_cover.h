@@ -19,10 +19,10 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 #include "rmpmarl/math/geometry.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
 
 /// What to cover, in one frame F (usually the link frame L).
 struct CoverGeometry {
@@ -117,4 +117,4 @@ void AppendBoxSurface(const Eigen::Isometry3d& X_FG, const Eigen::Vector3d& size
 void AppendCylinderSurface(const Eigen::Isometry3d& X_FG, double radius, double length, int sides, bool circumscribed,
                            CoverGeometry* geometry);
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

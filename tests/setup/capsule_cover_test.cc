@@ -1,7 +1,7 @@
 // Capsule covers: every point of the geometry inside (random surface samples the cover never saw), the excess
 // against an exact reference, concave shapes split, a thin plate split across its width, spheres covered whole, and
 // input errors.
-#include "rmpmarl/kinematics/capsule_cover.h"
+#include "rmpmarl/setup/capsule_cover.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,8 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
 namespace {
 
 // area-weighted random points on the triangles (an independent sampler: the cover samples on a grid).
@@ -298,4 +299,4 @@ TEST(CapsuleCover, RejectsBadInputNamingIt) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

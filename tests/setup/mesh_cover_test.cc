@@ -12,12 +12,15 @@
 #include <regex>
 #include <sstream>
 
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 namespace fs = std::filesystem;
@@ -172,4 +175,4 @@ TEST(MeshCover, AFitFromTheMeshesCoversThemAndSaysSo) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

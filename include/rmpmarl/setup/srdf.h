@@ -1,7 +1,7 @@
 #pragma once
 /// MoveIt's Semantic Robot Description Format (SRDF, the <robot> file beside a robot's URDF in its moveit_config):
 /// the link pairs its authors disabled for self-collision checks, its end effectors, groups and virtual joints.
-/// `rmpmarl setup-robot` (kinematics::SetupRobot) excludes the disabled pairs and takes the end effector's parent
+/// `rmpmarl setup-robot` (setup::SetupRobot) excludes the disabled pairs and takes the end effector's parent
 /// link as the robot's end effector; see docs/robot-description.md. Group states and passive joints are not read.
 #include <filesystem>
 #include <string>
@@ -9,7 +9,7 @@
 
 #include "rmpmarl/kinematics/model.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
 
 /// <disable_collisions link1 link2 reason/>: a pair never checked against each other.
 struct SrdfDisabledPair {
@@ -67,6 +67,6 @@ Srdf LoadSrdf(const std::filesystem::path& path);
 /// InputError naming the SRDF, the element, the link and the URDF's links. Where MoveIt only warns and skips the
 /// element (a disabled pair or a group member naming an unknown link or joint, another robot name) returns a
 /// warning per element; those pairs are not excluded.
-std::vector<std::string> CheckSrdfAgainstModel(const Srdf& srdf, const Model& model);
+std::vector<std::string> CheckSrdfAgainstModel(const Srdf& srdf, const kinematics::Model& model);
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -1,7 +1,7 @@
 // MoveIt's SRDF: what the reader keeps (pairs with their reasons, end effectors, virtual joints, groups), errors that
 // name the file and the link, and SetupRobot excluding an SRDF's disabled pairs and taking its end effector — on a
 // small arm written here and on MotionBenchMaker's Panda with its own SRDF.
-#include "rmpmarl/kinematics/srdf.h"
+#include "rmpmarl/setup/srdf.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -16,9 +16,11 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 namespace fs = std::filesystem;
@@ -350,4 +352,4 @@ TEST(Srdf, EveryDisabledPairOfTheMbmPandaSrdfIsExcluded) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -1,7 +1,7 @@
 // Capsule fits against dense sampling: every sampled surface point of the primitive (or point set) lies inside the
 // capsule, and the capsule is no bigger than needed: it touches the samples (its radius is tight) and its volume is
 // within 1 % of the best capsule found by brute force over 1,000 axis directions.
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -11,7 +11,8 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -178,4 +179,4 @@ TEST(CapsuleFit, RejectsEmptyAndNonFiniteInput) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

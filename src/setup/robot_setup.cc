@@ -1,7 +1,7 @@
 // A robot description from a URDF alone: fitted capsules, end effector, sampled self-collision exclusions, home
 // posture; see robot_setup.h and docs/robot-description.md. Its files (and loading a URDF with or without them):
 // robot_setup_files.cc.
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
 #include <fmt/format.h>
 
@@ -13,13 +13,16 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/common/random.h"
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
-#include "rmpmarl/kinematics/srdf.h"
+#include "rmpmarl/setup/srdf.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/math/geometry.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 namespace fs = std::filesystem;
@@ -771,4 +774,4 @@ RobotSetup SetupRobot(const fs::path& urdf_path, const RobotSetupOptions& option
   return setup;
 }
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -8,9 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 namespace fs = std::filesystem;
@@ -147,4 +149,4 @@ Robot LoadOrFitRobot(const fs::path& urdf, const fs::path& collision, const Robo
   return robot;
 }
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

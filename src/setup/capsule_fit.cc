@@ -1,5 +1,5 @@
 // Capsules covering URDF primitives (closed-form families) and fitted to ball/point sets; see capsule_fit.h.
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 
 #include <fmt/format.h>
 
@@ -13,7 +13,8 @@
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/math/golden_section.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -261,4 +262,4 @@ math::Capsule FitCapsuleToPoints(const Eigen::Matrix3Xd& p_F, const CapsuleFitOp
   return FitCapsuleToBalls(balls, options);
 }
 
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

@@ -19,7 +19,8 @@
 
 #include "capsule_cover_internal.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
 
 SolidTest::SolidTest(const CoverGeometry& g) : vertices_(g.vertices), triangles_(g.triangles), balls_(g.balls) {
   for (int a = 0; a < 3; ++a) {
@@ -362,4 +363,4 @@ std::optional<std::vector<math::Capsule>> FitInscribedCapsules(const CoverGeomet
 }
 
 }  // namespace internal
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

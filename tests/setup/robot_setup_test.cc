@@ -1,7 +1,7 @@
 // A robot description from a URDF alone: capsules fitted to primitives and to a mesh the test writes itself (checked
 // against dense sampling), package:// resolution, the missing-mesh fallback, frame-only links, deterministic
 // exclusion sampling, the home posture, the YAML round trip, per-robot settings and the xacro message.
-#include "rmpmarl/kinematics/robot_setup.h"
+#include "rmpmarl/setup/robot_setup.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -14,11 +14,14 @@
 #include <random>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/kinematics/capsule_fit.h"
+#include "rmpmarl/setup/capsule_fit.h"
 #include "rmpmarl/kinematics/urdf_geometry.h"
+#include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/rmp/rmpflow.h"
 
-namespace rmpmarl::kinematics {
+namespace rmpmarl::setup {
+
+using namespace kinematics;  // the robot description being set up: kinematics' types throughout
 namespace {
 
 namespace fs = std::filesystem;
@@ -533,4 +536,4 @@ TEST(RobotSetup, MimicGripperFingersAreOneGripperAndHomeIgnoresTheGripperDof) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::kinematics
+}  // namespace rmpmarl::setup

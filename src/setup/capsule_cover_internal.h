@@ -5,10 +5,10 @@
 #include <optional>
 #include <vector>
 
-#include "rmpmarl/kinematics/capsule_cover.h"
+#include "rmpmarl/setup/capsule_cover.h"
 #include "rmpmarl/math/point_cloud.h"
 
-namespace rmpmarl::kinematics::internal {
+namespace rmpmarl::setup::internal {
 
 // samples of the geometry's surface no coarser than *spacing (coarser, and *spacing updated, when there would be too
 // many): a grid on every triangle, Fibonacci points on every ball.
@@ -29,4 +29,4 @@ std::optional<std::vector<math::Capsule>> FitInscribedCapsules(const CoverGeomet
                                                                const math::PointCloudIndex& index,
                                                                const SolidTest& solid);
 
-}  // namespace rmpmarl::kinematics::internal
+}  // namespace rmpmarl::setup::internal
