@@ -11,7 +11,7 @@
 #include "commands.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/sim/scenario.h"
 #include "rmpmarl/viewer/live_sim.h"
@@ -84,9 +84,9 @@ void RunView(const ViewArgs& args) {
     options.plan_beside_loop = args.plan_beside_loop;
     std::string scene_name = fmt::format("scenario '{}'", args.scenario);
     if (!args.scene.empty()) {
-      const control::PlanningScene scene = control::ReadPlanningScene(args.scene, robot.model.link(0).name);
-      std::optional<control::MotionPlanRequest> request;
-      if (!args.request.empty()) request = control::ReadMotionPlanRequest(args.request);
+      const planning::PlanningScene scene = planning::ReadPlanningScene(args.scene, robot.model.link(0).name);
+      std::optional<planning::MotionPlanRequest> request;
+      if (!args.request.empty()) request = planning::ReadMotionPlanRequest(args.request);
       options.scene = sim::StaticSceneOf(robot, scene, request ? &*request : nullptr, args.request);
       options.max_obstacles = static_cast<int>(options.scene->obstacles.size()) + 8;
       scene_name = fmt::format("scene '{}' ({} objects, {} primitives){}", args.scene, scene.objects.size(),

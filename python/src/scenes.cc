@@ -8,7 +8,7 @@
 #include <string>
 
 #include "bindings.h"
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 
 namespace rmpmarl::python {
 namespace {
@@ -81,7 +81,7 @@ void BindScenes(py::module_& m) {
   m.def("read_planning_scene", [](const std::string& path, const py::handle& robot) {
     CheckFile(path, "a MoveIt planning scene (.yaml)");
     const std::string base = robot.is_none() ? std::string() : RobotOf(robot, "")->robot->model.link(0).name;
-    return SceneArguments(control::ReadPlanningScene(path, base).Obstacles());
+    return SceneArguments(planning::ReadPlanningScene(path, base).Obstacles());
   }, py::arg("path"), py::arg("robot") = py::none(),
         "the collision objects of a MoveIt planning scene (YAML of moveit_msgs/PlanningScene, as MotionBenchMaker "
         "writes them) as Controller.update()'s keyword arguments: a dict with 'spheres' [K, 4], 'boxes' [K, 6] "
@@ -93,12 +93,12 @@ void BindScenes(py::module_& m) {
   m.def("read_motion_plan_request", [](const std::string& path, const py::handle& robot) {
     CheckFile(path, "a MoveIt motion-plan request (.yaml)");
     const std::shared_ptr<RobotHandle> r = RobotOf(robot, "");
-    const control::MotionPlanRequest request = control::ReadMotionPlanRequest(path);
+    const planning::MotionPlanRequest request = planning::ReadMotionPlanRequest(path);
     const std::string source = std::filesystem::path(path).filename().string();
     py::dict out;
-    out["start"] = ToNumpy(control::JointVector(*r->robot, request.start, source + ": start_state"));
-    out["joint_target"] = ToNumpy(control::JointVector(*r->robot, request.goal.joints, source + ": goal"));
-    out["tolerance"] = ToNumpy(control::JointGoalTolerance(*r->robot, request.goal, source + ": goal"));
+    out["start"] = ToNumpy(planning::JointVector(*r->robot, request.start, source + ": start_state"));
+    out["joint_target"] = ToNumpy(planning::JointVector(*r->robot, request.goal.joints, source + ": goal"));
+    out["tolerance"] = ToNumpy(planning::JointGoalTolerance(*r->robot, request.goal, source + ": goal"));
     out["group"] = request.group;
     return out;
   }, py::arg("path"), py::arg("robot"),

@@ -23,7 +23,7 @@
 #include "rmpmarl/collision/checker.h"
 #include "rmpmarl/common/random.h"
 #include "rmpmarl/control/learned_controller.h"
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/experiments/statistics.h"
 #include "rmpmarl/kinematics/forward_kinematics.h"
@@ -233,14 +233,14 @@ std::string CapsulePairName(const kinematics::Robot& robot, const planning::Clea
 PreparedProblem Prepare(const kinematics::Robot& robot, const MbmProblem& problem, const MbmOptions& options,
                         std::uint64_t key) {
   PreparedProblem p;
-  const control::PlanningScene scene = control::ReadPlanningScene(problem.scene, robot.model.link(0).name);
-  const control::MotionPlanRequest request = control::ReadMotionPlanRequest(problem.request);
+  const planning::PlanningScene scene = planning::ReadPlanningScene(problem.scene, robot.model.link(0).name);
+  const planning::MotionPlanRequest request = planning::ReadMotionPlanRequest(problem.request);
   p.scene = sim::StaticSceneOf(robot, scene, &request, problem.request.string());
   rmp::Scene rmp_scene;
   rmp_scene.obstacles = scene.Obstacles();
   rmp::ValidateScene(rmp_scene, problem.scene.string());
   for (size_t i = 0; i < scene.objects.size(); ++i) {
-    const control::SceneObject& object = scene.objects[i];
+    const planning::SceneObject& object = scene.objects[i];
     const std::string id = object.id.empty() ? fmt::format("object {}", i + 1) : object.id;
     for (size_t j = 0; j < object.primitives.size(); ++j) {
       p.obstacle_names.push_back(object.primitives.size() == 1 ? id : fmt::format("{} (primitive {})", id, j + 1));

@@ -395,14 +395,14 @@ SceneSpec StaticScene(const StaticSceneOptions& o) {
 }
 }  // namespace
 
-StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const control::PlanningScene& scene,
-                                 const control::MotionPlanRequest* request, std::string_view source) {
+StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const planning::PlanningScene& scene,
+                                 const planning::MotionPlanRequest* request, std::string_view source) {
   StaticSceneOptions o;
   o.q_start = ReadyConfiguration(robot);
   Eigen::VectorXd q_target = o.q_start;
   if (request != nullptr) {
-    o.q_start = control::JointVector(robot, request->start, fmt::format("{}: start_state", source));
-    o.q_goal = control::JointVector(robot, request->goal.joints, fmt::format("{}: goal_constraints", source));
+    o.q_start = planning::JointVector(robot, request->start, fmt::format("{}: start_state", source));
+    o.q_goal = planning::JointVector(robot, request->goal.joints, fmt::format("{}: goal_constraints", source));
     q_target = o.q_goal;
   }
   kinematics::Data data(robot.model);

@@ -16,7 +16,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 #include "rmpmarl/sim/mjcf.h"
@@ -238,12 +238,12 @@ struct StaticSceneOptions {
   std::vector<LinearMotion> moving{};
 };
 
-/// a planning scene (control::ReadPlanningScene: its primitives as static obstacles) with, when given, a motion-plan
+/// a planning scene (planning::ReadPlanningScene: its primitives as static obstacles) with, when given, a motion-plan
 /// request's start (q_start) and joint goal (q_goal, and p_WT the end effector there); without a request the start is
 /// ReadyConfiguration(robot) and the target the end effector there. Throws InputError (a joint of the robot missing
 /// from the request, a point-set obstacle).
-StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const control::PlanningScene& scene,
-                                 const control::MotionPlanRequest* request = nullptr, std::string_view source = "");
+StaticSceneOptions StaticSceneOf(const kinematics::Robot& robot, const planning::PlanningScene& scene,
+                                 const planning::MotionPlanRequest* request = nullptr, std::string_view source = "");
 
 /// `static`: the set-up of StaticSceneOptions (not in the registry: it needs explicit data).
 class StaticScenario final : public Scenario {

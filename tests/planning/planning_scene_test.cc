@@ -1,6 +1,6 @@
 // MoveIt planning scenes and motion-plan requests: hand-written files with hand-derived poses and sizes, the refusals
 // by name, and MotionBenchMaker's Panda problems (where the set is present).
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -12,7 +12,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 
-namespace rmpmarl::control {
+namespace rmpmarl::planning {
 namespace {
 
 const char* kScene = R"(
@@ -238,4 +238,4 @@ TEST(MotionBenchMakerTest, EveryPandaProblemReads) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::control
+}  // namespace rmpmarl::planning

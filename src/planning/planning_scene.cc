@@ -1,5 +1,5 @@
 // MoveIt planning scenes and motion-plan requests (YAML) as obstacles, start states and joint goals.
-#include "rmpmarl/control/planning_scene.h"
+#include "rmpmarl/planning/planning_scene.h"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -12,7 +12,7 @@
 #include "../common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::control {
+namespace rmpmarl::planning {
 namespace {
 
 using internal::YamlReader;
@@ -365,4 +365,4 @@ Eigen::VectorXd JointGoalTolerance(const kinematics::Robot& robot, const JointGo
   return JointVector(robot, below, what).cwiseMin(JointVector(robot, above, what));
 }
 
-}  // namespace rmpmarl::control
+}  // namespace rmpmarl::planning

@@ -19,7 +19,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/rmp/scene.h"
 
-namespace rmpmarl::control {
+namespace rmpmarl::planning {
 
 /// One collision object: its id and its primitives as static obstacles in the base frame.
 struct SceneObject {
@@ -80,4 +80,4 @@ Eigen::VectorXd JointVector(const kinematics::Robot& robot, const NamedJoints& j
 /// the goal's per-dof tolerance (the smaller of below and above), in the robot's dof order (as JointVector).
 Eigen::VectorXd JointGoalTolerance(const kinematics::Robot& robot, const JointGoal& goal, std::string_view what);
 
-}  // namespace rmpmarl::control
+}  // namespace rmpmarl::planning
