@@ -1,8 +1,6 @@
 // A simulated depth camera: MuJoCo's offscreen renderer through EGL, depth read back and made metric.
 #include "rmpmarl/perception/depth_camera.h"
 
-#include <EGL/egl.h>
-#include <EGL/eglext.h>
 #include <GL/gl.h>
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -14,7 +12,7 @@
 
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/sim/world.h"
-#include "../sim/egl_context.h"
+#include "rmpmarl/sim/gl_context.h"
 
 namespace rmpmarl::perception {
 
@@ -83,8 +81,7 @@ void SetGlCameras(const Eigen::Isometry3d& X_WC, double half_height, double z_ne
 }  // namespace
 
 struct DepthCamera::Impl {
-  EGLDisplay display = EGL_NO_DISPLAY;
-  EGLContext context = EGL_NO_CONTEXT;
+  std::unique_ptr<sim::OffscreenGlContext> gl;
   mjModel* model = nullptr;  // a private copy: offscreen size, no multisampling, no shadow map
   mjvScene scene;
   mjvCamera camera;
@@ -110,15 +107,13 @@ struct DepthCamera::Impl {
   // may have terminated the display, which destroys this context: then the display is initialised again and a new
   // EGL and render context made. Throws std::runtime_error when that fails too.
   void MakeCurrent(int width, int height) {
-    if (eglGetCurrentContext() == context && context != EGL_NO_CONTEXT) return;
-    if (eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) return;
-    const EGLint error = eglGetError();
-    std::string why_not;
+    if (gl->IsCurrent()) return;
+    std::string error, why_not;
+    if (gl->MakeCurrent(&error)) return;
     // the old context's GL objects died with it: nothing to free
-    context = sim::internal::MakeCurrentEglContext(display, &why_not);
-    if (context == EGL_NO_CONTEXT || !MakeRenderContext(width, height)) {
-      throw std::runtime_error(fmt::format("DepthCamera::Render: the camera's EGL context cannot be made current (EGL "
-                                           "error 0x{:x}) nor made again: {}",
+    if (!gl->Remake(&why_not) || !MakeRenderContext(width, height)) {
+      throw std::runtime_error(fmt::format("DepthCamera::Render: the camera's EGL context cannot be made current ({}) "
+                                           "nor made again: {}",
                                            error, why_not.empty() ? "no offscreen framebuffer" : why_not));
     }
   }
@@ -201,10 +196,8 @@ std::unique_ptr<DepthCamera> DepthCamera::Create(const sim::WorldModel& model, c
   camera->intrinsics_ = IntrinsicsFor(options);
   camera->impl_ = std::make_unique<Impl>();
   Impl& impl = *camera->impl_;
-  const sim::internal::EglContext egl = sim::internal::MakeCurrentEglContextOnFirstDisplay(why_not);
-  if (egl.context == EGL_NO_CONTEXT) return nullptr;
-  impl.display = egl.display;
-  impl.context = egl.context;
+  impl.gl = sim::OffscreenGlContext::Create(why_not);
+  if (!impl.gl) return nullptr;
   const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   camera->gl_renderer_ = gl_renderer != nullptr ? gl_renderer : "unknown";
 
@@ -249,16 +242,11 @@ std::unique_ptr<DepthCamera> DepthCamera::Create(const sim::WorldModel& model, c
 
 DepthCamera::~DepthCamera() {
   if (!impl_) return;
-  if (impl_->context != EGL_NO_CONTEXT) {
-    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context);
-  }
+  if (impl_->gl) impl_->gl->MakeCurrent();  // MuJoCo's GL objects are freed in their context
   if (impl_->context_made) mjr_freeContext(&impl_->context_mj);
   if (impl_->scene_made) mjv_freeScene(&impl_->scene);
   if (impl_->model != nullptr) mj_deleteModel(impl_->model);
-  if (impl_->context != EGL_NO_CONTEXT) {
-    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    eglDestroyContext(impl_->display, impl_->context);
-  }
+  impl_->gl.reset();
 }
 
 void DepthCamera::set_pose(const Eigen::Isometry3d& X_WC) {

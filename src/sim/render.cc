@@ -3,8 +3,6 @@
 
 #include "rmpmarl/sim/scenario.h"
 
-#include <EGL/egl.h>
-#include <EGL/eglext.h>
 #include <GL/gl.h>
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
@@ -16,13 +14,12 @@
 #include <fstream>
 
 #include "rmpmarl/common/error.h"
-#include "egl_context.h"
+#include "rmpmarl/sim/gl_context.h"
 
 namespace rmpmarl::sim {
 
 struct OffscreenRenderer::Impl {
-  EGLDisplay display = EGL_NO_DISPLAY;
-  EGLContext context = EGL_NO_CONTEXT;
+  std::unique_ptr<OffscreenGlContext> gl;
   mjModel* model = nullptr;  // a private copy whose offscreen buffer size matches the options
   mjvScene scene;
   mjvCamera camera;
@@ -94,10 +91,8 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
   renderer->options_ = options;
   renderer->impl_ = std::make_unique<Impl>();
   Impl& impl = *renderer->impl_;
-  const internal::EglContext egl = internal::MakeCurrentEglContextOnFirstDisplay(why_not);
-  if (egl.context == EGL_NO_CONTEXT) return nullptr;
-  impl.display = egl.display;
-  impl.context = egl.context;
+  impl.gl = OffscreenGlContext::Create(why_not);
+  if (!impl.gl) return nullptr;
   const char* gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
   renderer->gl_renderer_ = gl_renderer != nullptr ? gl_renderer : "unknown";
 
@@ -130,24 +125,17 @@ std::unique_ptr<OffscreenRenderer> OffscreenRenderer::Create(const mjModel* mode
 
 OffscreenRenderer::~OffscreenRenderer() {
   if (!impl_) return;
-  if (impl_->context != EGL_NO_CONTEXT) {
-    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context);
-  }
+  if (impl_->gl) impl_->gl->MakeCurrent();  // MuJoCo's GL objects are freed in their context
   if (impl_->context_made) mjr_freeContext(&impl_->context_mj);
   if (impl_->scene_made) mjv_freeScene(&impl_->scene);
   if (impl_->model != nullptr) mj_deleteModel(impl_->model);
-  if (impl_->context != EGL_NO_CONTEXT) {
-    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    eglDestroyContext(impl_->display, impl_->context);
-  }
-  // no eglTerminate: an EGL display is one per process, shared with every other renderer and depth camera, and
-  // terminating it would destroy their contexts too
+  impl_->gl.reset();  // the display stays (OffscreenGlContext)
 }
 
 void OffscreenRenderer::Render(const mjData* data, std::vector<std::uint8_t>* rgb, const Eigen::Matrix3Xd* points,
                                double point_radius) {
   Impl& impl = *impl_;
-  eglMakeCurrent(impl.display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl.context);
+  impl.gl->MakeCurrent();
   const mjrRect viewport{0, 0, options_.width, options_.height};
   // mjv_updateScene takes a non-const mjData (it may write warnings); the state itself is not modified.
   mjv_updateScene(impl.model, const_cast<mjData*>(data), &impl.option, nullptr, &impl.camera, mjCAT_ALL, &impl.scene);

@@ -1,11 +1,13 @@
-#include "egl_context.h"
+// An offscreen OpenGL context through EGL, shared by sim::OffscreenRenderer and perception::DepthCamera.
+#include "rmpmarl/sim/gl_context.h"
 
+#include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <fmt/format.h>
 
 #include <vector>
 
-namespace rmpmarl::sim::internal {
+namespace rmpmarl::sim {
 namespace {
 
 // EGL displays to try, best first: a GPU device if one is exposed, Mesa's surfaceless platform, the default display.
@@ -30,9 +32,9 @@ std::vector<EGLDisplay> CandidateDisplays() {
   return candidates;
 }
 
-}  // namespace
-
-EGLContext MakeCurrentEglContext(EGLDisplay display, std::string* why_not) {
+// a desktop-OpenGL context current on `display` (initialised here if it is not); EGL_NO_CONTEXT and why when it
+// cannot be made
+EGLContext MakeCurrentContext(EGLDisplay display, std::string* why_not) {
   EGLint major = 0, minor = 0;
   if (display == EGL_NO_DISPLAY || !eglInitialize(display, &major, &minor)) {
     *why_not = fmt::format("EGL display cannot be initialised (EGL error 0x{:x})", eglGetError());
@@ -56,16 +58,53 @@ EGLContext MakeCurrentEglContext(EGLDisplay display, std::string* why_not) {
   return EGL_NO_CONTEXT;
 }
 
-EglContext MakeCurrentEglContextOnFirstDisplay(std::string* why_not) {
+}  // namespace
+
+struct OffscreenGlContext::Impl {
+  EGLDisplay display = EGL_NO_DISPLAY;
+  EGLContext context = EGL_NO_CONTEXT;
+};
+
+OffscreenGlContext::OffscreenGlContext() : impl_(std::make_unique<Impl>()) {}
+
+std::unique_ptr<OffscreenGlContext> OffscreenGlContext::Create(std::string* why_not) {
   std::string reasons;
   for (EGLDisplay display : CandidateDisplays()) {
     std::string why;
-    const EGLContext context = MakeCurrentEglContext(display, &why);
-    if (context != EGL_NO_CONTEXT) return {display, context};
+    const EGLContext context = MakeCurrentContext(display, &why);
+    if (context != EGL_NO_CONTEXT) {
+      std::unique_ptr<OffscreenGlContext> gl(new OffscreenGlContext());
+      gl->impl_->display = display;
+      gl->impl_->context = context;
+      return gl;
+    }
     reasons += (reasons.empty() ? "" : "; ") + why;
   }
   *why_not = reasons.empty() ? "no EGL display found" : reasons;
-  return {};
+  return nullptr;
 }
 
-}  // namespace rmpmarl::sim::internal
+OffscreenGlContext::~OffscreenGlContext() {
+  if (impl_->context == EGL_NO_CONTEXT) return;
+  if (IsCurrent()) eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  eglDestroyContext(impl_->display, impl_->context);
+}
+
+bool OffscreenGlContext::IsCurrent() const {
+  return impl_->context != EGL_NO_CONTEXT && eglGetCurrentContext() == impl_->context;
+}
+
+bool OffscreenGlContext::MakeCurrent(std::string* why_not) {
+  if (eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context)) return true;
+  const EGLint error = eglGetError();
+  if (why_not != nullptr) *why_not = fmt::format("EGL error 0x{:x}", error);
+  return false;
+}
+
+bool OffscreenGlContext::Remake(std::string* why_not) {
+  // the old context died with its display's termination (another process-wide user): nothing of it to free
+  impl_->context = MakeCurrentContext(impl_->display, why_not);
+  return impl_->context != EGL_NO_CONTEXT;
+}
+
+}  // namespace rmpmarl::sim
