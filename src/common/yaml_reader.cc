@@ -1,4 +1,4 @@
-#include "yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 
 #include <fmt/format.h>
 

@@ -8,7 +8,7 @@
 #include <limits>
 #include <vector>
 
-#include "agent_config_internal.h"
+#include "rmpmarl/control/agent_config_yaml.h"
 #include "rmpmarl/control/agent_interface.h"
 #include "rmpmarl/common/error.h"
 
@@ -103,7 +103,7 @@ AgentConfig DefaultAgentConfig(std::string_view task) {
   return c;
 }
 
-namespace internal {
+// the agent sections of a config file, read here and by the task config (agent_config_yaml.h)
 
 void ReadAgentSections(const YamlReader& r, const YAML::Node& root, AgentConfig* config,
                        const std::set<std::string>* episode_also) {
@@ -202,8 +202,6 @@ void CheckPassClearance(const ConfigChecker& check, const AgentConfig& c, double
                     "(got {})", c.observation.lookahead, interfaces, InterfaceModeName(c.interface)), clearance);
 }
 
-}  // namespace internal
-
 AgentConfig ParseAgentConfig(const std::string& yaml_text, const std::string& source) {
   const YAML::Node root = rmpmarl::internal::LoadYamlText(yaml_text, source);
   const YamlReader r(source);
@@ -216,7 +214,7 @@ AgentConfig ParseAgentConfig(const std::string& yaml_text, const std::string& so
   } catch (const InputError& e) {
     r.Fail(task_node, "task", e.what());
   }
-  internal::ReadAgentSections(r, root, &c, nullptr);
+  ReadAgentSections(r, root, &c, nullptr);
   ValidateAgentConfig(c, source);
   return c;
 }
@@ -262,7 +260,7 @@ void ValidateAgentConfig(const AgentConfig& c, std::string_view where) {
   check(c.options.fixed_option >= -1 && c.options.fixed_option < kNumRmpOptions, "options.fixed_option",
         "-1 (learned) or an option index 0, 1, 2", c.options.fixed_option);
   const OptionConfig& op = c.options;
-  internal::CheckPassClearance(check, c, op.target_gate_clearance, "options.target_gate_clearance", "no prior",
+  CheckPassClearance(check, c, op.target_gate_clearance, "options.target_gate_clearance", "no prior",
                      c.interface == InterfaceMode::kPerJointRmp, "the per-joint-rmp");
   check(std::isfinite(op.target_gate_clear) && std::abs(op.target_gate_clear) <= 1.0, "options.target_gate_clear",
         "a parameter u in [-1, 1]", op.target_gate_clear);

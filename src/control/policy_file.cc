@@ -15,7 +15,7 @@
 #include <iterator>
 #include <vector>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::control {

@@ -13,7 +13,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "figures.h"
 #include "report.h"
 #include "rmpmarl/common/error.h"

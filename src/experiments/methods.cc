@@ -9,7 +9,7 @@
 #include <mutex>
 #include <set>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rmp/rmpflow.h"
 

@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <set>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 
 #ifndef RMPMARL_MODELS_DIR

@@ -2,7 +2,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/planning/plan_follow.h"
 

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 
 namespace rmpmarl::planning {

@@ -11,7 +11,7 @@
 #include <iterator>
 #include <vector>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/sim/scenario.h"
 

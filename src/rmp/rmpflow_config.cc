@@ -7,7 +7,7 @@
 #include <set>
 #include <string>
 
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/rmp/rmpflow.h"
 

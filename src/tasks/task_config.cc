@@ -11,8 +11,8 @@
 #include <initializer_list>
 #include <set>
 
-#include "../common/yaml_reader.h"
-#include "../control/agent_config_internal.h"
+#include "rmpmarl/common/yaml_reader.h"
+#include "rmpmarl/control/agent_config_yaml.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/control/agent_interface.h"
@@ -338,7 +338,7 @@ void ReadTaskNode(const YAML::Node& root, const std::string& file, TaskConfig& c
                "randomization", "planar2", "scenario", "rmp"});
   const TaskKind task = c.task;
   control::AgentConfig agent = AgentConfigOf(c);
-  control::internal::ReadAgentSections(r, root, &agent, &kTaskEpisodeKeys);
+  control::ReadAgentSections(r, root, &agent, &kTaskEpisodeKeys);
   SetAgentConfig(c, agent);
   if (const YAML::Node n = root["robot"]) c.robot = r.String(n, "robot");
   if (const YAML::Node n = root["collision"]) c.collision = r.String(n, "collision");

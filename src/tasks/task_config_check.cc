@@ -8,8 +8,8 @@
 #include <limits>
 #include <string>
 
-#include "../common/config_check.h"
-#include "../control/agent_config_internal.h"
+#include "rmpmarl/common/config_check.h"
+#include "rmpmarl/control/agent_config_yaml.h"
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/control/agent_interface.h"
@@ -192,7 +192,7 @@ void ValidateTaskConfig(const TaskConfig& c, std::string_view where) {
         "a weight >= 0 [reward per step]", w.precision_weight);
   check(std::isfinite(w.precision_length) && w.precision_length > 0.0, "reward.precision_length", "a length > 0 m",
         w.precision_length);
-  control::internal::CheckPassClearance(check, agent, w.precision_pass_clearance, "reward.precision_pass_clearance",
+  control::CheckPassClearance(check, agent, w.precision_pass_clearance, "reward.precision_pass_clearance",
                                        "every step", c.interface != InterfaceMode::kDirect, "a per-joint");
   // domain randomisation
   const RandomizationConfig& d = c.randomization;

@@ -1,6 +1,7 @@
 #pragma once
-// Internal (not installed): reads YAML configuration nodes with messages that name the file, line and dotted key and
-// say expected vs got. Shared by the robot description, RMPflow and task config loaders; yaml-cpp stays private.
+/// Reads YAML configuration nodes with messages that name the file, line and dotted key and say expected vs got: the
+/// building blocks of every config loader of the library (robot description, RMPflow, agents, tasks, planning,
+/// experiments). Namespace internal: for the library's own loaders, not a stable API.
 #include <yaml-cpp/yaml.h>
 
 #include <array>

@@ -1,6 +1,7 @@
 #pragma once
-// Internal (not installed): the range checks of configuration structs built in code or read from files, with
-// messages "<where>: key '<key>': expected <expected>, got <got>". Shared by the agent and task config validators.
+/// The range checks of configuration structs built in code or read from files, with messages "<where>: key '<key>':
+/// expected <expected>, got <got>". Shared by the agent and task config validators. Namespace internal: for the
+/// library's own validators, not a stable API.
 #include <fmt/format.h>
 
 #include <array>

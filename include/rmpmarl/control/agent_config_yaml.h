@@ -1,17 +1,17 @@
 #pragma once
-// Internal (not installed): the agent config's YAML reader and checks, shared with the task config's
-// (src/tasks/task_config.cc, task_config_check.cc), which reads the same sections as part of a whole task.
+/// The agent config's YAML sections and checks, for readers of files that hold them as part of a larger config (the
+/// task config of tasks/task_config.h reads the same sections as part of a whole task).
 #include <yaml-cpp/yaml.h>
 
 #include <set>
 #include <string>
 #include <string_view>
 
-#include "../common/config_check.h"
-#include "../common/yaml_reader.h"
+#include "rmpmarl/common/config_check.h"
+#include "rmpmarl/common/yaml_reader.h"
 #include "rmpmarl/control/agent_config.h"
 
-namespace rmpmarl::control::internal {
+namespace rmpmarl::control {
 
 /// reads the controller sections present in `root` (interface, episode's max_steps, control_rate and
 /// physics_timestep, controller, options, direct, observation, rmp) onto `config`; the others keep their values.
@@ -25,4 +25,4 @@ void ReadAgentSections(const rmpmarl::internal::YamlReader& r, const YAML::Node&
 void CheckPassClearance(const rmpmarl::internal::ConfigChecker& check, const AgentConfig& c, double clearance,
                         const std::string& key, std::string_view off, bool interface_ok, std::string_view interfaces);
 
-}  // namespace rmpmarl::control::internal
+}  // namespace rmpmarl::control
