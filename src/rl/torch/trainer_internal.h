@@ -1,11 +1,12 @@
-// Internal to the trainer's sources: the checkpoint's magic, loading a learner from a checkpoint, and the running
-// episode statistics and number formatting of the training log. Not installed.
+// Internal to the trainer's sources: the trainer's state (Trainer::Impl), the checkpoint's magic, loading a learner from
+// a checkpoint, and the running episode statistics and number formatting of the training log. Not installed.
 #pragma once
 
 #include <fmt/format.h>
 
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <string>
@@ -13,6 +14,7 @@
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/trainer.h"
 #include "rmpmarl/tasks/env.h"
+#include "rmpmarl/rl/vec_env.h"
 
 namespace rmpmarl::rl::internal {
 
@@ -76,3 +78,37 @@ inline std::string Num(double v, const char* spec = "{:.3g}") {
 }
 
 }  // namespace rmpmarl::rl::internal
+
+namespace rmpmarl::rl {
+
+// the trainer's state, shared by the update loop (trainer.cc) and the checkpoints (trainer_checkpoint.cc)
+struct Trainer::Impl {
+  Collective* collective = nullptr;
+  int rank = 0, world = 1;
+  TrainConfig config;
+  tasks::EnvFactory factory;
+  tasks::EnvSpec spec;
+  std::unique_ptr<VecEnv> env;
+  std::unique_ptr<Ppo> ppo;
+  int update = 0;
+  std::int64_t env_steps = 0;
+  int env_built_for = 0;   // the segment-start update the current VecEnv was seeded for
+  int envs_reset_at = -1;  // update at which the current envs were seeded and reset
+  std::deque<tasks::EpisodeMetrics> recent;  // the last stats_window finished episodes (checkpointed)
+
+  // seeds and resets the envs for the segment that starts at update u (env k: seed + u·N + k).
+  void ResetEnvs(int u) {
+    if (!env || env_built_for != u) {
+      const std::uint64_t seed = config.seed + static_cast<std::uint64_t>(u) * config.num_envs * world +
+                                 static_cast<std::uint64_t>(rank) * config.num_envs;
+      env = std::make_unique<VecEnv>(factory, VecEnvOptions{config.num_envs, seed, config.env_threads});
+      env_built_for = u;
+    }
+    env->Reset();  // re-seeds env k's RNG with the VecEnv's seed + k
+    envs_reset_at = u;
+  }
+
+  UpdateSummary RunUpdate();
+};
+
+}  // namespace rmpmarl::rl
