@@ -10,7 +10,7 @@
 
 #include "bindings.h"
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 #include "rmpmarl/control/cloud_obstacles.h"
 #include "rmpmarl/control/learned_controller.h"
 #include "rmpmarl/control/policy_file.h"
@@ -514,7 +514,7 @@ void BindControllerMakers(py::module_& m) {
         "default: the robot the file was trained on). floor_height: a floor plane z = h the agents see (default none, "
         "as in training).");
   m.def("read_point_cloud", [](const std::string& path) {
-    const perception::PointCloudFile f = perception::ReadPointCloud(path);
+    const control::PointCloudFile f = control::ReadPointCloud(path);
     py::array_t<double> a({static_cast<py::ssize_t>(f.points.cols()), py::ssize_t{3}});
     if (f.points.size() > 0) std::copy_n(f.points.data(), f.points.size(), a.mutable_data());
     return a;

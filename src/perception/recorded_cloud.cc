@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 
 namespace rmpmarl::perception {
 namespace fs = std::filesystem;
@@ -49,7 +49,7 @@ RecordedCloud::RecordedCloud(const kinematics::Robot& robot, const fs::path& pat
     throw InputError(fmt::format("RecordedCloudOptions.rate: expected a finite rate > 0 Hz, got {}", options_.rate));
   }
   for (const fs::path& file : RecordedCloudFiles(path)) {
-    PointCloudFile f = ReadPointCloud(file, {.max_points = options_.cloud.max_points});
+    control::PointCloudFile f = control::ReadPointCloud(file, {.max_points = options_.cloud.max_points});
     frames_.push_back(std::move(f.points));
   }
 }

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "rmpmarl/kinematics/robot.h"
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 #include "run_cli.h"
 
 namespace {
@@ -39,7 +39,7 @@ TEST(PerceptionCliTest, DemoReplaysARecordedCloud) {
   fs::create_directories(dir);
   Eigen::Matrix3Xd box(3, 200);
   for (int i = 0; i < 200; ++i) box.col(i) = Eigen::Vector3d(0.45 + 0.001 * (i % 50), 0.2, 0.5 + 0.02 * (i / 50));
-  rmpmarl::perception::WritePcd(dir / "wall.pcd", box);
+  rmpmarl::control::WritePcd(dir / "wall.pcd", box);
   const auto r = RunCli("demo --policy rmpflow --scenario static-reach --duration 1 --cloud " + (dir / "wall.pcd").string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("perception: the recorded cloud"), std::string::npos) << r.output;

@@ -12,7 +12,7 @@
 #include <limits>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 #include "rmpmarl/perception/recorded_cloud.h"
 #include "rmpmarl/control/controller.h"
 #include "rmpmarl/sim/episode.h"
@@ -202,8 +202,8 @@ TEST(RecordedCloudTest, AFileOrAFolderOfFramesReplaysAsObstacles) {
           }
     return p;
   };
-  WritePly(dir / "still.ply", box(0.3));
-  for (int f = 0; f < 10; ++f) WritePcd(dir / "frames" / fmt::format("{:03d}.pcd", f), box(0.3 + 0.01 * f));
+  control::WritePly(dir / "still.ply", box(0.3));
+  for (int f = 0; f < 10; ++f) control::WritePcd(dir / "frames" / fmt::format("{:03d}.pcd", f), box(0.3 + 0.01 * f));
   sim::World world(model);
   scenario->Reset(0, world);
   RecordedCloud still(robot, dir / "still.ply");

@@ -1,6 +1,6 @@
-// PLY and PCD point cloud files (perception/cloud_io.h): the file is read into memory once; binary records are
+// PLY and PCD point cloud files (control/cloud_io.h): the file is read into memory once; binary records are
 // decoded with memcpy, ascii numbers with std::from_chars; every read is bounds-checked against the buffer first.
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 
 #include <fmt/format.h>
 
@@ -19,7 +19,7 @@
 
 #include "rmpmarl/common/error.h"
 
-namespace rmpmarl::perception {
+namespace rmpmarl::control {
 namespace {
 
 enum class Scalar { kI8, kU8, kI16, kU16, kI32, kU32, kI64, kU64, kF32, kF64 };
@@ -672,4 +672,4 @@ void WritePcd(const std::filesystem::path& path, const Eigen::Matrix3Xd& points,
   WriteWholeFile(path, out);
 }
 
-}  // namespace rmpmarl::perception
+}  // namespace rmpmarl::control

@@ -1,4 +1,4 @@
-// Point cloud files (perception/cloud_io.h): Write→Read round trips of both formats and encodings (exact for float32
+// Point cloud files (control/cloud_io.h): Write→Read round trips of both formats and encodings (exact for float32
 // values), hand-written PLY and PCD files (extra properties and fields, elements around the vertices, big-endian
 // bytes, padding, organised clouds with NaN, LZF data with back-references), every malformed case with the path and
 // the problem in the message, truncated and corrupted files (an InputError, never a crash), and the time to read a
@@ -25,9 +25,9 @@
 #include <fmt/format.h>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/perception/cloud_io.h"
+#include "rmpmarl/control/cloud_io.h"
 
-namespace rmpmarl::perception {
+namespace rmpmarl::control {
 namespace {
 
 using Eigen::Matrix3Xd;
@@ -485,4 +485,4 @@ TEST_F(CloudIoTest, ReadsAMillionBinaryPointsQuickly) {
 }
 
 }  // namespace
-}  // namespace rmpmarl::perception
+}  // namespace rmpmarl::control

@@ -23,7 +23,7 @@
 #include <filesystem>
 #include <string>
 
-namespace rmpmarl::perception {
+namespace rmpmarl::control {
 
 /// A point cloud as read from a file: positions (3 × N, one column per point, in the file's units and frame).
 struct PointCloudFile {
@@ -55,4 +55,4 @@ void WritePly(const std::filesystem::path& path, const Eigen::Matrix3Xd& points,
 /// ascii; throws InputError when the file cannot be written.
 void WritePcd(const std::filesystem::path& path, const Eigen::Matrix3Xd& points, bool binary = true);
 
-}  // namespace rmpmarl::perception
+}  // namespace rmpmarl::control
