@@ -13,6 +13,7 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/control/policy_file.h"
 #include "rmpmarl/tasks/task_config.h"
+#include "../support/temp_files.h"
 #include "run_cli.h"
 
 namespace {
@@ -29,12 +30,7 @@ std::string ReadAll(const fs::path& path) {
 
 fs::path Shipped(const std::string& name) { return ModelsDirectory() / "policies" / name; }
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_policy_cli_{}_{}", ::getpid(), name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return rmpmarl::test::FreshTempDir("policy-cli", name); }
 
 // eval is part of the libtorch build
 bool HasEval() { return RunCli("eval --help").exit_code == 0; }

@@ -26,22 +26,15 @@
 #include "rmpmarl/kinematics/urdf_geometry.h"
 #include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/sim/scenario.h"
+#include "../support/temp_files.h"
 
 namespace rmpmarl::experiments {
 namespace {
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl-mbm-{}-{}", name, getpid());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return test::FreshTempDir("mbm", name); }
 
-void Write(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
+void Write(const fs::path& path, const std::string& text) { test::WriteTextFile(path, text); }
 
 // a 24 × 4 × 36 cm wall between the Panda's ready posture and a goal 45 cm to its left (the RRT tests' wall), as a
 // MoveIt scene and request; `goal` the joint goal

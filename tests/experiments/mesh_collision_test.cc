@@ -20,18 +20,14 @@
 #include "rmpmarl/kinematics/urdf_geometry.h"
 #include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/sim/scenario.h"
+#include "../support/temp_files.h"
 
 namespace rmpmarl::experiments {
 namespace {
 namespace fs = std::filesystem;
 using Eigen::Vector3d;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl-meshes-{}-{}", name, getpid());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return test::FreshTempDir("meshes", name); }
 
 // a cube of side 2·half about the origin as an OBJ file (12 triangles, outward faces)
 void WriteCube(const fs::path& path, double half) {

@@ -18,6 +18,7 @@
 #include "rmpmarl/kinematics/urdf_geometry.h"
 #include "rmpmarl/setup/mesh.h"
 #include "rmpmarl/rmp/rmpflow.h"
+#include "../support/temp_files.h"
 
 namespace rmpmarl::setup {
 
@@ -26,17 +27,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_setup_test_{}_{}", ::getpid(), name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return test::FreshTempDir("setup", name); }
 
-void Write(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
-}
+void Write(const fs::path& path, const std::string& text) { test::WriteTextFile(path, text); }
 
 // an ASCII STL of a box of full sizes `size` centred at `centre`, in millimetres (the URDF scales it by 0.001).
 std::string BoxStlMillimetres(const Eigen::Vector3d& size, const Eigen::Vector3d& centre) {

@@ -17,6 +17,7 @@
 #include "rmpmarl/common/error.h"
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/setup/robot_setup.h"
+#include "../support/temp_files.h"
 
 namespace rmpmarl::setup {
 
@@ -25,14 +26,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_srdf_test_{}_{}", ::getpid(), name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path TempDir(const std::string& name) { return test::FreshTempDir("srdf", name); }
 
-void Write(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
+void Write(const fs::path& path, const std::string& text) { test::WriteTextFile(path, text); }
 
 // a world-rooted four-joint arm of primitives with frame-only flange and tool0.
 constexpr const char* kArmUrdf = R"(<?xml version="1.0"?>
