@@ -1,6 +1,6 @@
 """`pip install --no-build-isolation .` (Debian's python3-skbuild, python3-pybind11 via pybind11-dev): builds the
 library and the Python module with CMake and packs them with the shipped models and configs. Training (libtorch),
-the CLI's experiments, tests and benchmarks are left out of this build; `make` builds everything."""
+the command-line tool, its viewer, tests and benchmarks are left out of this build; `make` builds everything."""
 from skbuild import setup
 
 setup(
@@ -17,6 +17,8 @@ setup(
         "-DRMPMARL_WITH_TORCH=OFF",
         "-DRMPMARL_BUILD_TESTS=OFF",
         "-DRMPMARL_BUILD_BENCH=OFF",
+        "-DRMPMARL_BUILD_CLI=OFF",  # the command-line tool and its viewer: not the Python package's
+        "-DRMPMARL_BUILD_WEB=OFF",
         "-DCMAKE_BUILD_TYPE=Release",
         "-GNinja",
     ],
