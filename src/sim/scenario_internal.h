@@ -1,5 +1,5 @@
 #pragma once
-// Helpers shared by the scenario implementations (scenario.cc, cells_scenario.cc); not installed.
+// Helpers shared by the scenario implementations (scenario.cc and the scene files beside it); not installed.
 #include <fmt/format.h>
 
 #include <Eigen/Core>
@@ -16,7 +16,16 @@
 #include "rmpmarl/kinematics/robot.h"
 #include "rmpmarl/math/geometry.h"
 
+namespace rmpmarl::sim {
+struct SceneSpec;
+}  // namespace rmpmarl::sim
+
 namespace rmpmarl::sim::internal {
+
+/// throws InputError naming `where` unless q is a finite configuration of `robot` within its joint limits.
+void CheckStart(const kinematics::Robot& robot, const Eigen::VectorXd& q, std::string_view where);
+/// n cubes of side `side` and a target.
+SceneSpec CubeScene(int n, double side);
 
 // throws InputError "<where>: expected <expected>, got <got>" unless ok (and value finite).
 inline void Require(bool ok, std::string_view where, std::string_view expected, double got) {
