@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -323,6 +324,17 @@ std::vector<std::vector<torch::Tensor>> OnLoopback(int world, CollectiveWait wai
   for (std::thread& t : threads) t.join();
   for (int r = 0; r < world; ++r) EXPECT_EQ(errors[r], "") << "rank " << r;
   return out;
+}
+
+// a rank that joins a group ignores SIGPIPE: a write to a peer that died fails with EPIPE and the collective throws
+// its message, instead of the signal ending the rank at once (the killed-rank test below, where a write can race the
+// peer's death)
+TEST(DistributedTest, AJoinedRankIgnoresSigpipe) {
+  std::signal(SIGPIPE, SIG_DFL);
+  OnLoopback(2, CollectiveWait::kPoll, 10);
+  struct sigaction action {};
+  ASSERT_EQ(sigaction(SIGPIPE, nullptr, &action), 0);
+  EXPECT_EQ(action.sa_handler, SIG_IGN);
 }
 
 TEST(DistributedTest, GlooCollectivesInPiecesGiveTheSumsWhetherRanksPollOrBlock) {

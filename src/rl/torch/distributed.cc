@@ -25,6 +25,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -253,6 +254,10 @@ std::unique_ptr<Collective> JoinProcessGroup(const ProcessGroupOptions& options)
     throw InputError(fmt::format("process group: expected 0 <= rank < world size, got rank {} of {}", options.rank,
                                  options.world_size));
   }
+  // a peer that dies closes its sockets: a write to one would raise SIGPIPE, whose default action ends this rank at
+  // once, without the message naming what failed. Ignored, the write fails with EPIPE, the collective throws, and
+  // the rank ends with that message (Python's interpreter ignores SIGPIPE for the same reason).
+  std::signal(SIGPIPE, SIG_IGN);
   return std::make_unique<GlooCollective>(options);
 }
 
