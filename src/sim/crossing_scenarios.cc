@@ -4,32 +4,19 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/SVD>
 #include <algorithm>
-#include <cmath>
-#include <limits>
-#include <utility>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/kinematics/forward_kinematics.h"
-#include "rmpmarl/rmp/rmpflow.h"
 #include "scenario_internal.h"
 
 namespace rmpmarl::sim {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
 using internal::BaseDistance;
-using internal::CheckStart;
 using internal::CubeScene;
 using internal::CutToSpawnDisc;
-using internal::EndEffector;
 using internal::HorizontalPath;
-using internal::LowestMovingPoint;
-using internal::MinSelfClearance;
 using internal::Require;
-using internal::SamplingRange;
 using internal::Uniform;
 
 }  // namespace
