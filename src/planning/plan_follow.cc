@@ -147,7 +147,7 @@ PlanFollowPolicy::PlanResult PlanFollowPolicy::ComputePlan(const PlanRequest& re
   return r;
 }
 
-bool PlanFollowPolicy::AdoptPlan(PlanResult result, double seconds) {
+void PlanFollowPolicy::AdoptPlan(PlanResult result, double seconds) {
   has_goal_ = result.has_goal;
   if (has_goal_) {
     q_goal_ = std::move(result.q_goal);
@@ -156,8 +156,7 @@ bool PlanFollowPolicy::AdoptPlan(PlanResult result, double seconds) {
   }
   stats_.goal_failures += result.goal_failures;
   stats_.last_outcome = result.outcome;
-  const bool ok = !result.path.empty();
-  if (ok) {
+  if (!result.path.empty()) {
     path_ = std::move(result.path);
     path_times_ = PathArrivalTimes(path_, v_path_);
     path_s_ = PathArcLengths(path_);
@@ -174,33 +173,30 @@ bool PlanFollowPolicy::AdoptPlan(PlanResult result, double seconds) {
     path_.clear();
   }
   stats_.planning_times_s.push_back(seconds);
-  return ok;
 }
 
 void PlanFollowPolicy::StartPlan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene) {
   const auto start = std::chrono::steady_clock::now();
   BeginAttempt(scene);
-  PlanRequest request{.q = q, .q_reference = {}, .scene = {}, .has_goal = has_goal_, .q_goal = q_goal_};
+  PlanRequest request{.q = q, .q_reference = {}, .has_goal = has_goal_, .q_goal = q_goal_};
   if (!path_.empty() && !(q_d_ - q).isZero()) request.q_reference = q_d_;
   if (!options_.plan_beside_loop) {
     PlanResult result = ComputePlan(request, scene);
     AdoptPlan(std::move(result), std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     return;
   }
-  request.scene = scene;  // the worker's own copy: the caller's scene changes at the next step
-  pending_ = std::async(std::launch::async, [this, request = std::move(request), start] {
-    PlanResult result = ComputePlan(request, request.scene);
+  // the worker's own copy of the scene: the caller's changes at the next step
+  pending_ = std::async(std::launch::async, [this, request = std::move(request), scene_copy = scene, start] {
+    PlanResult result = ComputePlan(request, scene_copy);
     return std::make_pair(std::move(result),
                           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   });
 }
 
-bool PlanFollowPolicy::PollPlan() {
-  if (!pending_.valid()) return false;
-  if (pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return true;
+void PlanFollowPolicy::PollPlan() {
+  if (!pending_.valid() || pending_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
   auto [result, seconds] = pending_.get();
   AdoptPlan(std::move(result), seconds);
-  return false;
 }
 
 void PlanFollowPolicy::DropPlan() {

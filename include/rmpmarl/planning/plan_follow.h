@@ -169,11 +169,11 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   bool planning() const { return pending_.valid(); }
 
  private:
-  // what a planning attempt needs, copied when it starts (a plan beside the loop reads nothing of the follower's)
+  // what a planning attempt needs of the follower, copied when it starts (a plan beside the loop reads nothing of the
+  // follower's; it gets its own copy of the scene too)
   struct PlanRequest {
     Eigen::VectorXd q;            // plan from here
     Eigen::VectorXd q_reference;  // then, if that fails, from the reference (empty: not tried)
-    rmp::Scene scene;             // beside the loop: a copy of the scene (else the caller's is read)
     bool has_goal = false;        // the goal known before (kept when the scene names none)
     Eigen::VectorXd q_goal;
   };
@@ -189,13 +189,13 @@ class PlanFollowPolicy final : public control::AccelerationPolicy {
   // the goal, then the path (uses planner_ and nothing else of this object: it may run on the worker thread)
   PlanResult ComputePlan(const PlanRequest& request, const rmp::Scene& scene);
   // takes a finished attempt's result: the new path, or none
-  bool AdoptPlan(PlanResult result, double seconds);
+  void AdoptPlan(PlanResult result, double seconds);
   // counts an attempt and records what it was started for
   void BeginAttempt(const rmp::Scene& scene);
   // plans now, or starts a plan beside the loop
   void StartPlan(const Eigen::Ref<const Eigen::VectorXd>& q, const rmp::Scene& scene);
-  // a plan beside the loop: switches to it when it is ready; true while it is still running
-  bool PollPlan();
+  // a plan beside the loop: switches to it when it is ready
+  void PollPlan();
   // waits for a plan beside the loop and drops it
   void DropPlan();
   // plans from q toward the scene's goal when due; keeps the reference time
