@@ -1,13 +1,13 @@
 // setup-robot, check-robot without a YAML, and demo --urdf without a YAML, from the outside.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include "../support/temp_files.h"
 #include "run_cli.h"
 
 namespace {
@@ -19,9 +19,7 @@ using rmpmarl::test::RunCli;
 
 // a world-rooted arm with primitive collision geometry and frame-only tool links.
 fs::path WriteArm(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rmpmarl_setup_cli_{}_{}", ::getpid(), name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const fs::path dir = rmpmarl::test::FreshTempDir("setup-cli", name);
   std::ofstream(dir / "arm.urdf") << R"(<?xml version="1.0"?>
 <robot name="arm">
   <link name="world"/>

@@ -5,33 +5,16 @@
 #include "trainer_internal.h"
 
 #include <dlfcn.h>
-#include <fcntl.h>
 #include <fmt/format.h>
-#include <torch/serialize.h>
 #include <torch/types.h>
-#include <unistd.h>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <cstdio>
 #include <cstring>
-#include <deque>
 #include <filesystem>
-#include <fstream>
-#include <functional>
-#include <limits>
-#include <sstream>
 
 #include "rmpmarl/common/error.h"
-#include "rmpmarl/control/policy_file.h"
-#include "rmpmarl/rl/policy_task.h"
-#include "rmpmarl/control/policy_runtime.h"
-#include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
-#include "rmpmarl/rl/torch/tensor_archive.h"
-#include "rmpmarl/rl/torch/tensorboard.h"
 
 namespace rmpmarl::rl {
 namespace {

@@ -4,7 +4,6 @@
 
 #include "trainer_internal.h"
 
-#include <dlfcn.h>
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <torch/serialize.h>
@@ -13,7 +12,6 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -31,7 +29,6 @@
 #include "rmpmarl/tasks/task_config.h"
 #include "rmpmarl/rl/torch/ppo.h"
 #include "rmpmarl/rl/torch/tensor_archive.h"
-#include "rmpmarl/rl/torch/tensorboard.h"
 
 namespace rmpmarl::rl {
 namespace {
